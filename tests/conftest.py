@@ -1,0 +1,40 @@
+"""Shared fixtures: small, fast meshes (a few seconds each), generated once per session."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+from meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh
+
+# Headless VTK (../shared/DEPENDENCIES.md "pyvista / VTK headless").
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+SMALL_LAYERS = Layers(sheet_thickness=3e-3, substrate_thickness=4e-3, width=12e-3, length=12e-3)
+SMALL_SIZING = Sizing(
+    h_contact=0.6e-3, refine_radius=1.5e-3, h_far=3e-3, h_sheet=1.5e-3, growth=0.5
+)
+
+
+CENTRE = (IndenterSite(),)
+
+
+def small_spec(symmetry="full", indenters=CENTRE, **kw) -> MeshSpec:
+    return MeshSpec(
+        layers=kw.pop("layers", SMALL_LAYERS),
+        indenters=indenters,
+        sizing=kw.pop("sizing", SMALL_SIZING),
+        symmetry=symmetry,
+    )
+
+
+@pytest.fixture(scope="session")
+def cache_dir(tmp_path_factory):
+    return tmp_path_factory.mktemp("fringekit-cache")
+
+
+@pytest.fixture(scope="session")
+def small_meshes(cache_dir):
+    """Full, half and quarter meshes of the small block, keyed by symmetry."""
+    return {s: build_mesh(small_spec(s), cache_dir=cache_dir) for s in ("full", "half", "quarter")}

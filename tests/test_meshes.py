@@ -1,0 +1,269 @@
+"""Meshes: exact geometry, conforming interface, facet sets, sizing, symmetry, cache, I/O."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import SMALL_SIZING, small_spec
+
+from meshes import (
+    REGION_SHEET,
+    REGION_SUBSTRATE,
+    IndenterSite,
+    Layers,
+    MeshSpec,
+    Sizing,
+    build_mesh,
+    cache_path,
+    from_pyvista,
+    quality_report,
+    read_vtu,
+    to_pyvista,
+    write_vtu,
+)
+from meshes.quality import MeshQualityError, check_quality
+from meshes.topology import TET_EDGES, face_keys, unique_edges
+
+SYMS = ("full", "half", "quarter")
+
+
+def _area(spec):
+    xmin, xmax, ymin, ymax, _, _ = spec.bounds()
+    return (xmax - xmin) * (ymax - ymin)
+
+
+@pytest.mark.parametrize("sym", SYMS)
+def test_region_volumes_exact(small_meshes, sym):
+    mesh = small_meshes[sym]
+    spec = mesh.spec
+    a = _area(spec)
+    sheet = a * spec.layers.sheet_thickness
+    sub = a * spec.layers.substrate_thickness
+    assert mesh.region_volume(REGION_SHEET) == pytest.approx(sheet, rel=1e-9)
+    assert mesh.region_volume(REGION_SUBSTRATE) == pytest.approx(sub, rel=1e-9)
+    assert np.all(mesh.volumes > 0)
+
+
+@pytest.mark.parametrize("sym", SYMS)
+def test_midside_nodes_at_midpoints(small_meshes, sym):
+    mesh = small_meshes[sym]
+    p = mesh.points
+    c = mesh.cells
+    mids = 0.5 * (p[c[:, TET_EDGES[:, 0]]] + p[c[:, TET_EDGES[:, 1]]])
+    np.testing.assert_allclose(p[c[:, 4:]], mids, rtol=0, atol=1e-15)
+    # mid nodes are shared: one node per unique corner edge
+    edges, _ = unique_edges(c[:, :4])
+    assert len(np.unique(c[:, 4:])) == len(edges)
+
+
+@pytest.mark.parametrize("sym", SYMS)
+def test_flat_faces_are_exactly_planar(small_meshes, sym):
+    mesh = small_meshes[sym]
+    spec = mesh.spec
+    xmin, xmax, ymin, ymax, zmin, zmax = spec.bounds()
+    p = mesh.points
+    expect = {"contact": [(2, zmax)], "bottom": [(2, zmin)], "interface": [(2, 0.0)]}
+    if sym in ("half", "quarter"):
+        expect["symmetry_y0"] = [(1, 0.0)]
+    if sym == "quarter":
+        expect["symmetry_x0"] = [(0, 0.0)]
+    for name, planes in expect.items():
+        nodes = mesh.facet_nodes(name)
+        assert len(nodes) > 0, name
+        ((axis, value),) = planes
+        assert np.all(p[nodes, axis] == value), name
+    side_nodes = mesh.facet_nodes("sides")
+    on_side = np.zeros(side_nodes.shape[0], dtype=bool)
+    side_planes = [(0, xmax), (1, ymax)]
+    if sym != "quarter":
+        side_planes.append((0, xmin))
+    if sym == "full":
+        side_planes.append((1, ymin))
+    for axis, value in side_planes:
+        on_side |= np.all(p[side_nodes, axis] == value, axis=1)
+    assert on_side.all()
+
+
+@pytest.mark.parametrize("sym", SYMS)
+def test_facet_sets_cover_boundary_once(small_meshes, sym):
+    mesh = small_meshes[sym]
+    keys, _ = face_keys(mesh.cells[:, :4])
+    _, inv, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
+    boundary = set(np.flatnonzero(counts[inv.ravel()] == 1).tolist())
+    seen = []
+    for name, fs in mesh.facets.items():
+        if name == "interface":
+            continue
+        seen.extend((4 * fs.cells + fs.local).tolist())
+    assert len(seen) == len(set(seen)), "a boundary face is in two sets"
+    assert set(seen) == boundary
+
+
+@pytest.mark.parametrize("sym", SYMS)
+def test_interface_conforming_one_cell_each_side(small_meshes, sym):
+    mesh = small_meshes[sym]
+    fs = mesh.facets["interface"]
+    assert np.all(mesh.regions[fs.cells] == REGION_SHEET)
+    keys, _ = face_keys(mesh.cells[:, :4])
+    iface = np.sort(mesh.facet_nodes("interface")[:, :3], axis=1)
+    # every interface face appears in exactly two cells: one sheet, one substrate
+    rows = {tuple(k): [] for k in iface.tolist()}
+    for row, k in enumerate(keys.tolist()):
+        t = tuple(k)
+        if t in rows:
+            rows[t].append(mesh.regions[row // 4])
+    assert all(sorted(v) == [REGION_SHEET, REGION_SUBSTRATE] for v in rows.values())
+    # the interface covers the full cross-section
+    p = mesh.points
+    tri = p[iface]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    assert area.sum() == pytest.approx(_area(mesh.spec), rel=1e-12)
+    # facet normals point out of the sheet (down) for the interface, up for contact
+    tri = p[mesh.facet_nodes("interface")[:, :3]]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    assert np.all(n[:, 2] < 0)
+    top = p[mesh.facet_nodes("contact")[:, :3]]
+    assert np.all(np.cross(top[:, 1] - top[:, 0], top[:, 2] - top[:, 0])[:, 2] > 0)
+
+
+@pytest.mark.parametrize("sym", SYMS)
+def test_symmetry_mesh_lies_in_its_part(small_meshes, sym):
+    p = small_meshes[sym].points
+    if sym in ("half", "quarter"):
+        assert p[:, 1].min() == 0.0
+    if sym == "quarter":
+        assert p[:, 0].min() == 0.0
+    if sym == "full":
+        assert p[:, 0].min() < 0 and p[:, 1].min() < 0
+
+
+def _mean_edge_in_zone(mesh, ind, radius):
+    edges, _ = unique_edges(mesh.cells[:, :4])
+    p = mesh.points
+    mid = 0.5 * (p[edges[:, 0]] + p[edges[:, 1]])
+    length = np.linalg.norm(p[edges[:, 0]] - p[edges[:, 1]], axis=1)
+    r = np.hypot(mid[:, 0] - ind.x, mid[:, 1] - ind.y)
+    return length[(r < radius) & (mid[:, 2] > 0)].mean(), length, r, mid
+
+
+@pytest.mark.parametrize("sym", SYMS)
+def test_refined_zone_edge_length(small_meshes, sym):
+    mesh = small_meshes[sym]
+    siz = mesh.spec.sizing
+    ind = mesh.spec.indenters[0]
+    mean, length, r, mid = _mean_edge_in_zone(mesh, ind, siz.refine_radius)
+    assert mean <= 1.2 * siz.h_contact
+    far = length[(r > siz.refine_radius + 2e-3) & (mid[:, 2] < 0)]
+    assert far.mean() > 1.5 * mean
+
+
+def test_four_indenter_plate(cache_dir):
+    s = 4e-3
+    sites = tuple(IndenterSite(x, y, 1e-3) for x in (-s, s) for y in (-s, s))
+    spec = MeshSpec(
+        layers=Layers(3e-3, 3e-3, 16e-3, 16e-3),
+        indenters=sites,
+        sizing=Sizing(
+            h_contact=0.6e-3, refine_radius=1.2e-3, h_far=3e-3, h_sheet=1.5e-3, growth=0.5
+        ),
+        symmetry="quarter",
+    )
+    mesh = build_mesh(spec, cache_dir=cache_dir)
+    assert mesh.region_volume(REGION_SHEET) == pytest.approx(8e-3 * 8e-3 * 3e-3, rel=1e-9)
+    mean, *_ = _mean_edge_in_zone(mesh, sites[3], 1.2e-3)
+    assert mean <= 1.2 * 0.6e-3
+    assert spec.kept_indenters() == (sites[3],)
+
+
+def test_single_layer_has_no_interface(cache_dir):
+    spec = small_spec("quarter", layers=Layers(3e-3, 0.0, 10e-3, 10e-3))
+    mesh = build_mesh(spec, cache_dir=cache_dir)
+    assert len(mesh.facets["interface"]) == 0
+    assert np.all(mesh.regions == REGION_SHEET)
+    assert np.all(mesh.points[mesh.facet_nodes("bottom"), 2] == 0.0)
+    assert mesh.region_volume(REGION_SHEET) == pytest.approx(5e-3 * 5e-3 * 3e-3, rel=1e-9)
+
+
+def test_quality_report(small_meshes):
+    mesh = small_meshes["quarter"]
+    rep = quality_report(mesh.points, mesh.cells, mesh.regions)
+    assert rep.n_cells == mesh.n_cells
+    assert sum(rep.cells_per_region.values()) == mesh.n_cells
+    assert 5.0 < rep.min_dihedral_deg < 70.6
+    assert 0.05 < rep.min_radius_ratio <= rep.mean_radius_ratio <= 1.0
+    assert "DOF" in str(rep)
+
+
+def test_quality_measures_on_regular_tet():
+    p = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], float)
+    from meshes.quality import dihedral_angles, radius_ratios
+
+    c = np.array([[0, 1, 2, 3]])
+    if np.linalg.det(p[1:] - p[0]) < 0:
+        c = c[:, [0, 2, 1, 3]]
+    np.testing.assert_allclose(dihedral_angles(p, c), np.degrees(np.arccos(1 / 3)), rtol=1e-12)
+    np.testing.assert_allclose(radius_ratios(p, c), 1.0, rtol=1e-12)
+
+
+def test_inverted_and_degenerate_elements_rejected():
+    p = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0.5, 0.5, 1e-9]], float)
+    with pytest.raises(MeshQualityError, match="inverted"):
+        check_quality(p, np.array([[0, 2, 1, 3]]))
+    with pytest.raises(MeshQualityError, match="degenerate"):
+        check_quality(p, np.array([[0, 1, 2, 4]]))
+
+
+def test_cache_hit_is_identical(small_meshes, cache_dir):
+    spec = small_meshes["quarter"].spec
+    assert cache_path(spec, cache_dir).exists()
+    again = build_mesh(spec, cache_dir=cache_dir)
+    assert again.same_as(small_meshes["quarter"])
+    other = small_spec("quarter", sizing=Sizing(0.5e-3, 1.5e-3, 3e-3, 1.5e-3, 0.5))
+    assert cache_path(other, cache_dir) != cache_path(spec, cache_dir)
+
+
+def test_vtu_round_trip_exact(small_meshes, tmp_path):
+    mesh = small_meshes["half"]
+    path = write_vtu(mesh, tmp_path / "m.vtu")
+    back = read_vtu(path)
+    assert back.same_as(mesh)
+    assert from_pyvista(to_pyvista(mesh)).same_as(mesh)
+    grid = to_pyvista(mesh)
+    assert grid.n_cells == mesh.n_cells and "region" in grid.cell_data
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(layers=dict(sheet_thickness=0.0)), "sheet_thickness"),
+        (dict(layers=dict(width=-1.0)), "width"),
+        (dict(layers=dict(substrate_thickness=-1e-3)), "substrate_thickness"),
+        (dict(sizing=dict(h_contact=0.0)), "h_contact"),
+        (dict(sizing=dict(growth=float("nan"))), "growth"),
+        (dict(sizing=dict(h_contact=4e-3, h_sheet=5e-3, h_far=6e-3)), "sheet thickness"),
+        (dict(indenters=[IndenterSite(19e-3, 0.0, 1.75e-3)]), "outside the sheet"),
+        (
+            dict(indenters=[IndenterSite(0, 0, 1e-3), IndenterSite(1.5e-3, 0, 1e-3)]),
+            "overlap",
+        ),
+        (dict(indenters=[IndenterSite(0, 3e-3, 1e-3)], symmetry="half"), "mirror image"),
+        (dict(indenters=[IndenterSite(3e-3, 0, 1e-3)], symmetry="quarter"), "plane x = 0"),
+        (dict(symmetry="eighth"), "symmetry"),
+        (dict(indenters=[]), "indenters"),
+    ],
+)
+def test_bad_input_names_the_parameter(kwargs, match):
+    layers = kwargs.pop("layers", {})
+    sizing = kwargs.pop("sizing", {})
+    with pytest.raises(ValueError, match=match):
+        base_sizing = dict(
+            h_contact=0.3e-3, refine_radius=2e-3, h_far=4e-3, h_sheet=1e-3, growth=0.4
+        )
+        MeshSpec(layers=Layers(**layers), sizing=Sizing(**{**base_sizing, **sizing}), **kwargs)
+
+
+def test_symmetric_sets_accepted():
+    sites = [IndenterSite(x, y, 1e-3) for x in (-4e-3, 4e-3) for y in (-4e-3, 4e-3)]
+    assert MeshSpec(indenters=sites, symmetry="quarter").kept_indenters()[0].x == 4e-3
+    assert MeshSpec(indenters=[IndenterSite(3e-3, 0, 1e-3)], symmetry="half")
+    assert SMALL_SIZING.h_contact < SMALL_SIZING.h_sheet

@@ -1,0 +1,169 @@
+r"""Jones calculus for the photoelastic path, in SU(2) (unit quaternion) form.
+
+Slab k (../shared/DESIGN.md): J_k = R(-theta) diag(e^{-i d/2}, e^{+i d/2}) R(theta)
+with R(a) = [[cos a, sin a], [-sin a, cos a]]. With the Pauli matrices s1, s2, s3,
+
+    J_k = cos(d/2) I - i sin(d/2) (sin 2theta s1 + cos 2theta s3),
+
+so every path matrix is U = w I - i (x s1 + y s2 + z s3), stored as q = (w, x, y, z)
+on the last axis. Products are quaternion products (4 reals instead of 2x2 complex).
+A rotator R(g) is (cos g, 0, -sin g, 0). The reflection double pass in the unfolded
+frame is U_refl = U^T U (U^T flips the sign of y).
+
+Characteristic parameters (Aben, Integrated Photoelasticity, 1979): any U equals a
+retarder (Delta*, theta*) followed by a rotator gamma*; with
+Delta* in [0, pi]:  cos(D/2) = sqrt(w^2 + y^2), gamma = atan2(-y, w),
+theta = (atan2(x, z) + gamma) / 2.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "secondary_principal",
+    "retarder",
+    "rotator",
+    "qmul",
+    "qtranspose",
+    "to_matrix",
+    "from_matrix",
+    "integrate_path",
+    "characteristic",
+]
+
+
+def secondary_principal(sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Secondary principal stress difference and angle for rays along z.
+
+    ds = sqrt((sxx - syy)^2 + 4 sxy^2),  tan 2 theta = 2 sxy / (sxx - syy)
+    (DESIGN.md). Returns ds (...) in Pa and theta (...) in rad, in (-pi/2, pi/2].
+    """
+    a = sigma[..., 0, 0] - sigma[..., 1, 1]
+    b = 2.0 * sigma[..., 0, 1]
+    return np.hypot(a, b), 0.5 * np.arctan2(b, a)
+
+
+def retarder(delta, theta) -> np.ndarray:
+    """Quaternion of a linear retarder: retardation delta (rad), fast-axis angle theta (rad)."""
+    delta, theta = np.broadcast_arrays(np.asarray(delta, float), np.asarray(theta, float))
+    s = np.sin(0.5 * delta)
+    return np.stack(
+        [np.cos(0.5 * delta), s * np.sin(2 * theta), np.zeros_like(s), s * np.cos(2 * theta)], -1
+    )
+
+
+def rotator(gamma) -> np.ndarray:
+    """Quaternion of the rotator R(gamma) = [[cos g, sin g], [-sin g, cos g]]."""
+    g = np.asarray(gamma, float)
+    return np.stack([np.cos(g), np.zeros_like(g), -np.sin(g), np.zeros_like(g)], -1)
+
+
+def qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Product a * b (apply b first, then a) of quaternions (..., 4)."""
+    aw, ax, ay, az = np.moveaxis(a, -1, 0)
+    bw, bx, by, bz = np.moveaxis(b, -1, 0)
+    return np.stack(
+        [
+            aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + bw * ax + ay * bz - az * by,
+            aw * by + bw * ay + az * bx - ax * bz,
+            aw * bz + bw * az + ax * by - ay * bx,
+        ],
+        axis=-1,
+    )
+
+
+def qtranspose(q: np.ndarray) -> np.ndarray:
+    """Quaternion of the matrix transpose U^T."""
+    out = np.array(q, copy=True)
+    out[..., 2] *= -1
+    return out
+
+
+def to_matrix(q: np.ndarray) -> np.ndarray:
+    """(..., 2, 2) complex Jones matrix of quaternions (..., 4)."""
+    w, x, y, z = np.moveaxis(np.asarray(q), -1, 0)
+    m = np.empty(np.shape(w) + (2, 2), dtype=np.complex128)
+    m[..., 0, 0] = w - 1j * z
+    m[..., 0, 1] = -y - 1j * x
+    m[..., 1, 0] = y - 1j * x
+    m[..., 1, 1] = w + 1j * z
+    return m
+
+
+def from_matrix(m: np.ndarray) -> np.ndarray:
+    """Quaternion (..., 4) of an SU(2) Jones matrix (..., 2, 2) (inverse of to_matrix)."""
+    w = 0.5 * (m[..., 0, 0] + m[..., 1, 1]).real
+    z = 0.5 * (m[..., 1, 1] - m[..., 0, 0]).imag
+    x = -0.5 * (m[..., 0, 1] + m[..., 1, 0]).imag
+    y = 0.5 * (m[..., 1, 0] - m[..., 0, 1]).real
+    return np.stack([w, x, y, z], axis=-1)
+
+
+def integrate_path(
+    ds: np.ndarray, theta: np.ndarray, dz: np.ndarray, k: np.ndarray, *, chunk: int = 4096
+) -> np.ndarray:
+    """Path matrix U = J_S ... J_1 for every ray and wavelength.
+
+    Parameters
+    ----------
+    ds, theta, dz : (P, S) arrays
+        Secondary principal stress difference (Pa), angle (rad) and slab thickness (m),
+        slab 1 first (where the light enters).
+    k : (W,) or (P, S, W) array
+        2 pi C(lam) / lam (rad/(Pa m)) per wavelength, optionally per slab (materials).
+    chunk : int
+        Rays per block (bounds memory at ~ chunk * W * 40 bytes).
+
+    Returns
+    -------
+    (P, W, 4) float quaternions.
+    """
+    ds, theta, dz = (np.asarray(a, float) for a in (ds, theta, dz))
+    P, S = ds.shape
+    k = np.asarray(k, float)
+    per_slab = k.ndim == 3
+    W = k.shape[-1]
+    out = np.empty((P, W, 4))
+    for start in range(0, P, chunk):
+        sl = slice(start, min(P, start + chunk))
+        n = sl.stop - sl.start
+        w = np.ones((n, W))
+        x = np.zeros((n, W))
+        y = np.zeros((n, W))
+        z = np.zeros((n, W))
+        c2 = np.cos(2 * theta[sl])
+        s2 = np.sin(2 * theta[sl])
+        phase = ds[sl] * dz[sl]
+        for s in range(S):  # loop over ray samples; vectorised over rays and wavelengths
+            kk = k[sl, s, :] if per_slab else k[None, :]
+            half = 0.5 * phase[:, s, None] * kk
+            sw, sn = np.cos(half), np.sin(half)
+            sx, sz = sn * s2[:, s, None], sn * c2[:, s, None]
+            # q <- J_s * q with J_s = (sw, sx, 0, sz)
+            w, x, y, z = (
+                sw * w - sx * x - sz * z,
+                sw * x + w * sx - sz * y,
+                sw * y + sz * x - sx * z,
+                sw * z + w * sz + sx * y,
+            )
+        out[sl, :, 0], out[sl, :, 1], out[sl, :, 2], out[sl, :, 3] = w, x, y, z
+    return out
+
+
+def characteristic(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Aben's characteristic parameters of U = R(gamma) . Retarder(Delta, theta).
+
+    Returns Delta (...) in [0, pi] rad, theta (...) in [-pi/2, pi/2) rad and
+    gamma (...) in [-pi/2, pi/2] rad (rotation; sign per :func:`rotator`). Jones
+    matrices are taken up to a global phase, so -U and U give the same parameters.
+    """
+    q = np.asarray(q)
+    q = np.where(q[..., :1] < 0, -q, q)  # -U is U up to a global phase: keep |gamma| <= pi/2
+    w, x, y, z = np.moveaxis(q, -1, 0)
+    delta = 2 * np.arctan2(np.hypot(x, z), np.hypot(w, y))
+    gamma = np.arctan2(-y, w)
+    theta = 0.5 * np.arctan2(x, z) + 0.5 * gamma
+    theta = (theta + np.pi / 2) % np.pi - np.pi / 2
+    return delta, theta, gamma

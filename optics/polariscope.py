@@ -1,0 +1,142 @@
+"""Polariscopes: plane and circular, dark/bright field, the six phase steps, element errors.
+
+Element angles are measured from the x axis (rad); an element at angle a has the Jones
+matrix R(-a) M R(a) with R(a) = [[cos a, sin a], [-sin a, cos a]] (optics.jones). A
+polariser at angle a passes the field component along (cos a, sin a).
+
+Six-step phase shifting (../shared/DESIGN.md table; Ramesh, Digital Photoelasticity,
+2000): polariser at pi/2, quarter-wave plates xi (before the model) and eta (after),
+analyser beta. With these sign conventions the intensities follow the table's column
+``I / (I_a/2)`` exactly; :func:`six_step_intensities` is checked against it by test.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .jones import to_matrix
+
+__all__ = [
+    "Arrangement",
+    "SIX_STEPS",
+    "dark_field_circular",
+    "bright_field_circular",
+    "plane_polariscope",
+    "intensity",
+    "six_step_arrangements",
+]
+
+
+def _rot(a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, s], [-s, c]])
+
+
+def _polariser(a: float) -> np.ndarray:
+    return _rot(-a) @ np.diag([1.0, 0.0]) @ _rot(a)
+
+
+def _waveplate(a: float, retardance: float) -> np.ndarray:
+    d = np.diag([np.exp(-0.5j * retardance), np.exp(0.5j * retardance)])
+    return _rot(-a) @ d @ _rot(a)
+
+
+@dataclass(frozen=True)
+class Arrangement:
+    """One polariscope setting.
+
+    Parameters
+    ----------
+    polariser : float
+        Polariser angle (rad).
+    analyser : float
+        Analyser angle (rad).
+    qwp_in, qwp_out : float or None
+        Fast-axis angles of the quarter-wave plates before and after the model (rad);
+        None for a plane polariscope.
+    qwp_error : float
+        Retardance error of both quarter-wave plates (rad): each has pi/2 + qwp_error.
+    name : str
+        Label used in file names.
+    """
+
+    polariser: float
+    analyser: float
+    qwp_in: float | None = None
+    qwp_out: float | None = None
+    qwp_error: float = 0.0
+    name: str = ""
+
+    def misaligned(self, *, polariser=0.0, qwp_in=0.0, qwp_out=0.0, analyser=0.0, qwp_error=0.0):
+        """Same arrangement with angle errors (rad) added and a quarter-wave error set."""
+        return replace(
+            self,
+            polariser=self.polariser + polariser,
+            analyser=self.analyser + analyser,
+            qwp_in=None if self.qwp_in is None else self.qwp_in + qwp_in,
+            qwp_out=None if self.qwp_out is None else self.qwp_out + qwp_out,
+            qwp_error=self.qwp_error + qwp_error,
+        )
+
+    def input_state(self) -> np.ndarray:
+        """Jones vector (2,) entering the model."""
+        e = np.array([np.cos(self.polariser), np.sin(self.polariser)], dtype=complex)
+        if self.qwp_in is not None:
+            e = _waveplate(self.qwp_in, np.pi / 2 + self.qwp_error) @ e
+        return e
+
+    def output_matrix(self) -> np.ndarray:
+        """Jones matrix (2, 2) from the model to the detector."""
+        m = _polariser(self.analyser).astype(complex)
+        if self.qwp_out is not None:
+            m = m @ _waveplate(self.qwp_out, np.pi / 2 + self.qwp_error)
+        return m
+
+
+def dark_field_circular(**err) -> Arrangement:
+    """Circular polariscope, dark field (step 2 of the six-step table): I = Ia/2 (1 - cos d)."""
+    return SIX_STEPS[1].misaligned(**err) if err else SIX_STEPS[1]
+
+
+def bright_field_circular(**err) -> Arrangement:
+    """Circular polariscope, bright field (step 1): I = Ia/2 (1 + cos d)."""
+    return SIX_STEPS[0].misaligned(**err) if err else SIX_STEPS[0]
+
+
+def plane_polariscope(polariser: float = 0.0, *, dark: bool = True) -> Arrangement:
+    """Plane polariscope; dark field with crossed analyser, bright with parallel."""
+    analyser = polariser + (np.pi / 2 if dark else 0.0)
+    return Arrangement(polariser, analyser, name="plane_dark" if dark else "plane_bright")
+
+
+_P4 = np.pi / 4
+#: The six phase-stepped arrangements of DESIGN.md (polariser at pi/2).
+SIX_STEPS = (
+    Arrangement(np.pi / 2, np.pi / 2, 3 * _P4, _P4, name="step1"),
+    Arrangement(np.pi / 2, 0.0, 3 * _P4, _P4, name="step2"),
+    Arrangement(np.pi / 2, 0.0, 3 * _P4, 0.0, name="step3"),
+    Arrangement(np.pi / 2, _P4, 3 * _P4, _P4, name="step4"),
+    Arrangement(np.pi / 2, 0.0, _P4, 0.0, name="step5"),
+    Arrangement(np.pi / 2, _P4, _P4, 3 * _P4, name="step6"),
+)
+
+
+def six_step_arrangements(**err) -> tuple[Arrangement, ...]:
+    """The six steps, each with the same element errors (see :meth:`Arrangement.misaligned`)."""
+    return tuple(a.misaligned(**err) for a in SIX_STEPS) if err else SIX_STEPS
+
+
+def intensity(q: np.ndarray, arrangement: Arrangement, source: float = 1.0) -> np.ndarray:
+    """Detected intensity for model quaternions q (..., 4).
+
+    ``source`` is I_a, the intensity after the polariser for a perfect element, so a
+    dark-field circular polariscope gives I = I_a/2 (1 - cos d) for a retarder d.
+    Reflection is included by passing U_refl's quaternion (optics.jones.qtranspose).
+    """
+    e_in = arrangement.input_state()
+    out = arrangement.output_matrix()
+    u = to_matrix(q)
+    e = np.einsum("ij,...jk,k->...i", out, u, e_in)
+    return source * np.sum(np.abs(e) ** 2, axis=-1)

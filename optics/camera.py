@@ -92,6 +92,11 @@ class Camera:
             raise ValueError(f"bit_depth = {self.bit_depth!r} is not allowed; use 8 or 16")
         if not self.exposure > 0:
             raise ValueError(f"exposure = {self.exposure!r} is not allowed; it must be > 0")
+        if self.read_noise > 0 and not self.full_well > 0:
+            raise ValueError(
+                f"read_noise = {self.read_noise!r} e- needs full_well > 0 (electrons at full "
+                f"scale) to be converted to grey levels; got full_well = {self.full_well!r}"
+            )
 
     def responses(self, wavelengths) -> np.ndarray:
         """(W, 3) channel sensitivities at wavelengths (m)."""
@@ -119,8 +124,7 @@ class Camera:
             e = rng.poisson(np.clip(v, 0, None) * self.full_well).astype(float)
             v = e / self.full_well
         if self.read_noise > 0:
-            fw = self.full_well if self.full_well > 0 else 1e4
-            v = v + rng.normal(0.0, self.read_noise / fw, v.shape)
+            v = v + rng.normal(0.0, self.read_noise / self.full_well, v.shape)
         v = np.clip(v, 0.0, 1.0)
         if self.sensitivities == "CIE1931" and v.ndim >= 1 and v.shape[-1] == 3:
             import colour

@@ -258,6 +258,7 @@ def test_integrate_path_batch_consistency():
         (lambda: PixelGrid((10, 10), 0.0), "pixel_size"),
         (lambda: light_source("sodium"), "light source"),
         (lambda: Camera(bit_depth=12), "bit_depth"),
+        (lambda: Camera(read_noise=5.0), "full_well"),
         (lambda: Camera(sensitivities="nope").responses(np.array([5e-7])), "sensitivities"),
         (
             lambda: optical_map(

@@ -15,7 +15,10 @@ Pipeline (../shared/DESIGN.md "meshes"; measured gotchas in ../shared/DEPENDENCI
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import os
+import tempfile
 import time
 
 import numpy as np
@@ -65,6 +68,17 @@ def _layer_surface(spec: MeshSpec) -> trimesh.Trimesh:
     return soup
 
 
+@contextlib.contextmanager
+def _cwd(path: str):
+    """Temporarily change the working directory (contextlib.chdir is Python >= 3.11)."""
+    old = os.getcwd()
+    os.chdir(path)
+    try:
+        yield
+    finally:
+        os.chdir(old)
+
+
 def _tetrahedralise(
     spec: MeshSpec, num_threads: int, epsilon: float
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -76,17 +90,20 @@ def _tetrahedralise(
     pad = 4 * epsilon * diag / _MM + spec.sizing.h_contact
     bg_pts, bg_tets = background_grid(spec, pad)
     h = target_size(spec, bg_pts) * FTETWILD_SIZE_FACTOR
-    v, c = pytetwild.tetrahedralize(
-        np.asarray(surf.vertices, dtype=np.float64),
-        np.asarray(surf.faces, dtype=np.int32),
-        edge_length_abs=spec.sizing.h_far * _MM,
-        epsilon=epsilon,
-        vtk_ordering=True,
-        num_threads=num_threads,
-        bg_vertices=bg_pts * _MM,
-        bg_tets=bg_tets,
-        bg_values=h * _MM,
-    )
+    # fTetWild writes a debug file (__tracked_surface.stl) into the working directory:
+    # run it from a scratch directory so nothing lands in the user's folder.
+    with tempfile.TemporaryDirectory(prefix="fringekit-ftetwild-") as scratch, _cwd(scratch):
+        v, c = pytetwild.tetrahedralize(
+            np.asarray(surf.vertices, dtype=np.float64),
+            np.asarray(surf.faces, dtype=np.int32),
+            edge_length_abs=spec.sizing.h_far * _MM,
+            epsilon=epsilon,
+            vtk_ordering=True,
+            num_threads=num_threads,
+            bg_vertices=bg_pts * _MM,
+            bg_tets=bg_tets,
+            bg_values=h * _MM,
+        )
     return np.asarray(v, dtype=np.float64) / _MM, np.asarray(c, dtype=np.int64)
 
 

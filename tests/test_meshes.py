@@ -16,6 +16,7 @@ from meshes import (
     build_mesh,
     cache_path,
     from_pyvista,
+    generate_mesh,
     quality_report,
     read_vtu,
     to_pyvista,
@@ -267,3 +268,10 @@ def test_symmetric_sets_accepted():
     assert MeshSpec(indenters=sites, symmetry="quarter").kept_indenters()[0].x == 4e-3
     assert MeshSpec(indenters=[IndenterSite(3e-3, 0, 1e-3)], symmetry="half")
     assert SMALL_SIZING.h_contact < SMALL_SIZING.h_sheet
+
+
+def test_meshing_leaves_the_working_directory_clean(tmp_path, monkeypatch):
+    """fTetWild writes a debug STL into the cwd; the mesher must keep it out of there."""
+    monkeypatch.chdir(tmp_path)
+    generate_mesh(small_spec("quarter", layers=Layers(3e-3, 2e-3, 8e-3, 8e-3)))
+    assert list(tmp_path.iterdir()) == []

@@ -8,7 +8,7 @@ functions and camera sensitivities come from colour-science datasets.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -181,10 +181,8 @@ def monochrome_image(
     q: np.ndarray, arrangement: Arrangement, camera: Camera, *, seed: int | None = 0
 ) -> np.ndarray:
     """Grey image (rows, cols) for quaternions at one wavelength (rows, cols, 4)."""
-    mono = Camera(
-        "mono", camera.exposure, camera.gamma, camera.full_well, camera.read_noise, camera.bit_depth
-    )
-    return mono.encode(intensity(q, arrangement), seed)
+    # any name but "CIE1931" encodes with ``gamma`` instead of the sRGB curve
+    return replace(camera, sensitivities="mono").encode(intensity(q, arrangement), seed)
 
 
 def colour_chart(
@@ -207,9 +205,7 @@ def colour_chart(
     rgb : (n, 3) linear RGB in [0, 1] (no noise, no quantisation)
     """
     orders = np.linspace(0.0, max_order, n)
-    k = law.retardation_per_stress_length(spectrum.wavelengths)
-    k0 = law.retardation_per_stress_length(law.wavelength_ref)[0]
-    delta = 2 * np.pi * orders[:, None] * (k / k0)[None, :]
+    delta = 2 * np.pi * orders[:, None] * law.relative_retardation(spectrum.wavelengths)[None, :]
     q = retarder(delta, np.full_like(delta, np.pi / 8))
     rgb = white_light_image(q, spectrum, camera, arrangement, linear=True)
     return orders, np.clip(rgb, 0, 1)

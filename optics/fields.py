@@ -13,6 +13,8 @@ from typing import Protocol
 
 import numpy as np
 
+from .jones import secondary_principal
+
 __all__ = ["StressField", "UniformStress", "TwistedStress", "DiametralDisc", "Boussinesq"]
 
 
@@ -110,7 +112,7 @@ class DiametralDisc:
     def stress_difference(self, xy):
         """Closed-form secondary principal stress difference (Pa) at xy (..., 2)."""
         s = self.stress(np.concatenate([xy, np.zeros(xy.shape[:-1] + (1,))], axis=-1))
-        return np.hypot(s[..., 0, 0] - s[..., 1, 1], 2 * s[..., 0, 1])
+        return secondary_principal(s)[0]
 
     def z_range(self, xy):
         n = len(xy)

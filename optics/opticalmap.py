@@ -68,11 +68,7 @@ class OpticalMap:
 
     def _branch(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         d = self.retardation[..., k] / (2 * np.pi)
-        scale = float(
-            self.law.retardation_per_stress_length(self.wavelengths[k])[0]
-            / self.law.retardation_per_stress_length(self.law.wavelength_ref)[0]
-        )
-        guide = self.simple_order * scale
+        guide = self.simple_order * self.law.relative_retardation(self.wavelengths[k])[0]
         cands = np.stack([d + np.round(guide - d), -d + np.round(guide + d)])
         pick = np.argmin(np.abs(cands - guide), axis=0)
         order = np.take_along_axis(cands, pick[None], 0)[0]
@@ -108,11 +104,10 @@ def integrate_samples(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Path quaternions (P, W, 4) and simple fringe order (P,) from ray samples."""
     lam = check_wavelengths(wavelengths)
-    ds, theta = samples.ds, samples.theta
     k = law.retardation_per_stress_length(lam)
-    q = integrate_path(ds, theta, samples.dz, k)
+    q = integrate_path(samples.ds, samples.theta, samples.dz, k)
     passes = 2.0 if reflection else 1.0
-    simple = passes * np.sum(ds * samples.dz, axis=1) / law.f_sigma
+    simple = passes * np.sum(samples.ds * samples.dz, axis=1) / law.f_sigma
     if reflection:
         q = qmul(qtranspose(q), q)  # U_refl = U^T U (DESIGN.md, unfolded frame)
     return q, simple

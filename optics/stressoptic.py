@@ -103,6 +103,13 @@ class StressOpticLaw:
         lam = check_wavelengths(wavelengths)
         return 2 * np.pi * self.C(lam) / lam
 
+    def relative_retardation(self, wavelengths) -> np.ndarray:
+        """k(lam) / k(lam_ref) with k = 2 pi C / lam: retardation at lam per unit of it at
+        the reference wavelength, for the same stress and path (dimensionless)."""
+        return self.retardation_per_stress_length(wavelengths) / (
+            2 * np.pi * self.C_ref / self.wavelength_ref
+        )
+
     def fringe_order(self, stress_difference, path_length):
         """Fringe order N = L ds / f_sigma at the reference wavelength."""
         return np.asarray(path_length) * np.asarray(stress_difference) / self.f_sigma

@@ -49,6 +49,9 @@ def test_strain_optic_relation():
     assert law.C(575e-9)[0] == pytest.approx(575e-9 / law.f_sigma)
     p = StressOpticLaw(400.0, dispersion="power", coefficient=0.2)
     assert p.C(500e-9)[0] == pytest.approx(p.C_ref * (575 / 500) ** 0.2)
+    # same stress and path at 500 nm: retardation scales by C(lam)/C_ref * lam_ref/lam
+    assert p.relative_retardation(500e-9)[0] == pytest.approx((575 / 500) ** 1.2, rel=1e-14)
+    assert law.relative_retardation(575e-9)[0] == pytest.approx(1.0, rel=1e-15)
     c = StressOpticLaw(400.0, dispersion="cauchy", coefficient=1e-14)
     assert c.C(575e-9)[0] == pytest.approx(c.C_ref)
     assert c.C(450e-9)[0] > c.C_ref

@@ -1,0 +1,157 @@
+"""Benchmark the contact solver on the reference cases (issue 3).
+
+Usage: python bench/fea.py [--mesh coarse fine] [--case vertical shear] [--json FILE]
+
+vertical: one 3.5 mm indenter, load path 1..8 N, quarter model.
+shear:    8 N vertical then 8 N shear along x with full stick, half model.
+Prints DOF, Newton iterations per state, time split, peak memory, depth and contact
+radius per state, the 8 N depth against Hertz and Dimitriadis, and S(r).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import resource
+import sys
+import time
+from pathlib import Path
+
+# this file is named like the package: keep bench/ off the import path
+sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).parent.resolve()]
+
+import numpy as np  # noqa: E402
+
+from fea import (  # noqa: E402
+    SHEET_DEFAULT,
+    ContactSettings,
+    Indenter,
+    dimitriadis_force,
+    hertz_force,
+    solve,
+)
+from meshes import MeshSpec, Sizing, build_mesh  # noqa: E402
+
+MESHES = {
+    "coarse": Sizing(h_contact=0.4e-3, refine_radius=2e-3, h_sheet=1.5e-3, h_far=6e-3),
+    "fine": Sizing(h_contact=0.3e-3, refine_radius=2e-3, h_sheet=1e-3, h_far=4e-3),
+}
+RADII_MM = (1.0, 1.5, 2.0, 3.0, 4.0, 6.0)
+
+
+def _invert(fun, F):
+    lo, hi = 0.0, 1.5e-3
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if fun(mid) < F else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+def through_thickness_S(sol, radii_mm):
+    """S(r) = integral over the deformed sheet thickness of (s_rr - s_tt) dz (N/mm).
+
+    Sampled along the ray x = r, y = 0 (quarter/half models contain it) by probing the
+    nodal stress on a linear sub-sampling of the deformed mesh through pyvista.
+    """
+    import pyvista as pv
+
+    cells = sol.mesh.cells[sol.mesh.regions == 0]
+    grid = pv.UnstructuredGrid(
+        np.hstack([np.full((len(cells), 1), 10), cells]).ravel(),
+        np.full(len(cells), pv.CellType.QUADRATIC_TETRA, dtype=np.uint8),
+        sol.points,
+    )
+    grid.point_data["s"] = sol.stress_nodes.reshape(-1, 9)
+    out = {}
+    t = sol.mesh.spec.layers.sheet_thickness
+    for r in radii_mm:
+        z = np.linspace(0.0, t * 1.2, 241)
+        pts = np.column_stack([np.full_like(z, r * 1e-3), np.full_like(z, 1e-7), z])
+        probe = pv.PolyData(pts).sample(grid)
+        ok = np.asarray(probe.point_data["vtkValidPointMask"], dtype=bool)
+        s = np.asarray(probe.point_data["s"]).reshape(-1, 3, 3)
+        diff = np.where(ok, s[:, 0, 0] - s[:, 1, 1], 0.0)  # on y = 0: rr = xx, tt = yy
+        out[f"{r:.1f}"] = float(np.trapezoid(diff, z) * 1e-3)  # N/m * 1e-3 -> N/mm
+    return out
+
+
+def run(case: str, mesh_name: str) -> dict:
+    sym = "quarter" if case == "vertical" else "half"
+    spec = MeshSpec(sizing=MESHES[mesh_name], symmetry=sym)
+    mesh = build_mesh(spec)
+    if case == "vertical":
+        ind = Indenter(normal_force=tuple(float(f) for f in range(1, 9)))
+        contact = ContactSettings()
+    else:
+        ind = Indenter(normal_force=(8.0, 8.0), shear_force=((0.0, 0.0), (8.0, 0.0)))
+        contact = ContactSettings(friction=math.inf)
+    t0 = time.perf_counter()
+    sols, stats = solve(mesh, [ind], contact=contact, progress=True)
+    elapsed = time.perf_counter() - t0
+    states = [
+        {
+            "force_N": [float(v) for v in s.indenters[0].force],
+            "depth_mm": s.indenters[0].depth * 1e3,
+            "contact_radius_mm": s.indenters[0].contact_radius * 1e3,
+        }
+        for s in sols
+    ]
+    eight = sols[-1] if case == "vertical" else sols[0]
+    E, R, h = SHEET_DEFAULT.E, 1.75e-3, 3e-3
+    res = {
+        "name": case,
+        "mesh": mesh_name,
+        "dofs": stats.dofs,
+        "time_s": elapsed,
+        "time_assembly_s": stats.time_assembly,
+        "time_contact_s": stats.time_contact,
+        "time_analysis_s": stats.time_analysis,
+        "time_factorize_s": stats.time_factorize,
+        "time_solve_s": stats.time_solve,
+        "newton_iterations": stats.iterations_per_state,
+        "al_updates": stats.al_updates,
+        "cutbacks": stats.cutbacks,
+        "peak_mem_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "states": states,
+        "depth_8N_mm": eight.indenters[0].depth * 1e3,
+        "depth_8N_hertz_mm": _invert(lambda d: hertz_force(d, R, E, SHEET_DEFAULT.nu), 8.0) * 1e3,
+        "depth_8N_dimitriadis_mm": _invert(lambda d: dimitriadis_force(d, R, E, h), 8.0) * 1e3,
+        "S_r_N_per_mm": through_thickness_S(eight, RADII_MM),
+    }
+    n_it = max(sum(stats.iterations_per_state), 1)
+    outside = stats.time_total - stats.time_factorize
+    print(
+        f"{case:8s} {mesh_name:6s} DOF {stats.dofs:7d}  time {elapsed:6.1f} s  "
+        f"(assembly {stats.time_assembly:.1f}, contact {stats.time_contact:.1f}, analysis "
+        f"{stats.time_analysis:.1f}, factorize {stats.time_factorize:.1f}, solve "
+        f"{stats.time_solve:.1f}); outside factorization per iteration "
+        f"{outside / n_it:.2f} s = {100 * outside / max(stats.time_total, 1e-9):.0f} %"
+    )
+    print(f"   iterations per state {stats.iterations_per_state}, peak {res['peak_mem_mb']:.0f} MB")
+    for s in states:
+        print(
+            f"   F = {s['force_N']} N  depth {s['depth_mm']:.4f} mm  "
+            f"contact radius {s['contact_radius_mm']:.4f} mm"
+        )
+    print(
+        f"   8 N depth {res['depth_8N_mm']:.4f} mm; Hertz {res['depth_8N_hertz_mm']:.4f}, "
+        f"Dimitriadis {res['depth_8N_dimitriadis_mm']:.4f}; S(r) N/mm {res['S_r_N_per_mm']}"
+    )
+    return res
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__)
+    p.add_argument("--mesh", nargs="+", default=["coarse", "fine"], choices=list(MESHES))
+    cases = ["vertical", "shear"]
+    p.add_argument("--case", nargs="+", default=cases, choices=cases)
+    p.add_argument("--json", type=Path)
+    a = p.parse_args()
+    cases = [run(c, m) for c in a.case for m in a.mesh]
+    if a.json:
+        a.json.write_text(json.dumps({"cases": cases}, indent=2))
+
+
+if __name__ == "__main__":
+    main()

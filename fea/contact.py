@@ -1,0 +1,194 @@
+"""Rigid spherical indenters against the contact face: augmented Lagrangian with friction.
+
+Contact is evaluated at the 7 quadrature points of every 6-node contact facet, in the
+current configuration. For an indenter of centre ``c`` and radius ``R`` and a surface point
+``x`` (``y = x - c``, ``r = |y|``, ``n = y / r``) the normal gap is ``g = r - R``. With a
+multiplier ``lambda`` (nominal pressure, Pa) and penalty ``eps_N`` (Pa/m) the pressure is
+
+.. math::
+
+    p = \\langle \\lambda - \\varepsilon_N g \\rangle_+ , \\qquad
+    \\Pi_N = \\sum_q \\frac{w_q}{2 \\varepsilon_N}
+             \\left( \\langle \\lambda_q - \\varepsilon_N g_q \\rangle_+^2 - \\lambda_q^2 \\right),
+
+the augmented Lagrangian of Alart & Curnier (CMAME 92, 1991) and Laursen,
+*Computational Contact and Impact Mechanics* (2002), section 5.4; after each converged
+solve ``lambda <- p`` (Uzawa update). ``w_q`` is the reference-area weight, so ``p`` is
+a nominal (first Piola-Kirchhoff) pressure; :func:`cauchy_pressure` converts it.
+
+Friction (Wriggers, *Computational Contact Mechanics*, 2nd ed., 2006, section 5.2):
+each active point carries an anchor ``a`` on the sphere (relative to ``c``; the
+indenter does not rotate) with normal ``n0 = a / R``. The elastic tangential slip is
+``s = (I - n0 n0) (y - a)`` with penalty ``eps_T``. Stick: force ``w eps_T s``
+(energy ``w eps_T |s|^2 / 2``). Coulomb slip when ``eps_T |s| > mu p``: force
+``w mu p s / |s|`` (return mapping), with its consistent, unsymmetric tangent.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .element import TRI_QUADRATURE, tri6_shape
+
+__all__ = ["ContactFace", "ContactResult", "sphere_contact", "FRICTION_STICK"]
+
+#: Friction coefficient meaning "full stick" (no slip whatever the tangential force).
+FRICTION_STICK = float("inf")
+
+_N, _dN = tri6_shape(TRI_QUADRATURE[0])
+_W = TRI_QUADRATURE[1]
+#: (q, 7): shape functions of the 6 face nodes, then -1 for the indenter centre.
+_NEXT = np.hstack([_N, -np.ones((len(_N), 1))])
+
+
+@dataclass(frozen=True)
+class ContactFace:
+    """The contact facets with their reference-area quadrature weights.
+
+    Attributes
+    ----------
+    nodes : (m, 6) int array, facet node ids.
+    weights : (m, q) float array, reference area per quadrature point (m^2).
+    """
+
+    nodes: np.ndarray
+    weights: np.ndarray
+
+    @classmethod
+    def from_points(cls, points: np.ndarray, nodes: np.ndarray) -> ContactFace:
+        X = points[nodes]  # (m, 6, 3)
+        t = np.einsum("fai,qar->fqri", X, _dN)
+        area = np.linalg.norm(np.cross(t[:, :, 0], t[:, :, 1]), axis=-1)
+        return cls(nodes=nodes, weights=area * _W[None, :])
+
+    @property
+    def n_qp(self) -> int:
+        return len(_W)
+
+    def points(self, x: np.ndarray, faces: np.ndarray | None = None) -> np.ndarray:
+        """(f, q, 3) quadrature point positions for nodal positions ``x`` (n, 3)."""
+        nodes = self.nodes if faces is None else self.nodes[faces]
+        return np.einsum("qa,fai->fqi", _N, x[nodes])
+
+    def projected_area(self, x: np.ndarray, faces: np.ndarray) -> np.ndarray:
+        """(f, q) current area weights projected on the x-y plane (m^2)."""
+        t = np.einsum("fai,qar->fqri", x[self.nodes[faces]], _dN)
+        return np.abs(np.cross(t[:, :, 0], t[:, :, 1])[..., 2]) * _W[None, :]
+
+    def current_area(self, x: np.ndarray, faces: np.ndarray) -> np.ndarray:
+        """(f, q) current area weights (m^2)."""
+        t = np.einsum("fai,qar->fqri", x[self.nodes[faces]], _dN)
+        return np.linalg.norm(np.cross(t[:, :, 0], t[:, :, 1]), axis=-1) * _W[None, :]
+
+
+@dataclass(frozen=True)
+class ContactResult:
+    """Contact contributions of one indenter on its candidate facets.
+
+    Attributes
+    ----------
+    energy : float (J); for Coulomb slip points the work-like value ``w mu p |s|``.
+    force : (f, 7, 3) float array, dPi/d(node positions) per facet node, and in slot 6
+        dPi/dc for the indenter centre (N).
+    K : (f, 21, 21) float array or None, the block tangent (N/m).
+    p : (f, q) nominal pressure (Pa).
+    gap : (f, q) normal gap (m), negative = penetration.
+    slip : (f, q) bool, points in Coulomb slip.
+    s : (f, q, 3) elastic tangential slip (m).
+    """
+
+    energy: float
+    force: np.ndarray
+    K: np.ndarray | None
+    p: np.ndarray
+    gap: np.ndarray
+    slip: np.ndarray
+    s: np.ndarray
+
+
+def sphere_contact(
+    xq: np.ndarray,
+    w: np.ndarray,
+    centre: np.ndarray,
+    radius: float,
+    lam: np.ndarray,
+    eps_n: float,
+    *,
+    mu: float = 0.0,
+    anchor: np.ndarray | None = None,
+    eps_t: float = 0.0,
+    tangent: bool = True,
+) -> ContactResult:
+    """Augmented-Lagrangian sphere contact at surface quadrature points.
+
+    Parameters
+    ----------
+    xq : (f, q, 3) float array
+        Current positions of the quadrature points (m).
+    w : (f, q) float array
+        Reference-area weights (m^2).
+    centre : (3,) float array
+        Current indenter centre (m).
+    radius : float
+        Sphere radius (m).
+    lam : (f, q) float array
+        Normal multipliers (Pa), >= 0.
+    eps_n, eps_t : float
+        Normal and tangential penalties (Pa/m).
+    mu : float
+        Friction coefficient; 0 frictionless, ``inf`` full stick.
+    anchor : (f, q, 3) float array or None
+        Stick anchors relative to the centre (m); required when ``mu > 0``.
+    """
+    y = xq - centre
+    r = np.linalg.norm(y, axis=-1)
+    n = y / r[..., None]
+    g = r - radius
+    trial = lam - eps_n * g
+    act = trial > 0
+    p = np.where(act, trial, 0.0)
+    energy = float((w / (2 * eps_n) * (p * p - lam * lam)).sum())
+    gy = -(w * p)[..., None] * n  # dPi/dy
+    eye = np.eye(3)
+    H = None
+    if tangent:
+        nn = n[..., :, None] * n[..., None, :]
+        H = (w * act)[..., None, None] * (eps_n * nn - (p / r)[..., None, None] * (eye - nn))
+    slip = np.zeros(g.shape, dtype=bool)
+    s = np.zeros_like(y)
+    if mu > 0:
+        if anchor is None:
+            raise ValueError("friction needs stick anchors")
+        n0 = anchor / np.linalg.norm(anchor, axis=-1, keepdims=True)
+        d = y - anchor
+        s = d - np.einsum("fqi,fqi->fq", d, n0)[..., None] * n0
+        s = np.where(act[..., None], s, 0.0)
+        s_norm = np.linalg.norm(s, axis=-1)
+        P0 = eye - n0[..., :, None] * n0[..., None, :]
+        slip = act & (eps_t * s_norm > mu * p) if np.isfinite(mu) else np.zeros_like(act)
+        stick = act & ~slip
+        # stick: energy eps_t |s|^2 / 2, force eps_t s, tangent eps_t P0
+        energy += float((w * stick * 0.5 * eps_t * s_norm**2).sum())
+        gy = gy + (w * stick * eps_t)[..., None] * s
+        if tangent:
+            H = H + (w * stick * eps_t)[..., None, None] * P0
+        if np.any(slip):
+            safe = np.where(slip, s_norm, 1.0)
+            e = s / safe[..., None]
+            energy += float((w * slip * mu * p * s_norm).sum())
+            gy = gy + (w * slip * mu * p)[..., None] * e
+            if tangent:
+                # d(mu p e)/dy = mu e (x) dp/dy + mu p (I - e e) P0 / |s|, dp/dy = -eps_n n
+                ee = e[..., :, None] * e[..., None, :]
+                Hs = -mu * eps_n * e[..., :, None] * n[..., None, :]
+                Hs = Hs + (mu * p / safe)[..., None, None] * np.einsum(
+                    "fqij,fqjk->fqik", eye - ee, P0
+                )
+                H = H + (w * slip)[..., None, None] * Hs
+    force = np.einsum("qa,fqi->fai", _NEXT, gy)
+    K = None
+    if tangent:
+        K = np.einsum("qa,qb,fqik->faibk", _NEXT, _NEXT, H, optimize=True).reshape(-1, 21, 21)
+    return ContactResult(energy, force, K, p, g, slip, s)

@@ -1,0 +1,246 @@
+"""Hyperelastic materials with a split isochoric / volumetric strain energy.
+
+The strain energy per unit reference volume is
+
+.. math::
+
+    \\Psi(F) = \\Psi_\\mathrm{iso}(\\bar I_1, \\bar I_2) + U(J), \\qquad
+    \\bar I_1 = J^{-2/3} \\operatorname{tr} C, \\quad
+    \\bar I_2 = J^{-4/3} \\tfrac12 (I_1^2 - C : C), \\quad U(J) = \\tfrac{K}{2} (J - 1)^2,
+
+with :math:`C = F^T F` (Holzapfel, *Nonlinear Solid Mechanics*, 2000, sections 6.4-6.5).
+Neo-Hookean: :math:`\\Psi_\\mathrm{iso} = \\tfrac{\\mu}{2} (\\bar I_1 - 3)`; Mooney-Rivlin:
+:math:`C_{10} (\\bar I_1 - 3) + C_{01} (\\bar I_2 - 3)` with :math:`\\mu = 2 (C_{10} + C_{01})`.
+The solver evaluates :math:`U` at the element's mean dilatation (:mod:`fea.assembly`), so
+these kernels return the isochoric part (energy, first Piola-Kirchhoff stress, tangent)
+and the volumetric function separately. All moduli in Pa.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "Material",
+    "NeoHookean",
+    "MooneyRivlin",
+    "SHEET_DEFAULT",
+    "POLYCARBONATE_DEFAULT",
+    "material_from_dict",
+]
+
+
+def _check_modulus(name: str, value: float) -> None:
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(f"{name} = {value!r} is not allowed; it must be finite and > 0 (Pa)")
+
+
+def _check_nu(nu: float) -> None:
+    if not (math.isfinite(nu) and -1.0 < nu < 0.5):
+        raise ValueError(
+            f"nu = {nu!r} is not allowed; Poisson's ratio must lie in (-1, 0.5) "
+            "(0.5 itself would need an infinite bulk modulus; use 0.499 or 0.4999)"
+        )
+
+
+@dataclass(frozen=True)
+class Material:
+    """Base class: shear modulus ``mu`` and bulk modulus ``K`` (Pa)."""
+
+    mu: float
+    K: float
+
+    def __post_init__(self) -> None:
+        _check_modulus("mu", self.mu)
+        _check_modulus("K", self.K)
+
+    @property
+    def E(self) -> float:
+        """Small-strain Young's modulus (Pa)."""
+        return 9 * self.K * self.mu / (3 * self.K + self.mu)
+
+    @property
+    def nu(self) -> float:
+        """Small-strain Poisson's ratio."""
+        return (3 * self.K - 2 * self.mu) / (2 * (3 * self.K + self.mu))
+
+    def volumetric(self, J: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """U(J) = K/2 (J - 1)^2 and its first two derivatives (Pa)."""
+        d = J - 1.0
+        return 0.5 * self.K * d * d, self.K * d, np.full_like(J, self.K)
+
+    def isochoric(self, F: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Isochoric energy, first Piola-Kirchhoff stress and tangent.
+
+        Parameters
+        ----------
+        F : (..., 3, 3) float array
+            Deformation gradient.
+
+        Returns
+        -------
+        W : (...) float array, energy per reference volume (Pa).
+        P : (..., 3, 3) float array, dW/dF (Pa).
+        A : (..., 3, 3, 3, 3) float array, d^2W/dF dF with index order (i, J, k, L) (Pa).
+        """
+        raise NotImplementedError
+
+    def to_dict(self) -> dict:
+        return {"model": type(self).__name__, **self.__dict__}
+
+
+def _invariant_parts(F: np.ndarray):
+    J = np.linalg.det(F)
+    G = np.linalg.inv(F).swapaxes(-1, -2)  # F^{-T}
+    I1 = np.einsum("...ij,...ij->...", F, F)
+    return J, G, I1
+
+
+@dataclass(frozen=True)
+class NeoHookean(Material):
+    """Compressible / nearly incompressible neo-Hookean solid.
+
+    Parameters
+    ----------
+    mu, K : float
+        Shear and bulk moduli (Pa). Use :meth:`from_E_nu` for engineering constants.
+    """
+
+    @classmethod
+    def from_E_nu(cls, E: float, nu: float) -> NeoHookean:
+        """From Young's modulus ``E`` (Pa) and Poisson's ratio ``nu`` (small strain)."""
+        _check_modulus("E", E)
+        _check_nu(nu)
+        return cls(mu=E / (2 * (1 + nu)), K=E / (3 * (1 - 2 * nu)))
+
+    def isochoric(self, F):
+        J, G, I1 = _invariant_parts(F)
+        a = J ** (-2.0 / 3.0)
+        mu = self.mu
+        W = 0.5 * mu * (a * I1 - 3.0)
+        P = mu * a[..., None, None] * (F - (I1 / 3.0)[..., None, None] * G)
+        # dP_iJ/dF_kL = mu a [ d_ik d_JL - 2/3 (G_kL F_iJ + F_kL G_iJ)
+        #                      + 2/9 I1 G_iJ G_kL + 1/3 I1 G_iL G_kJ ]
+        eye = np.eye(3)
+        A = np.einsum("ik,JL->iJkL", eye, eye) + np.zeros(F.shape[:-2] + (1, 1, 1, 1))
+        A -= (2.0 / 3.0) * (
+            np.einsum("...kL,...iJ->...iJkL", G, F) + np.einsum("...kL,...iJ->...iJkL", F, G)
+        )
+        I = I1[..., None, None, None, None]
+        A += (2.0 / 9.0) * I * np.einsum("...iJ,...kL->...iJkL", G, G)
+        A += (1.0 / 3.0) * I * np.einsum("...iL,...kJ->...iJkL", G, G)
+        A *= (mu * a)[..., None, None, None, None]
+        return W, P, A
+
+
+@dataclass(frozen=True)
+class MooneyRivlin(Material):
+    """Two-parameter Mooney-Rivlin solid; ``mu = 2 (c10 + c01)``.
+
+    Parameters
+    ----------
+    c10, c01 : float
+        Mooney-Rivlin constants (Pa), c10 > 0, c01 >= 0.
+    K : float
+        Bulk modulus (Pa).
+    """
+
+    c10: float = 0.0
+    c01: float = 0.0
+
+    def __init__(self, c10: float, c01: float, K: float):
+        _check_modulus("c10", c10)
+        if not (math.isfinite(c01) and c01 >= 0):
+            raise ValueError(f"c01 = {c01!r} is not allowed; it must be finite and >= 0 (Pa)")
+        object.__setattr__(self, "c10", float(c10))
+        object.__setattr__(self, "c01", float(c01))
+        object.__setattr__(self, "mu", 2.0 * (c10 + c01))
+        object.__setattr__(self, "K", float(K))
+        self.__post_init__()
+
+    def to_dict(self) -> dict:
+        return {"model": "MooneyRivlin", "c10": self.c10, "c01": self.c01, "K": self.K}
+
+    def isochoric(self, F):
+        J, G, I1 = _invariant_parts(F)
+        C = np.einsum("...kI,...kJ->...IJ", F, F)
+        FC = F @ C
+        I2 = 0.5 * (I1 * I1 - np.einsum("...IJ,...IJ->...", C, C))
+        a = J ** (-2.0 / 3.0)
+        b = a * a
+        ex = (..., None, None)
+        W = self.c10 * (a * I1 - 3.0) + self.c01 * (b * I2 - 3.0)
+        P1 = self.c10 * 2.0 * a[ex] * (F - (I1 / 3.0)[ex] * G)
+        # d(I2)/dF = 2 (I1 F - F C); d(b)/dF = -4/3 b G
+        dI2 = 2.0 * (I1[ex] * F - FC)
+        P2 = self.c01 * b[ex] * (dI2 - (4.0 / 3.0) * I2[ex] * G)
+        P = P1 + P2
+        ex4 = (..., None, None, None, None)
+        eye = np.eye(3)
+        dd = np.einsum("ik,JL->iJkL", eye, eye) + np.zeros(F.shape[:-2] + (1, 1, 1, 1))
+        GG = np.einsum("...iJ,...kL->...iJkL", G, G)
+        GGt = np.einsum("...iL,...kJ->...iJkL", G, G)
+        # c10 part: 2 c10 times the neo-Hookean bracket with mu = 1.
+        A1 = dd - (2.0 / 3.0) * (
+            np.einsum("...kL,...iJ->...iJkL", G, F) + np.einsum("...kL,...iJ->...iJkL", F, G)
+        )
+        A1 += (2.0 / 9.0) * I1[ex4] * GG + (1.0 / 3.0) * I1[ex4] * GGt
+        A1 *= (2.0 * self.c10 * a)[ex4]
+        # c01 part: P2 = c01 b Q with Q = dI2 - 4/3 I2 G.
+        # dP2/dF_kL = c01 b [ -4/3 G_kL Q_iJ + dQ_iJ/dF_kL ]
+        # dQ_iJ/dF_kL = 2 (2 F_kL F_iJ + I1 d_ik d_JL - d_ik C_LJ - F_iL F_kJ - (F F^T)_ik d_JL)
+        #               - 4/3 dI2_kL G_iJ + 4/3 I2 G_iL G_kJ
+        Q = dI2 - (4.0 / 3.0) * I2[ex] * G
+        B = F @ F.swapaxes(-1, -2)
+        dQ = 2.0 * (
+            2.0 * np.einsum("...kL,...iJ->...iJkL", F, F)
+            + I1[ex4] * dd
+            - np.einsum("ik,...LJ->...iJkL", eye, C)
+            - np.einsum("...iL,...kJ->...iJkL", F, F)
+            - np.einsum("...ik,JL->...iJkL", B, eye)
+        )
+        dQ -= (4.0 / 3.0) * np.einsum("...kL,...iJ->...iJkL", dI2, G)
+        dQ += (4.0 / 3.0) * I2[ex4] * GGt
+        A2 = (self.c01 * b)[ex4] * (dQ - (4.0 / 3.0) * np.einsum("...kL,...iJ->...iJkL", G, Q))
+        return W, P, A1 + A2
+
+
+#: Photoelastic sheet default: E = 4 MPa (seed paper, "Sensing element": "low modulus of
+#: elasticity of 4 MPa"); nu = 0.49 ASSUMED (polyurethane photoelastic rubbers are nearly
+#: incompressible; no datasheet value in the seed paper).
+SHEET_DEFAULT = NeoHookean.from_E_nu(4e6, 0.49)
+
+#: Polycarbonate default: E = 2.3 GPa, nu = 0.37 (typical datasheet values for
+#: bisphenol-A polycarbonate, e.g. Lexan/Makrolon sheet; ASSUMED, not measured).
+POLYCARBONATE_DEFAULT = NeoHookean.from_E_nu(2.3e9, 0.37)
+
+_MODELS = {"neo-hookean": NeoHookean, "mooney-rivlin": MooneyRivlin}
+
+
+def material_from_dict(d: dict) -> Material:
+    """Build a material from ``{"model": ..., ...}`` in SI units.
+
+    ``model`` is ``"neo-hookean"`` (with ``E`` and ``nu``, or ``mu`` and ``K``) or
+    ``"mooney-rivlin"`` (with ``c10``, ``c01``, ``K``).
+    """
+    d = dict(d)
+    model = str(d.pop("model", "neo-hookean")).lower()
+    if model not in _MODELS:
+        raise ValueError(f"material model = {model!r} is not known; use one of {sorted(_MODELS)}")
+    if model == "neo-hookean":
+        if set(d) == {"E", "nu"}:
+            return NeoHookean.from_E_nu(float(d["E"]), float(d["nu"]))
+        if set(d) == {"mu", "K"}:
+            return NeoHookean(mu=float(d["mu"]), K=float(d["K"]))
+        raise ValueError(
+            f"neo-hookean material parameters {sorted(d)} are not allowed; "
+            "give E and nu, or mu and K"
+        )
+    if set(d) != {"c10", "c01", "K"}:
+        raise ValueError(
+            f"mooney-rivlin material parameters {sorted(d)} are not allowed; give c10, c01 and K"
+        )
+    return MooneyRivlin(float(d["c10"]), float(d["c01"]), float(d["K"]))

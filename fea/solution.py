@@ -1,0 +1,176 @@
+"""The converged state at one load level, with stress recovery and VTU export."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+
+from meshes import Mesh
+
+from .element import TET_QUADRATURE
+
+__all__ = ["IndenterState", "Solution", "write_solution_vtu"]
+
+
+@dataclass(frozen=True)
+class IndenterState:
+    """One indenter at a converged load state (physical values, whole indenter).
+
+    Attributes
+    ----------
+    centre : (3,) current sphere centre (m).
+    radius : float (m).
+    depth : float, indentation depth from first touch of the undeformed face (m).
+    force : (3,) force the indenter exerts on the sheet (N); z < 0 presses.
+    contact_radius : float, radius of the circle with the projected contact area (m).
+    max_penetration : float, largest penetration at a quadrature point (m).
+    points : (k, 3) current positions of the contact quadrature points (model part, m).
+    pressure : (k,) Cauchy contact pressure at those points (Pa).
+    """
+
+    centre: np.ndarray
+    radius: float
+    depth: float
+    force: np.ndarray
+    contact_radius: float
+    max_penetration: float
+    points: np.ndarray
+    pressure: np.ndarray
+
+    def as_dict(self) -> dict:
+        """Summary in the field's units (issue 6 summary.json keys)."""
+        return {
+            "force_N": [float(v) for v in self.force],
+            "depth_mm": self.depth * 1e3,
+            "contact_radius_mm": self.contact_radius * 1e3,
+            "centre_mm": [float(v) * 1e3 for v in self.centre],
+            "radius_mm": self.radius * 1e3,
+            "max_penetration_mm": self.max_penetration * 1e3,
+        }
+
+
+def _extrapolation_matrix() -> np.ndarray:
+    """(10, 4): nodal values of the linear field through the 4 quadrature-point values."""
+    rst = TET_QUADRATURE[0]
+    Lq = np.column_stack([1 - rst.sum(axis=1), rst])  # (q, 4) barycentric of the qps
+    corner = np.linalg.inv(Lq)  # corner values = inv(Lq) @ qp values
+    E = np.zeros((10, 4))
+    E[:4] = corner
+    mids = np.array([[0, 1], [1, 2], [2, 0], [0, 3], [1, 3], [2, 3]])
+    E[4:] = 0.5 * (corner[mids[:, 0]] + corner[mids[:, 1]])
+    return E
+
+
+@dataclass(frozen=True)
+class Solution:
+    """Converged state of the sensor at one load state.
+
+    Attributes
+    ----------
+    mesh : Mesh, the reference mesh.
+    displacement : (n, 3) nodal displacements (m).
+    stress_qp : (c, q, 3, 3) Cauchy stress at the 4 quadrature points of each cell (Pa).
+    jbar : (c,) element mean dilatation (current / reference volume).
+    indenters : tuple of IndenterState.
+    base_reaction : (3,) force of the fixed base on the modelled part (N).
+    model_fraction : tuple of float, share of each indenter that is modelled (1, 1/2, 1/4).
+    load_factor : float, position along the load path (state index, may be fractional
+        for a state reached before a failure).
+    log : list of dict, one row per Newton iteration.
+    """
+
+    mesh: Mesh
+    displacement: np.ndarray
+    stress_qp: np.ndarray
+    jbar: np.ndarray
+    indenters: tuple[IndenterState, ...]
+    base_reaction: np.ndarray
+    model_fraction: tuple[float, ...]
+    load_factor: float
+    log: list = field(default_factory=list, repr=False)
+
+    @cached_property
+    def points(self) -> np.ndarray:
+        """(n, 3) deformed node positions (m)."""
+        return self.mesh.points + self.displacement
+
+    @cached_property
+    def stress_nodes(self) -> np.ndarray:
+        """(n, 3, 3) Cauchy stress recovered to nodes (Pa).
+
+        The 4 quadrature values of each cell define a linear field, extrapolated to the
+        cell's nodes and averaged over the cells sharing a node, volume-weighted,
+        separately per region so the sheet/substrate jump is kept on the sheet side
+        of interface nodes (they take the sheet's value).
+        """
+        E = _extrapolation_matrix()
+        cells = self.mesh.cells
+        vals = np.einsum("aq,cqij->caij", E, self.stress_qp).reshape(len(cells), 10, 9)
+        w = np.abs(self.mesh.volumes)
+        out = np.zeros((self.mesh.n_points, 9))
+        for region in (1, 0):  # substrate first, the sheet overwrites shared nodes
+            sel = self.mesh.regions == region
+            if not np.any(sel):
+                continue
+            idx = cells[sel].ravel()
+            wt = np.repeat(w[sel], 10)
+            den = np.bincount(idx, weights=wt, minlength=self.mesh.n_points)
+            has = den > 0
+            for k in range(9):
+                num = np.bincount(
+                    idx, weights=wt * vals[sel][:, :, k].ravel(), minlength=self.mesh.n_points
+                )
+                out[has, k] = num[has] / den[has]
+        return out.reshape(-1, 3, 3)
+
+    def sheet_volume_change(self) -> float:
+        """Relative volume change of the sheet region (current/reference - 1)."""
+        sel = self.mesh.regions == 0
+        V = np.abs(self.mesh.volumes[sel])
+        return float((self.jbar[sel] * V).sum() / V.sum() - 1.0)
+
+    def summary(self) -> dict:
+        return {
+            "load_factor": self.load_factor,
+            "indenters": [i.as_dict() for i in self.indenters],
+            "base_reaction_N": [float(v) for v in self.base_reaction],
+            "model_fraction": list(self.model_fraction),
+            "newton_iterations": len(self.log),
+        }
+
+
+def write_solution_vtu(sol: Solution, path: str | os.PathLike, *, deformed: bool = True) -> Path:
+    """Write the state as a VTU (quadratic tets) readable by ParaView and pyvista.
+
+    Point data: ``displacement_m``, ``stress_Pa`` (9 components, row-major Cauchy),
+    ``von_mises_Pa``, ``secondary_stress_difference_Pa`` (sqrt((sxx - syy)^2 + 4 sxy^2),
+    the quantity the camera sees along z). Cell data: ``region``, ``jbar``.
+    """
+    import pyvista as pv
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    cells = sol.mesh.cells
+    grid = pv.UnstructuredGrid(
+        np.hstack([np.full((len(cells), 1), 10), cells]).ravel(),
+        np.full(len(cells), pv.CellType.QUADRATIC_TETRA, dtype=np.uint8),
+        sol.points if deformed else sol.mesh.points,
+    )
+    s = sol.stress_nodes
+    grid.point_data["displacement_m"] = sol.displacement
+    grid.point_data["stress_Pa"] = s.reshape(-1, 9)
+    dev = s - np.trace(s, axis1=1, axis2=2)[:, None, None] / 3 * np.eye(3)
+    grid.point_data["von_mises_Pa"] = np.sqrt(1.5 * np.einsum("nij,nij->n", dev, dev))
+    grid.point_data["secondary_stress_difference_Pa"] = np.sqrt(
+        (s[:, 0, 0] - s[:, 1, 1]) ** 2 + 4 * s[:, 0, 1] ** 2
+    )
+    grid.cell_data["region"] = sol.mesh.regions.astype(np.int32)
+    grid.cell_data["jbar"] = sol.jbar
+    tmp = path.with_name(path.name + ".part.vtu")
+    grid.save(tmp)
+    os.replace(tmp, path)
+    return path

@@ -1,0 +1,345 @@
+"""The contact solver against exact and published answers (coarse meshes, fast)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from conftest import small_spec
+
+from fea import (
+    ContactSettings,
+    Indenter,
+    MooneyRivlin,
+    NeoHookean,
+    SolverError,
+    SolverSettings,
+    dimitriadis_force,
+    material_from_dict,
+    solve,
+    write_solution_vtu,
+)
+from fea.assembly import Pattern, body_state
+from fea.contact import sphere_contact
+from fea.element import reference_gradients, tet10_shape
+from meshes import Layers, MeshSpec, Sizing, build_mesh
+
+SHEET = NeoHookean.from_E_nu(4e6, 0.49)
+SUBSTRATE = NeoHookean.from_E_nu(2.3e9, 0.37)
+
+
+# -- kernels -------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("mat", [NeoHookean(1.0, 30.0), MooneyRivlin(0.3, 0.2, 30.0)])
+def test_material_stress_and_tangent_match_finite_differences(mat):
+    rng = np.random.default_rng(0)
+    F = np.eye(3) + 0.3 * rng.standard_normal((4, 3, 3))
+    W, P, A = mat.isochoric(F)
+    h = 1e-6
+    for k in range(3):
+        for L in range(3):
+            E = np.zeros((3, 3))
+            E[k, L] = h
+            Wp, Pp, _ = mat.isochoric(F + E)
+            Wm, Pm, _ = mat.isochoric(F - E)
+            np.testing.assert_allclose((Wp - Wm) / (2 * h), P[:, k, L], rtol=1e-6, atol=1e-8)
+            np.testing.assert_allclose((Pp - Pm) / (2 * h), A[..., k, L], rtol=1e-5, atol=1e-7)
+    # stress free and isochoric energy zero in the reference state, for any volume change
+    W0, P0, _ = mat.isochoric(1.1 * np.eye(3)[None])
+    assert abs(W0[0]) < 1e-12 and np.abs(P0).max() < 1e-12
+
+
+def test_material_constants_and_errors():
+    m = NeoHookean.from_E_nu(4e6, 0.49)
+    assert m.E == pytest.approx(4e6) and m.nu == pytest.approx(0.49)
+    mr = material_from_dict({"model": "mooney-rivlin", "c10": 0.5e6, "c01": 0.2e6, "K": 1e8})
+    assert mr.mu == pytest.approx(1.4e6)
+    with pytest.raises(ValueError, match="nu = 0.5"):
+        NeoHookean.from_E_nu(4e6, 0.5)
+    with pytest.raises(ValueError, match="'rubber' is not known"):
+        material_from_dict({"model": "rubber", "E": 1.0, "nu": 0.3})
+    with pytest.raises(ValueError, match="give E and nu"):
+        material_from_dict({"model": "neo-hookean", "E": 1.0})
+
+
+def test_tet10_shape_functions_are_nodal_and_complete():
+    nodes = np.array(
+        [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
+        + [[0.5, 0, 0], [0.5, 0.5, 0], [0, 0.5, 0], [0, 0, 0.5], [0.5, 0, 0.5], [0, 0.5, 0.5]],
+        dtype=float,
+    )
+    N, dN = tet10_shape(nodes)
+    np.testing.assert_allclose(N, np.eye(10), atol=1e-14)
+    rst = np.random.default_rng(1).random((5, 3)) / 3
+    N, dN = tet10_shape(rst)
+    np.testing.assert_allclose(N.sum(axis=1), 1.0, atol=1e-14)
+    np.testing.assert_allclose(dN.sum(axis=1), 0.0, atol=1e-13)
+    # reproduces a quadratic exactly
+    f = nodes[:, 0] ** 2 + nodes[:, 1] * nodes[:, 2]
+    np.testing.assert_allclose(N @ f, rst[:, 0] ** 2 + rst[:, 1] * rst[:, 2], atol=1e-14)
+
+
+@pytest.fixture(scope="module")
+def quarter(small_meshes):
+    return small_meshes["quarter"]
+
+
+def _groups(mesh):
+    return [
+        (np.flatnonzero(mesh.regions == 0), SHEET),
+        (np.flatnonzero(mesh.regions == 1), SUBSTRATE),
+    ]
+
+
+def _full_matrix(mesh, Ke):
+    dofs = (3 * mesh.cells[..., None] + np.arange(3)).reshape(len(mesh.cells), -1)
+    pat = Pattern(3 * mesh.n_points, [dofs], symmetric=True)
+    U = pat.matrix([(*pat.scatter(dofs), Ke.ravel())])
+    return U + sp.triu(U, k=1).T
+
+
+def test_element_tangent_matches_finite_differences(quarter):
+    mesh = quarter
+    grads = reference_gradients(mesh.points, mesh.cells)
+    X = mesh.points
+    u = 2e-4 * np.column_stack(
+        [
+            np.sin(400 * X[:, 0]),
+            np.cos(300 * X[:, 1]) * X[:, 2] / 3e-3,
+            -np.exp(-1e6 * (X[:, 0] ** 2)),
+        ]
+    )
+    st = body_state(u, mesh.cells, grads, _groups(mesh))
+    K = _full_matrix(mesh, st.Ke)
+    v = np.random.default_rng(2).standard_normal(u.shape)
+    h = 1e-9
+    sp_ = body_state(u + h * v, mesh.cells, grads, _groups(mesh), tangent=False)
+    sm = body_state(u - h * v, mesh.cells, grads, _groups(mesh), tangent=False)
+    fd = ((sp_.force - sm.force) / (2 * h)).ravel()
+    an = K @ v.ravel()
+    assert np.linalg.norm(fd - an) <= 1e-6 * np.linalg.norm(an)
+    # the force is the gradient of the energy
+    assert (sp_.energy - sm.energy) / (2 * h) == pytest.approx(
+        float(st.force.ravel() @ v.ravel()), rel=1e-6
+    )
+
+
+@pytest.mark.parametrize("mu", [0.0, math.inf, 0.3])
+def test_contact_tangent_matches_finite_differences(mu):
+    rng = np.random.default_rng(3)
+    R, eps = 1.75e-3, 1e11
+    dirs = np.array([0, 0, -1.0]) + 0.4 * rng.standard_normal((6, 7, 3))
+    dirs /= np.linalg.norm(dirs, axis=-1, keepdims=True)
+    c = np.array([0, 0, R])
+    xq = c + dirs * (R - 2e-5 * rng.random((6, 7))[..., None])
+    w = 1e-8 * (1 + rng.random((6, 7)))
+    lam = 1e5 * rng.random((6, 7))
+    anchor = dirs + 0.02 * rng.standard_normal((6, 7, 3))
+    anchor = R * anchor / np.linalg.norm(anchor, axis=-1, keepdims=True)
+    kw = dict(mu=mu, anchor=anchor, eps_t=eps)
+    res = sphere_contact(xq, w, c, R, lam, eps, **kw)
+    if mu == 0.3:
+        assert res.slip.sum() > 0  # the slip branch is exercised
+    h = 1e-10
+    v = rng.standard_normal(3)
+    rp = sphere_contact(xq, w, c + h * v, R, lam, eps, tangent=False, **kw)
+    rm = sphere_contact(xq, w, c - h * v, R, lam, eps, tangent=False, **kw)
+    fd = (rp.force - rm.force) / (2 * h)
+    an = np.einsum("faibk,k->fai", res.K.reshape(6, 7, 3, 7, 3)[:, :, :, 6:7, :], v)
+    np.testing.assert_allclose(fd, an, rtol=0, atol=1e-6 * np.abs(an).max())
+    if mu != 0.3:  # conservative cases: the force is the gradient of the energy
+        assert (rp.energy - rm.energy) / (2 * h) == pytest.approx(
+            res.force[:, 6].sum(0) @ v, rel=1e-6
+        )
+
+
+# -- patch test ------------------------------------------------------------------------
+
+
+def test_patch_test_homogeneous_finite_deformation(quarter):
+    """u = (F - I) X on the boundary: the interior follows exactly, stress is uniform."""
+    mesh = quarter
+    groups = [(np.arange(mesh.n_cells), SHEET)]  # one material: a homogeneous state exists
+    grads = reference_gradients(mesh.points, mesh.cells)
+    Fh = np.array([[1.15, 0.1, 0.02], [-0.05, 0.9, 0.08], [0.03, -0.04, 1.05]])
+    exact = mesh.points @ (Fh - np.eye(3)).T
+    boundary = np.zeros(mesh.n_points, dtype=bool)
+    for name in mesh.facets:
+        if name != "interface":
+            boundary[np.unique(mesh.facet_nodes(name))] = True
+    free = np.flatnonzero(np.repeat(~boundary, 3))
+    st = body_state(exact, mesh.cells, grads, groups)
+    scale = np.abs(st.force).max()
+    assert np.abs(st.force.ravel()[free]).max() < 1e-9 * scale
+    # Newton from a perturbed interior converges back onto the homogeneous field
+    u = exact.copy()
+    u[~boundary] += 1e-7 * np.random.default_rng(4).standard_normal(((~boundary).sum(), 3))
+    for _ in range(8):
+        st = body_state(u, mesh.cells, grads, groups)
+        K = _full_matrix(mesh, st.Ke).tocsr()[free][:, free]
+        r = st.force.ravel()[free]
+        if np.abs(r).max() < 1e-10 * scale:
+            break
+        du = np.zeros(u.size)
+        du[free] = sp.linalg.spsolve(K.tocsc(), -r)
+        u += du.reshape(-1, 3)
+    np.testing.assert_allclose(u, exact, atol=1e-12)
+    J = np.linalg.det(Fh)
+    b = Fh @ Fh.T
+    sigma = SHEET.mu * J ** (-5 / 3) * (b - np.trace(b) / 3 * np.eye(3)) + SHEET.K * (
+        J - 1
+    ) * np.eye(3)
+    np.testing.assert_allclose(st.Jbar, J, rtol=1e-12)
+    _, P, _ = SHEET.isochoric(st.F)
+    cauchy = np.einsum("cqiJ,cqkJ->cqik", P, st.F) / J + SHEET.K * (J - 1) * np.eye(3)
+    np.testing.assert_allclose(cauchy, np.broadcast_to(sigma, cauchy.shape), atol=1e-6 * SHEET.mu)
+
+
+# -- solver ------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def quarter_run(quarter):
+    return solve(quarter, [Indenter(normal_force=(2.0, 4.0))])
+
+
+def test_force_control_equilibrium_and_penetration(quarter_run):
+    sols, stats = quarter_run
+    assert stats.backend in ("pardiso", "scipy")
+    for target, sol in zip((2.0, 4.0), sols, strict=True):
+        ind = sol.indenters[0]
+        assert ind.force[2] == pytest.approx(-target, rel=1e-9)
+        # base reaction of the modelled quarter equals the applied share of the load
+        assert sol.base_reaction[2] == pytest.approx(0.25 * target, rel=1e-6)
+        assert ind.max_penetration <= 0.01 * ind.depth
+        assert 0 < ind.contact_radius < ind.radius
+    d2, d4 = (s.indenters[0].depth for s in sols)
+    assert d4 > d2 > 0
+    # contact pressure integrates to the load (nominal pressure times reference area)
+    assert len(sols[1].log) >= 2
+
+
+def test_stress_recovery_and_vtu(quarter_run, tmp_path):
+    import pyvista as pv
+
+    sol = quarter_run[0][1]
+    s = sol.stress_nodes
+    assert s.shape == (sol.mesh.n_points, 3, 3)
+    np.testing.assert_allclose(s, s.transpose(0, 2, 1), atol=1e-6 * np.abs(s).max())
+    # under the indenter the sheet is in compression through the thickness
+    top = np.argmin(np.linalg.norm(sol.points - [0, 0, sol.points[:, 2].max()], axis=1))
+    assert s[top, 2, 2] < 0
+    path = write_solution_vtu(sol, tmp_path / "state.vtu")
+    grid = pv.read(path)
+    assert grid.n_points == sol.mesh.n_points
+    for name in ("displacement_m", "stress_Pa", "von_mises_Pa", "secondary_stress_difference_Pa"):
+        assert name in grid.point_data
+    np.testing.assert_allclose(grid.points, sol.points)
+
+
+def test_nearly_incompressible_limit_does_not_lock(quarter):
+    """nu = 0.499 gives within 3 % of nu = 0.49, with the sheet volume change below 0.5 %."""
+    depth = {}
+    for nu in (0.49, 0.499):
+        mats = {0: NeoHookean.from_E_nu(4e6, nu), 1: SUBSTRATE}
+        sols, _ = solve(quarter, [Indenter(normal_force=(2.0,))], materials=mats)
+        depth[nu] = sols[-1].indenters[0].depth
+        if nu == 0.499:
+            assert abs(sols[-1].sheet_volume_change()) < 0.005
+    assert depth[0.499] == pytest.approx(depth[0.49], rel=0.03)
+    assert depth[0.499] < depth[0.49]  # stiffer, as it should be
+
+
+def test_displacement_control_and_dimitriadis_small_load(cache_dir):
+    """Small depth on a bonded 3 mm sheet: force a few per cent below Dimitriadis eq. 12."""
+    spec = MeshSpec(
+        layers=Layers(sheet_thickness=3e-3, substrate_thickness=0.0, width=16e-3, length=16e-3),
+        sizing=Sizing(
+            h_contact=0.12e-3, refine_radius=0.6e-3, h_far=3e-3, h_sheet=1.5e-3, growth=0.6
+        ),
+        symmetry="quarter",
+    )
+    mesh = build_mesh(spec, cache_dir=cache_dir)
+    depths = (0.02e-3, 0.05e-3)
+    sols, _ = solve(mesh, [Indenter(depth=depths)], materials={0: SHEET})
+    ratios = []
+    for d, sol in zip(depths, sols, strict=True):
+        assert sol.indenters[0].depth == pytest.approx(d, rel=1e-12)
+        F = -sol.indenters[0].force[2]
+        ratios.append(F / dimitriadis_force(d, 1.75e-3, SHEET.E, 3e-3))
+    assert all(0.95 <= r <= 1.02 for r in ratios), ratios
+
+
+def test_symmetry_models_agree(cache_dir):
+    """Quarter and half models give the full model's depth within 1 %."""
+    sizing = Sizing(h_contact=0.5e-3, refine_radius=1.5e-3, h_far=3e-3, h_sheet=1.5e-3, growth=0.5)
+    depth = {}
+    for sym in ("quarter", "half", "full"):
+        mesh = build_mesh(small_spec(sym, sizing=sizing), cache_dir=cache_dir)
+        sols, _ = solve(mesh, [Indenter(normal_force=(4.0, 8.0))])
+        ind = sols[-1].indenters[0]
+        assert ind.force[2] == pytest.approx(-8.0, rel=1e-9)
+        depth[sym] = ind.depth
+    assert depth["quarter"] == pytest.approx(depth["full"], rel=0.01)
+    assert depth["half"] == pytest.approx(depth["full"], rel=0.01)
+
+
+def test_shear_with_stick(small_meshes):
+    """8 N + 8 N with full stick on a half model: converges, carries the shear, and the
+    stress pattern shifts in the shear direction."""
+    mesh = small_meshes["half"]
+    ind = Indenter(normal_force=(8.0, 8.0), shear_force=((0.0, 0.0), (8.0, 0.0)))
+    sols, _ = solve(mesh, [ind], contact=ContactSettings(friction=math.inf))
+    vert, shear = sols
+    f = shear.indenters[0].force
+    assert f[0] == pytest.approx(8.0, rel=1e-6) and f[2] == pytest.approx(-8.0, rel=1e-6)
+    # the base carries the shear of the modelled half (x is not a symmetry direction)
+    assert shear.base_reaction[0] == pytest.approx(-0.5 * 8.0, rel=1e-6)
+    assert shear.indenters[0].centre[0] > vert.indenters[0].centre[0]
+
+    def centroid_x(sol):
+        s = sol.stress_nodes
+        diff = np.sqrt((s[:, 0, 0] - s[:, 1, 1]) ** 2 + 4 * s[:, 0, 1] ** 2)
+        sheet = np.unique(sol.mesh.cells[sol.mesh.regions == 0])
+        w = diff[sheet] ** 2
+        return float((w * sol.points[sheet, 0]).sum() / w.sum())
+
+    assert centroid_x(vert) == pytest.approx(0.0, abs=5e-5)
+    assert centroid_x(shear) > 1e-4
+
+
+def test_coulomb_slip_limits_the_tangential_traction(small_meshes):
+    """With mu = 0.3 a shear below mu * normal is carried, with slip at the contact edge."""
+    mesh = small_meshes["half"]
+    ind = Indenter(normal_force=(4.0, 4.0), shear_force=((0.0, 0.0), (0.8, 0.0)))
+    sols, _ = solve(mesh, [ind], contact=ContactSettings(friction=0.3))
+    assert sols[-1].indenters[0].force[0] == pytest.approx(0.8, rel=1e-6)
+
+
+def test_bad_input_gives_clear_errors(quarter, small_meshes):
+    with pytest.raises(ValueError, match="normal_force.*>= 0 N"):
+        Indenter(normal_force=(-1.0,))
+    with pytest.raises(ValueError, match="friction = -0.1"):
+        ContactSettings(friction=-0.1)
+    with pytest.raises(ValueError, match="beyond the sheet edge"):
+        solve(quarter, [Indenter(radius=20e-3, normal_force=(1.0,))])
+    with pytest.raises(ValueError, match="region 1 has no material"):
+        solve(quarter, [Indenter()], materials={0: SHEET})
+    with pytest.raises(ValueError, match="frictionless sphere carries no tangential load"):
+        solve(small_meshes["full"], [Indenter(normal_force=(1.0,), shear_force=((1.0, 0.0),))])
+    with pytest.raises(ValueError, match="backend = 'magic'"):
+        solve(quarter, [Indenter()], settings=SolverSettings(backend="magic"))
+    with pytest.raises(ValueError, match="depth.*< the radius"):
+        Indenter(depth=(2e-3,))
+
+
+def test_unreachable_load_keeps_converged_states(quarter):
+    """A load the mesh cannot carry ends in SolverError with the converged states kept."""
+    settings = SolverSettings(max_iterations=6, max_cutbacks=2)
+    with pytest.raises(SolverError, match="could not reach load state 2") as err:
+        solve(quarter, [Indenter(normal_force=(1.0, 400.0))], settings=settings)
+    assert len(err.value.solutions) == 1
+    assert err.value.solutions[0].indenters[0].force[2] == pytest.approx(-1.0, rel=1e-9)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import pytest
@@ -27,6 +28,13 @@ from fea.element import reference_gradients, tet10_shape
 from meshes import Layers, MeshSpec, Sizing, build_mesh
 
 SHEET = NeoHookean.from_E_nu(4e6, 0.49)
+
+# Full-model and shear runs take minutes on 2 cores; they run when FRINGEKIT_SLOW_TESTS=1
+# (not yet confirmed green: issue 3 stays open until they run within the CI budget).
+slow = pytest.mark.skipif(
+    os.environ.get("FRINGEKIT_SLOW_TESTS") != "1",
+    reason="several-minute solver run; set FRINGEKIT_SLOW_TESTS=1",
+)
 SUBSTRATE = NeoHookean.from_E_nu(2.3e9, 0.37)
 
 
@@ -273,6 +281,7 @@ def test_displacement_control_and_dimitriadis_small_load(cache_dir):
     assert all(0.95 <= r <= 1.02 for r in ratios), ratios
 
 
+@slow
 def test_symmetry_models_agree(cache_dir):
     """Quarter and half models give the full model's depth within 1 %."""
     sizing = Sizing(h_contact=0.5e-3, refine_radius=1.5e-3, h_far=3e-3, h_sheet=1.5e-3, growth=0.5)
@@ -287,6 +296,7 @@ def test_symmetry_models_agree(cache_dir):
     assert depth["half"] == pytest.approx(depth["full"], rel=0.01)
 
 
+@slow
 def test_shear_with_stick(small_meshes):
     """8 N + 8 N with full stick on a half model: converges, carries the shear, and the
     stress pattern shifts in the shear direction."""
@@ -311,6 +321,7 @@ def test_shear_with_stick(small_meshes):
     assert centroid_x(shear) > 1e-4
 
 
+@slow
 def test_coulomb_slip_limits_the_tangential_traction(small_meshes):
     """With mu = 0.3 a shear below mu * normal is carried, with slip at the contact edge."""
     mesh = small_meshes["half"]
@@ -338,7 +349,7 @@ def test_bad_input_gives_clear_errors(quarter, small_meshes):
 
 def test_unreachable_load_keeps_converged_states(quarter):
     """A load the mesh cannot carry ends in SolverError with the converged states kept."""
-    settings = SolverSettings(max_iterations=6, max_cutbacks=2)
+    settings = SolverSettings(max_iterations=20, max_cutbacks=2)
     with pytest.raises(SolverError, match="could not reach load state 2") as err:
         solve(quarter, [Indenter(normal_force=(1.0, 400.0))], settings=settings)
     assert len(err.value.solutions) == 1

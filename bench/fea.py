@@ -34,8 +34,8 @@ from fea import (  # noqa: E402
 from meshes import MeshSpec, Sizing, build_mesh  # noqa: E402
 
 MESHES = {
-    "coarse": Sizing(h_contact=0.4e-3, refine_radius=2e-3, h_sheet=1.5e-3, h_far=6e-3),
-    "fine": Sizing(h_contact=0.3e-3, refine_radius=2e-3, h_sheet=1e-3, h_far=4e-3),
+    "coarse": Sizing(h_contact=0.6e-3, refine_radius=2e-3, h_sheet=2e-3, h_far=8e-3),
+    "fine": Sizing(h_contact=0.4e-3, refine_radius=2e-3, h_sheet=1.5e-3, h_far=6e-3),
 }
 RADII_MM = (1.0, 1.5, 2.0, 3.0, 4.0, 6.0)
 

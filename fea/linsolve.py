@@ -48,6 +48,10 @@ class LinearSolver:
     """
 
     def __init__(self, backend: str = "auto"):
+        # set first: __del__ runs even when the checks below raise
+        self._ps = None
+        self._pattern_id = None
+        self._mtype = None
         allowed = ("auto", "pardiso", "scipy")
         if backend not in allowed:
             raise ValueError(
@@ -60,9 +64,6 @@ class LinearSolver:
                 "linear solver backend = 'pardiso' is not available: pypardiso does not import"
             )
         self.backend = backend
-        self._ps = None
-        self._pattern_id = None
-        self._mtype = None
         self.time_analysis = self.time_factorize = self.time_solve = 0.0
         self.n_factorizations = 0
 

@@ -131,6 +131,8 @@ class ContactSettings:
     penalty_factor : float
         Normal penalty as a multiple of E_sheet / h, h the mean contact facet size
         (dimensionless). The augmented-Lagrangian updates remove the penetration it leaves.
+        100 leaves ~0.5 % of the depth after 0-3 updates per state; 10 needs ~2 per state
+        and costs ~50 % more time on the reference case for the same depth (bench/fea.py).
     tangential_factor : float
         Tangential penalty as a multiple of the normal penalty.
     penetration_tol : float
@@ -140,7 +142,7 @@ class ContactSettings:
     """
 
     friction: float = 0.0
-    penalty_factor: float = 10.0
+    penalty_factor: float = 100.0
     tangential_factor: float = 1.0
     penetration_tol: float = 0.01
     max_updates: int = 12

@@ -1,0 +1,213 @@
+"""Line profiles and prediction-vs-measurement comparison of fringe-order maps."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["Profile", "line_profile", "Comparison", "compare_maps", "comparison_figure"]
+
+
+@dataclass
+class Profile:
+    """Values along a straight line (the seed paper's a-b and c-d lines).
+
+    Attributes
+    ----------
+    distance : (k,) from the start, px (or m when a pixel size was given)
+    values : (k,) bilinear samples; NaN where the line crosses masked (NaN) pixels
+    start, end : (row, col) pixel coordinates
+    """
+
+    distance: np.ndarray
+    values: np.ndarray
+    start: tuple[float, float]
+    end: tuple[float, float]
+
+
+def line_profile(image, start, end, *, pixel_size: float | None = None, n=None) -> Profile:
+    """Sample a map along the line ``start`` -> ``end`` (row, col), one sample per pixel.
+
+    NaN pixels (masks) stay NaN in the profile instead of being blended with their
+    neighbours.
+    """
+    from scipy.ndimage import map_coordinates
+
+    img = np.asarray(image, float)
+    if img.ndim != 2:
+        raise ValueError(f"line_profile needs a (rows, cols) map, got shape {img.shape}")
+    p0, p1 = np.asarray(start, float), np.asarray(end, float)
+    for name, p in (("start", p0), ("end", p1)):
+        if p.shape != (2,) or not (0 <= p[0] <= img.shape[0] - 1 and 0 <= p[1] <= img.shape[1] - 1):
+            raise ValueError(f"profile {name} = {tuple(p)} is outside the image {img.shape}")
+    length = float(np.hypot(*(p1 - p0)))
+    k = int(n) if n is not None else max(int(np.ceil(length)) + 1, 2)
+    s = np.linspace(0.0, 1.0, k)
+    rc = p0[:, None] + (p1 - p0)[:, None] * s
+    nan = ~np.isfinite(img)
+    vals = map_coordinates(np.where(nan, 0.0, img), rc, order=1)
+    near_nan = map_coordinates(nan.astype(float), rc, order=1) > 0
+    vals[near_nan] = np.nan
+    dist = s * length * (pixel_size if pixel_size else 1.0)
+    return Profile(dist, vals, tuple(p0), tuple(p1))
+
+
+@dataclass
+class Comparison:
+    """A predicted fringe-order map registered onto a measured one.
+
+    Attributes
+    ----------
+    predicted : (rows, cols) the prediction resampled on the measured grid
+    measured : (rows, cols)
+    residual : measured - predicted (NaN where either is missing or outside the mask)
+    rms, p95 : RMS and 95th percentile of |residual| (fringe orders)
+    centre_measured : (row, col) where the prediction's centre landed
+    scale : measured pixel size / predicted pixel size
+    rotation_deg : rotation applied to the prediction
+    """
+
+    predicted: np.ndarray
+    measured: np.ndarray
+    residual: np.ndarray
+    rms: float
+    p95: float
+    centre_measured: tuple[float, float]
+    scale: float
+    rotation_deg: float
+    info: dict = field(default_factory=dict)
+
+
+def _resample(pred, centre_pred, shape, centre_meas, scale, rot):
+    from scipy.ndimage import map_coordinates
+
+    r, c = np.mgrid[: shape[0], : shape[1]].astype(float)
+    dr, dc = r - centre_meas[0], c - centre_meas[1]
+    cs, sn = np.cos(rot), np.sin(rot)
+    pr = centre_pred[0] + scale * (cs * dr - sn * dc)
+    pc = centre_pred[1] + scale * (sn * dr + cs * dc)
+    nan = ~np.isfinite(pred)
+    v = map_coordinates(np.where(nan, 0.0, pred), [pr, pc], order=1, cval=np.nan)
+    bad = map_coordinates(nan.astype(float), [pr, pc], order=1, cval=1.0) > 0
+    v[bad] = np.nan
+    return v
+
+
+def compare_maps(
+    predicted,
+    measured,
+    *,
+    predicted_pixel_size: float,
+    measured_pixel_size: float,
+    centre_predicted=None,
+    centre_measured=None,
+    rotation_deg: float = 0.0,
+    mask=None,
+) -> Comparison:
+    """Register ``predicted`` onto ``measured`` and compute residual statistics.
+
+    Parameters
+    ----------
+    predicted, measured : (rows, cols) fringe-order maps, NaN where unknown
+    predicted_pixel_size, measured_pixel_size : float (m)
+    centre_predicted : (row, col), optional — the indenter centre in the prediction
+        (default: the image centre)
+    centre_measured : (row, col), optional — the indenter centre in the measurement;
+        when omitted it is fitted by phase cross-correlation (skimage.registration,
+        sub-pixel) after scaling and rotating the prediction
+    rotation_deg : float — rotation of the prediction about its centre
+    mask : (rows, cols) bool, optional — pixels of the measurement to compare
+    """
+    from skimage.registration import phase_cross_correlation
+
+    pred = np.asarray(predicted, float)
+    meas = np.asarray(measured, float)
+    if pred.ndim != 2 or meas.ndim != 2:
+        raise ValueError("compare_maps needs two (rows, cols) fringe-order maps")
+    for name, v in (("predicted_pixel_size", predicted_pixel_size),
+                    ("measured_pixel_size", measured_pixel_size)):  # fmt: skip
+        if not (v and v > 0 and np.isfinite(v)):
+            raise ValueError(f"{name} = {v!r} m is not allowed; must be > 0")
+    scale = measured_pixel_size / predicted_pixel_size
+    cp = (
+        ((pred.shape[0] - 1) / 2, (pred.shape[1] - 1) / 2)
+        if centre_predicted is None
+        else tuple(centre_predicted)
+    )
+    rot = np.radians(rotation_deg)
+    fitted = centre_measured is None
+    cm = ((meas.shape[0] - 1) / 2, (meas.shape[1] - 1) / 2) if fitted else tuple(centre_measured)
+    res_pred = _resample(pred, cp, meas.shape, cm, scale, rot)
+    info = {}
+    if fitted:
+        a = np.nan_to_num(meas - np.nanmean(meas))
+        b = np.nan_to_num(res_pred - np.nanmean(res_pred))
+        shift, err, _ = phase_cross_correlation(a, b, upsample_factor=20, normalization=None)
+        cm = (cm[0] + shift[0], cm[1] + shift[1])
+        res_pred = _resample(pred, cp, meas.shape, cm, scale, rot)
+        info["registration_error"] = float(err)
+    m = np.isfinite(meas) & np.isfinite(res_pred)
+    if mask is not None:
+        mk = np.asarray(mask, bool)
+        if mk.shape != meas.shape:
+            raise ValueError(f"mask shape {mk.shape} does not match the measurement {meas.shape}")
+        m &= mk
+    if not m.any():
+        raise ValueError("the registered prediction and the measurement share no pixel")
+    resid = np.where(m, meas - res_pred, np.nan)
+    a = np.abs(resid[m])
+    return Comparison(
+        predicted=res_pred,
+        measured=meas,
+        residual=resid,
+        rms=float(np.sqrt(np.mean(a**2))),
+        p95=float(np.percentile(a, 95)),
+        centre_measured=(float(cm[0]), float(cm[1])),
+        scale=float(scale),
+        rotation_deg=float(rotation_deg),
+        info={**info, "pixels": int(m.sum())},
+    )
+
+
+def comparison_figure(comp: Comparison, path, *, line=None, title: str = "") -> None:
+    """PNG: measured, predicted, residual maps and an overlaid profile along ``line``.
+
+    ``line`` is ((row, col), (row, col)); default: the horizontal line through the
+    registered centre.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    if line is None:
+        r = comp.centre_measured[0]
+        line = ((r, 0.0), (r, comp.measured.shape[1] - 1.0))
+    fig, ax = plt.subplots(1, 4, figsize=(16, 4))
+    vmax = np.nanmax([np.nanmax(comp.measured), np.nanmax(comp.predicted)])
+    for a, data, name in (
+        (ax[0], comp.measured, "measured N"),
+        (ax[1], comp.predicted, "predicted N"),
+    ):
+        im = a.imshow(data, vmin=0, vmax=vmax, cmap="viridis")
+        a.set_title(name)
+        fig.colorbar(im, ax=a, shrink=0.8)
+    lim = np.nanmax(np.abs(comp.residual)) or 1.0
+    im = ax[2].imshow(comp.residual, cmap="RdBu_r", vmin=-lim, vmax=lim)
+    ax[2].set_title(f"residual (RMS {comp.rms:.3f}, p95 {comp.p95:.3f})")
+    fig.colorbar(im, ax=ax[2], shrink=0.8)
+    for a in ax[:3]:
+        a.plot([line[0][1], line[1][1]], [line[0][0], line[1][0]], "w--", lw=1)
+    pm = line_profile(comp.measured, *line)
+    pp = line_profile(comp.predicted, *line)
+    ax[3].plot(pm.distance, pm.values, label="measured")
+    ax[3].plot(pp.distance, pp.values, label="predicted")
+    ax[3].set_xlabel("distance along line (px)")
+    ax[3].set_ylabel("fringe order")
+    ax[3].legend()
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)

@@ -1,0 +1,207 @@
+"""Reading fringe images: 8/16-bit PNG, TIFF, JPEG, grey or colour, and six-step stacks.
+
+Images are returned as float arrays scaled to [0, 1] by the full scale of their integer type
+(255 or 65535), so that calibration tables and measurements made at different bit depths
+compare directly. Nothing here knows how an image was made (camera or optics).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["Frame", "load_image", "load_six_step", "normalise", "SIX_STEP_ORDER"]
+
+#: The arrangement of a six-step set (../shared/DESIGN.md table, Ramesh 2000): image k is
+#: taken with quarter-wave plates (xi, eta) and analyser beta of row k, polariser at pi/2.
+SIX_STEP_ORDER = (
+    "1: xi=3pi/4 eta=pi/4 beta=pi/2  I ~ 1 + cos d",
+    "2: xi=3pi/4 eta=pi/4 beta=0     I ~ 1 - cos d",
+    "3: xi=3pi/4 eta=0    beta=0     I ~ 1 - sin 2t sin d",
+    "4: xi=3pi/4 eta=pi/4 beta=pi/4  I ~ 1 + cos 2t sin d",
+    "5: xi=pi/4  eta=0    beta=0     I ~ 1 + sin 2t sin d",
+    "6: xi=pi/4  eta=3pi/4 beta=pi/4 I ~ 1 - cos 2t sin d",
+)
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One image as floats in [0, 1].
+
+    Attributes
+    ----------
+    data : (rows, cols) or (rows, cols, 3) float64
+    saturated : (rows, cols) bool — any channel at the top of its integer range
+    bit_depth : int — 8 or 16 (0 for float input)
+    source : str — file name or "array"
+    """
+
+    data: np.ndarray
+    saturated: np.ndarray
+    bit_depth: int
+    source: str = "array"
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.data.shape[:2]
+
+
+def normalise(image, *, source: str = "array") -> Frame:
+    """Scale an integer or float image to [0, 1] and find its saturated pixels.
+
+    Parameters
+    ----------
+    image : array (rows, cols) or (rows, cols, 3|4)
+        uint8, uint16 or float in [0, 1]. An alpha channel is dropped.
+    source : str
+        Name used in error messages.
+    """
+    img = np.asarray(image)
+    if img.ndim == 3 and img.shape[2] == 4:
+        img = img[..., :3]
+    if img.ndim not in (2, 3) or (img.ndim == 3 and img.shape[2] != 3):
+        raise ValueError(
+            f"{source}: image shape {img.shape} is not allowed; use (rows, cols) grey or "
+            "(rows, cols, 3) colour"
+        )
+    if min(img.shape[:2]) < 2:
+        raise ValueError(f"{source}: image shape {img.shape} has fewer than 2 pixels a side")
+    if img.dtype == np.uint8 or img.dtype == np.uint16:
+        top = float(np.iinfo(img.dtype).max)
+        bits = 8 if img.dtype == np.uint8 else 16
+        sat = img >= top
+        data = img.astype(np.float64) / top
+    elif np.issubdtype(img.dtype, np.floating):
+        data = img.astype(np.float64)
+        finite = data[np.isfinite(data)]
+        if finite.size and (finite.min() < -1e-9 or finite.max() > 1 + 1e-9):
+            raise ValueError(
+                f"{source}: float image values span [{finite.min():.3g}, {finite.max():.3g}]; "
+                "float images must lie in [0, 1]"
+            )
+        bits, sat = 0, data >= 1.0
+    else:
+        raise ValueError(f"{source}: image dtype {img.dtype} is not allowed; use uint8/16 or float")
+    if sat.ndim == 3:
+        sat = sat.any(axis=2)
+    return Frame(data=data, saturated=sat, bit_depth=bits, source=source)
+
+
+def load_image(path, *, dark=None) -> Frame:
+    """Read one PNG/TIFF/JPEG image (8 or 16 bit, grey or colour) as a :class:`Frame`.
+
+    Parameters
+    ----------
+    path : str or Path
+    dark : str, Path, array or Frame, optional
+        Dark/background frame subtracted before use (same shape); the result is clipped
+        at zero.
+
+    Raises
+    ------
+    FileNotFoundError, ValueError
+        Missing file, unreadable format, a multi-page file (use :func:`load_six_step`),
+        an empty (all-equal) image, or a dark frame of another shape.
+    """
+    import imageio.v3 as iio
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"image file {str(path)!r} does not exist")
+    try:
+        img = iio.imread(path)
+    except Exception as exc:  # imageio raises many types for unreadable files
+        raise ValueError(f"{path}: not a readable PNG/TIFF/JPEG image ({exc})") from None
+    if img.ndim == 3 and img.shape[2] not in (3, 4) and img.shape[0] > 1:
+        raise ValueError(
+            f"{path}: holds {img.shape[0]} pages; read phase-stepped stacks with load_six_step"
+        )
+    frame = normalise(img, source=str(path))
+    return _subtract_dark(frame, dark)
+
+
+def _subtract_dark(frame: Frame, dark) -> Frame:
+    if dark is None:
+        d = None
+    else:
+        d = (
+            dark
+            if isinstance(dark, Frame)
+            else (
+                load_image(dark) if isinstance(dark, str | Path) else normalise(dark, source="dark")
+            )
+        )
+    if d is not None:
+        if d.data.shape != frame.data.shape:
+            raise ValueError(
+                f"dark frame shape {d.data.shape} does not match image {frame.source} shape "
+                f"{frame.data.shape}"
+            )
+        frame = Frame(
+            np.clip(frame.data - d.data, 0.0, None), frame.saturated, frame.bit_depth, frame.source
+        )
+    if np.ptp(frame.data) == 0:
+        raise ValueError(
+            f"{frame.source}: the image is empty (every pixel equals {frame.data.flat[0]:.4g})"
+        )
+    return frame
+
+
+def load_six_step(images, *, dark=None) -> list[Frame]:
+    """Read a six-step set: six files, or one multi-page TIFF with six pages.
+
+    The order of the images is :data:`SIX_STEP_ORDER`. Colour images are converted to
+    grey (mean of the channels: each step of a monochrome method must use one band).
+
+    Parameters
+    ----------
+    images : sequence of six paths or arrays, or one path to a 6-page TIFF
+    dark : optional dark frame (path or array) subtracted from each image
+
+    Raises
+    ------
+    ValueError
+        Not six images, mismatched sizes, empty images.
+    """
+    if isinstance(images, str | Path):
+        import tifffile
+
+        path = Path(images)
+        if not path.is_file():
+            raise FileNotFoundError(f"image file {str(path)!r} does not exist")
+        try:
+            stack = tifffile.imread(path)
+        except Exception as exc:
+            raise ValueError(f"{path}: not a readable multi-page TIFF ({exc})") from None
+        if stack.ndim < 3:
+            raise ValueError(f"{path}: holds 1 page; a six-step stack needs 6 pages")
+        frames = [
+            _subtract_dark(normalise(p, source=f"{path}[page {k}]"), dark)
+            for k, p in enumerate(stack)
+        ]
+    else:
+        items = list(images)
+        frames = [
+            load_image(p, dark=dark)
+            if isinstance(p, str | Path)
+            else _subtract_dark(normalise(p, source=f"image {k + 1}"), dark)
+            for k, p in enumerate(items)
+        ]
+    if len(frames) != 6:
+        raise ValueError(
+            f"a six-step set needs exactly 6 images (got {len(frames)}); order: "
+            + "; ".join(SIX_STEP_ORDER)
+        )
+    shapes = {f.data.shape[:2] for f in frames}
+    if len(shapes) != 1:
+        raise ValueError(
+            "the six images differ in size: "
+            + ", ".join(f"{f.source} {f.data.shape[:2]}" for f in frames)
+        )
+    out = []
+    for f in frames:
+        data = f.data.mean(axis=2) if f.data.ndim == 3 else f.data
+        out.append(Frame(data, f.saturated, f.bit_depth, f.source))
+    return out

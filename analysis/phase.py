@@ -1,0 +1,398 @@
+"""Six-step phase shifting: isoclinic, isochromatic, the pi/2 ambiguity, unwrapping.
+
+Conventions (../shared/DESIGN.md "Six-step phase shifting"; Ramesh, *Digital
+Photoelasticity*, Springer 2000, sec. 6; seed paper eqs. 2-4). With a = i5 - i3,
+b = i4 - i6, c = i1 - i2 the ideal intensities give
+
+    a = Ia sin 2t sin d,   b = Ia cos 2t sin d,   c = Ia cos d,
+
+so the vector (b, a) = Ia sin d (cos 2t, sin 2t) is unambiguous while its split into an angle
+and a non-negative length is not: where sin d < 0 the isoclinic t comes out pi/2 off and d
+comes out as 2 pi - d (the "reversed phasemap" of the seed paper).
+
+The ambiguity is resolved here without assuming the load: the wrapped isochromatic phase
+psi = d mod 2 pi is continuous, and |sin psi| vanishes only on the half-fringe lines
+(d = m pi). Between two such lines sin psi keeps its sign, and it changes sign across every
+line that the phase crosses. The regions between lines ("bands") are labelled, their
+adjacency graph is built, and a maximum spanning tree (strongest contacts first) colours
+the bands with alternating signs; contacts that contradict the colouring are counted and
+their bands reported unreliable. The remaining global sign of each group of bands is fixed
+after unwrapping by the physics: the isochromatic fringe order is never negative relative
+to a zero-order anchor. The signed wrapped phase is unwrapped with
+``skimage.restoration.unwrap_phase`` (Herraez et al., Appl. Opt. 41, 2002) on a masked
+array and shifted by the integer that matches the anchor (zero order in the far field, or
+an RGB fringe-order map).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import ndimage
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components, dijkstra, minimum_spanning_tree
+
+from .images import Frame
+from .masks import check_mask
+
+__all__ = [
+    "SixStep",
+    "Resolution",
+    "FringeOrderMap",
+    "six_step",
+    "resolve_ambiguity",
+    "unwrap_fringe_order",
+    "principal_stress_difference",
+    "wrap",
+]
+
+TWO_PI = 2.0 * np.pi
+
+
+def wrap(phase):
+    """Wrap to [-pi, pi)."""
+    return (np.asarray(phase) + np.pi) % TWO_PI - np.pi
+
+
+@dataclass
+class SixStep:
+    """Per-pixel results of the six-step formulas (all (rows, cols)).
+
+    Attributes
+    ----------
+    isoclinic : rad in [-pi/2, pi/2), 1/2 atan2(i5 - i3, i4 - i6): exact where sin d > 0,
+        pi/2 off where sin d < 0.
+    isoclinic_eq2 : rad in (-pi/4, pi/4], the seed paper's eq. 2 with a plain arctan.
+    delta_eq3 : rad in [0, 2 pi), the seed paper's eq. 3 evaluated with ``isoclinic_eq2``
+        (numerator (i5 - i3) sin 2t + (i4 - i6) cos 2t = (i4 - i6)/cos 2t, free of the
+        singularity at t = pi/4). Shows the reversed zones of the paper.
+    delta_axis_insensitive : rad in [0, pi], atan2(sqrt((i5-i3)^2 + (i4-i6)^2), i1 - i2)
+        (the paper's second eq. 4): the isochromatic phase folded to [0, pi].
+    modulation : sqrt((i5-i3)^2 + (i4-i6)^2 + (i1-i2)^2) / (i1 + i2), in [0, 1]; 1 for
+        ideal optics with no background light.
+    consistency : (|(i1+i2) - (i3+i5)| + |(i1+i2) - (i4+i6)|) / (i1 + i2); 0 for ideal
+        optics. Element misalignment and quarter-wave errors raise it.
+    valid : bool — inside the mask, no saturated step, modulation >= the threshold.
+    """
+
+    isoclinic: np.ndarray
+    isoclinic_eq2: np.ndarray
+    delta_eq3: np.ndarray
+    delta_axis_insensitive: np.ndarray
+    modulation: np.ndarray
+    consistency: np.ndarray
+    valid: np.ndarray
+
+
+def _stack(images) -> tuple[np.ndarray, np.ndarray]:
+    frames = list(images)
+    if len(frames) != 6:
+        raise ValueError(f"six_step needs exactly 6 images (got {len(frames)})")
+    data, sat = [], []
+    for k, f in enumerate(frames):
+        if isinstance(f, Frame):
+            d, s = f.data, f.saturated
+        else:
+            d = np.asarray(f, dtype=np.float64)
+            s = np.zeros(d.shape[:2], bool)
+        if d.ndim == 3:
+            d = d.mean(axis=2)
+        if d.ndim != 2:
+            raise ValueError(f"image {k + 1} has shape {d.shape}; need (rows, cols)")
+        data.append(d)
+        sat.append(s)
+    shapes = {d.shape for d in data}
+    if len(shapes) != 1:
+        raise ValueError(f"the six images differ in size: {[d.shape for d in data]}")
+    return np.stack(data), np.any(np.stack(sat), axis=0)
+
+
+def six_step(images, *, mask=None, min_modulation: float = 0.1) -> SixStep:
+    """Apply the six-step formulas to images in :data:`analysis.images.SIX_STEP_ORDER`.
+
+    Parameters
+    ----------
+    images : six (rows, cols) arrays or :class:`~analysis.images.Frame` (colour is averaged)
+    mask : (rows, cols) bool, optional — region of interest
+    min_modulation : float in [0, 1)
+        Pixels whose modulation ratio falls below it are not valid (too little signal to
+        give a phase).
+    """
+    if not 0.0 <= min_modulation < 1.0:
+        raise ValueError(f"min_modulation = {min_modulation!r} is not allowed; use [0, 1)")
+    i, sat = _stack(images)
+    roi = check_mask(mask, i.shape[1:])
+    i1, i2, i3, i4, i5, i6 = i
+    a, b, c = i5 - i3, i4 - i6, i1 - i2
+    total = i1 + i2
+    safe = np.where(total > 0, total, np.inf)
+    theta = 0.5 * np.arctan2(a, b)
+    theta = np.where(theta >= np.pi / 2, theta - np.pi, theta)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        theta2 = 0.5 * np.arctan(np.where(b != 0, a / b, np.copysign(np.inf, a)))
+    num = a * np.sin(2 * theta2) + b * np.cos(2 * theta2)
+    delta_eq3 = np.arctan2(num, c) % TWO_PI
+    delta_ai = np.arctan2(np.hypot(a, b), c)
+    modulation = np.sqrt(a * a + b * b + c * c) / safe
+    consistency = (np.abs(total - (i3 + i5)) + np.abs(total - (i4 + i6))) / safe
+    valid = roi & ~sat & (modulation >= min_modulation) & (total > 0)
+    return SixStep(theta, theta2, delta_eq3, delta_ai, modulation, consistency, valid)
+
+
+@dataclass
+class Resolution:
+    """The isoclinic ambiguity resolved (all maps (rows, cols)).
+
+    Attributes
+    ----------
+    sign : int8 — +1 / -1: the sign of sin d relative to the pixel's group; 0 = not valid
+    group : int — connected group of valid pixels (-1 = none); each group has its own
+        global sign, fixed in :func:`unwrap_fringe_order`
+    phase : rad in [-pi, pi) — signed wrapped isochromatic phase sign * d_folded
+    isoclinic : rad in [-pi/2, pi/2) — the principal direction consistent with ``phase``
+    conflicts : int — neighbour pairs whose measured relation contradicts the signs
+    unreliable : bool — pixels on a contradicted pair
+    """
+
+    sign: np.ndarray
+    group: np.ndarray
+    phase: np.ndarray
+    isoclinic: np.ndarray
+    conflicts: int
+    unreliable: np.ndarray
+
+
+def _edges(valid: np.ndarray):
+    """Flat index pairs of 4-neighbour pixels that are both valid."""
+    idx = np.arange(valid.size).reshape(valid.shape)
+    p, q = [], []
+    for a, b in ((idx[:, :-1], idx[:, 1:]), (idx[:-1, :], idx[1:, :])):
+        ok = valid.ravel()[a] & valid.ravel()[b]
+        p.append(a[ok])
+        q.append(b[ok])
+    return np.concatenate(p), np.concatenate(q)
+
+
+def resolve_ambiguity(result: SixStep, *, conflict_weight: float = 0.05) -> Resolution:
+    """Resolve the pi/2 isoclinic / 2 pi - d ambiguity from the continuity of the axes.
+
+    The measured vector v = (i4 - i6, i5 - i3) / (i1 + i2) equals m sin d (cos 2t, sin 2t)
+    with m the modulation. Since the principal direction t is continuous (mod pi, so
+    (cos 2t, sin 2t) is continuous even around isotropic points and the indenter axis),
+    sin d changes sign between two neighbouring pixels exactly when their vectors point
+    in opposite directions. The pixel graph with edge relation sign(v_p . v_q) and
+    reliability |v_p . v_q| is reduced to a maximum spanning tree (the most reliable
+    relations win; Kruskal via scipy.sparse.csgraph); the tree's positive edges form
+    clusters of equal sign (the fringe bands) and the negative edges order them, so the
+    signs follow from the parity of the path length in the small cluster tree.
+
+    Parameters
+    ----------
+    result : SixStep
+    conflict_weight : float
+        A non-tree pair contradicting the signs counts as a conflict when its reliability
+        |v_p . v_q| exceeds this value (vectors of length ~1 give ~1).
+    """
+    valid = result.valid
+    shape = valid.shape
+    th, d = result.isoclinic, result.delta_axis_insensitive
+    amp = result.modulation * np.sin(d)  # = |v| >= 0 on the atan2 branch
+    vx = (amp * np.cos(2 * th)).ravel()
+    vy = (amp * np.sin(2 * th)).ravel()
+    p, q = _edges(valid)
+    dot = vx[p] * vx[q] + vy[p] * vy[q]
+    n = valid.size
+    sign = np.zeros(n, np.int8)
+    group = np.full(n, -1, np.int64)
+    if len(p):
+        w = coo_matrix((-(np.abs(dot) + 1e-12), (p, q)), shape=(n, n)).tocsr()
+        tree = minimum_spanning_tree(w).tocoo()
+        tp, tq = tree.row, tree.col
+        tdot = vx[tp] * vx[tq] + vy[tp] * vy[tq]
+        pos = tdot >= 0
+        same = coo_matrix((np.ones(pos.sum()), (tp[pos], tq[pos])), shape=(n, n))
+        n_cl, cluster = connected_components(same, directed=False)
+        # the cluster tree: one node per band, an edge per sign change
+        neg = ~pos
+        ca, cb = cluster[tp[neg]], cluster[tq[neg]]
+        ctree = coo_matrix((np.ones(len(ca)), (ca, cb)), shape=(n_cl, n_cl)).tocsr()
+        n_grp, cgroup = connected_components(ctree, directed=False)
+        roots = np.unique(cgroup, return_index=True)[1]
+        depth = dijkstra(ctree, directed=False, indices=roots, unweighted=True, min_only=True)
+        parity = np.round(depth).astype(np.int64) % 2
+        sign = np.where(parity[cluster] == 0, 1, -1).astype(np.int8)
+        group = cgroup[cluster]
+        sign[~valid.ravel()] = 0
+        group[~valid.ravel()] = -1
+    # contradicted relations among all neighbour pairs
+    bad = (np.sign(dot) * sign[p] * sign[q] < 0) & (np.abs(dot) > conflict_weight)
+    unreliable = np.zeros(n, bool)
+    unreliable[p[bad]] = unreliable[q[bad]] = True
+    sign = sign.reshape(shape)
+    phase = np.where(valid, wrap(np.where(sign < 0, -d, d)), 0.0)
+    iso = np.where(sign < 0, th + np.pi / 2, th)
+    iso = (iso + np.pi / 2) % np.pi - np.pi / 2
+    return Resolution(
+        sign, group.reshape(shape), phase, iso, int(bad.sum()), unreliable.reshape(shape)
+    )
+
+
+@dataclass
+class FringeOrderMap:
+    """Total isochromatic fringe order from phase shifting.
+
+    Attributes
+    ----------
+    order : (rows, cols) — NaN where not valid
+    reliable : (rows, cols) bool — valid, resolved, and no phase step above pi/2 between
+        neighbouring pixels (fringes resolved by the pixel pitch)
+    isoclinic : (rows, cols) rad — principal direction consistent with ``order``
+    offset : int — integer added to the unwrapped phase / 2 pi to meet the anchor
+    flipped_groups : int — groups of bands whose global sign was reversed
+    info : dict — counts for reports
+    """
+
+    order: np.ndarray
+    reliable: np.ndarray
+    isoclinic: np.ndarray
+    offset: int
+    flipped_groups: int
+    info: dict = field(default_factory=dict)
+
+
+def _default_anchor(valid: np.ndarray) -> np.ndarray:
+    """The valid pixels within 5 % of the image size from its border (the far field)."""
+    rows, cols = valid.shape
+    m = max(1, int(round(0.05 * min(rows, cols))))
+    ring = np.ones_like(valid)
+    ring[m:-m, m:-m] = False
+    return valid & ring
+
+
+def _unwrap(phase: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    from skimage.restoration import unwrap_phase
+
+    out = unwrap_phase(np.ma.masked_array(phase, mask=~valid))
+    return np.ma.filled(out, np.nan)
+
+
+def unwrap_fringe_order(
+    result: SixStep,
+    resolution: Resolution | None = None,
+    *,
+    anchor_mask=None,
+    anchor_order: float = 0.0,
+    reference_order=None,
+) -> FringeOrderMap:
+    """Unwrap the resolved isochromatic phase into a total fringe order map.
+
+    Parameters
+    ----------
+    result : SixStep
+    resolution : Resolution, optional — computed with defaults when omitted
+    anchor_mask : (rows, cols) bool, optional
+        Pixels of known order ``anchor_order`` (default: the valid pixels within 5 % of
+        the image border, the far field, at order 0).
+    anchor_order : float
+    reference_order : (rows, cols), optional
+        A fringe-order map (e.g. from RGB calibration); when given, the integer offset is
+        the median of (reference - unwrapped) rounded, over pixels where both are finite,
+        and ``anchor_mask`` is not used.
+    """
+    res = resolution or resolve_ambiguity(result)
+    valid = result.valid
+    if reference_order is None:
+        anchor = (
+            _default_anchor(valid)
+            if anchor_mask is None
+            else check_mask(anchor_mask, valid.shape, "anchor_mask") & valid
+        )
+        if not anchor.any():
+            raise ValueError(
+                "anchor_mask has no valid pixel: give anchor_mask (pixels of known order) "
+                "or reference_order"
+            )
+    else:
+        ref = np.asarray(reference_order, float)
+        if ref.shape != valid.shape:
+            raise ValueError(
+                f"reference_order shape {ref.shape} does not match the images {valid.shape}"
+            )
+        anchor = valid & np.isfinite(ref)
+        if not anchor.any():
+            raise ValueError("reference_order is NaN on every valid pixel")
+    phase = res.phase.copy()
+    unw = _unwrap(phase, valid) / TWO_PI
+    # unwrap_phase treats disconnected regions independently, and each group of pixels
+    # (= a connected region) carries its own global sign: both are fixed per group from
+    # its own anchor pixels. A group without anchor pixels is reported unreliable.
+    lab = np.where(valid, res.group + 1, 0)
+    n_lab = int(lab.max())
+    ids = np.arange(1, n_lab + 1)
+    target = np.full(valid.shape, anchor_order) if reference_order is None else ref
+    has_anchor = np.zeros(n_lab + 1, bool)
+    has_anchor[np.unique(lab[anchor])] = True
+    has_anchor[0] = False
+
+    def group_median(values, where):
+        out = np.zeros(n_lab + 1)
+        if n_lab:
+            out[1:] = ndimage.median(values, np.where(where, lab, 0), ids)
+        return np.nan_to_num(out)
+
+    # the isochromatic order is a magnitude: each group takes the sign that puts its
+    # pixels above its anchor
+    level = group_median(unw, anchor)
+    rel = group_median(unw - level[lab], valid)
+    flip = (rel < 0) & has_anchor
+    flip_pixels = valid & flip[lab]
+    flipped = int(flip.sum())
+    if flipped:
+        phase[flip_pixels] = wrap(-phase[flip_pixels])
+        unw = _unwrap(phase, valid) / TWO_PI
+    shift = np.round(group_median(target - unw, anchor))
+    offset = int(shift[1]) if n_lab else 0
+    order = np.where(valid, unw + shift[lab], np.nan)
+    iso = res.isoclinic.copy()
+    iso[flip_pixels] = (iso[flip_pixels] + np.pi) % np.pi - np.pi / 2
+    # pixels whose neighbours differ by more than a quarter fringe are not resolved by the
+    # pixel pitch; unwrapping there is a guess
+    steep = np.zeros_like(valid)
+    for ax in (0, 1):
+        jump = np.abs(np.diff(np.where(valid, unw, 0.0), axis=ax)) > 0.25
+        both = np.logical_and(
+            np.take(valid, range(valid.shape[ax] - 1), axis=ax),
+            np.take(valid, range(1, valid.shape[ax]), axis=ax),
+        )
+        jump &= both
+        pad = [(0, 0), (0, 0)]
+        pad[ax] = (0, 1)
+        steep |= np.pad(jump, pad)
+        pad[ax] = (1, 0)
+        steep |= np.pad(jump, pad)
+    reliable = valid & ~res.unreliable & ~steep & has_anchor[lab]
+    info = {
+        "valid_pixels": int(valid.sum()),
+        "reliable_pixels": int(reliable.sum()),
+        "conflicts": res.conflicts,
+        "flipped_groups": flipped,
+        "offset": offset,
+        "regions": n_lab,
+        "regions_without_anchor": int(n_lab - has_anchor[1:].sum()),
+    }
+    return FringeOrderMap(order, reliable, iso, offset, flipped, info)
+
+
+def principal_stress_difference(order, f_sigma: float, thickness: float, *, reflection=True):
+    """sigma1 - sigma2 (Pa) = N f_sigma / L, L = 2 t in reflection, t in transmission.
+
+    Seed paper eq. 4 (DESIGN.md "Stress-optic law"). ``f_sigma`` in N/m (Pa m) per fringe,
+    ``thickness`` in m.
+    """
+    if not f_sigma > 0:
+        raise ValueError(f"f_sigma = {f_sigma!r} N/m is not allowed; must be > 0")
+    if not thickness > 0:
+        raise ValueError(f"thickness = {thickness!r} m is not allowed; must be > 0")
+    path = (2.0 if reflection else 1.0) * thickness
+    return np.asarray(order, float) * f_sigma / path

@@ -10,18 +10,18 @@ so the vector (b, a) = Ia sin d (cos 2t, sin 2t) is unambiguous while its split 
 and a non-negative length is not: where sin d < 0 the isoclinic t comes out pi/2 off and d
 comes out as 2 pi - d (the "reversed phasemap" of the seed paper).
 
-The ambiguity is resolved here without assuming the load: the wrapped isochromatic phase
-psi = d mod 2 pi is continuous, and |sin psi| vanishes only on the half-fringe lines
-(d = m pi). Between two such lines sin psi keeps its sign, and it changes sign across every
-line that the phase crosses. The regions between lines ("bands") are labelled, their
-adjacency graph is built, and a maximum spanning tree (strongest contacts first) colours
-the bands with alternating signs; contacts that contradict the colouring are counted and
-their bands reported unreliable. The remaining global sign of each group of bands is fixed
-after unwrapping by the physics: the isochromatic fringe order is never negative relative
-to a zero-order anchor. The signed wrapped phase is unwrapped with
+The ambiguity is resolved here without assuming the load. The principal direction t is
+continuous (mod pi), so (cos 2t, sin 2t) is continuous, even around isotropic points and
+around the indenter axis where t winds by 2 pi; hence sin d changes sign between two
+neighbouring pixels exactly when their measured vectors (b, a) point in opposite
+directions. A maximum spanning tree over these neighbour relations (the most reliable
+first) fixes the sign of sin d up to one global sign per connected region; relations that
+contradict the result are counted and their pixels reported unreliable. The global sign is
+fixed after unwrapping by the physics: the isochromatic fringe order is a magnitude, never
+below its zero-order anchor. The signed wrapped phase is unwrapped with
 ``skimage.restoration.unwrap_phase`` (Herraez et al., Appl. Opt. 41, 2002) on a masked
-array and shifted by the integer that matches the anchor (zero order in the far field, or
-an RGB fringe-order map).
+array and shifted, per connected region, by the integer that matches the anchor (zero order
+in the far field, or an RGB fringe-order map).
 """
 
 from __future__ import annotations

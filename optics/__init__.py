@@ -9,6 +9,7 @@ from .camera import (
     white_light_image,
     write_image,
 )
+from .fem import FEMStressField
 from .fields import Boussinesq, DiametralDisc, StressField, TwistedStress, UniformStress
 from .grid import PixelGrid, RaySamples, sample_rays
 from .jones import characteristic, integrate_path, retarder, rotator, secondary_principal
@@ -32,6 +33,7 @@ __all__ = [
     "Boussinesq",
     "Camera",
     "DiametralDisc",
+    "FEMStressField",
     "OpticalMap",
     "PixelGrid",
     "RaySamples",

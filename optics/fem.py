@@ -1,0 +1,122 @@
+"""The FEM solution as a stress field for the optics (the deformed sheet).
+
+Rays are vertical lines in the CURRENT configuration: each pixel's ray runs from the
+deformed interface to the deformed contact face under the same (x, y). Both surfaces are
+graphs over (x, y) and are interpolated linearly on their 6-node facets split into four
+3-node triangles (matplotlib's C++ triangle finder). Stress at sample points comes from
+the nodal (recovered) Cauchy stress of :class:`fea.Solution`, interpolated linearly on the
+deformed sheet cut into 8 linear sub-tetrahedra per quadratic tetrahedron; the points are
+located and interpolated by VTK's probe filter through pyvista.
+
+Quarter and half models are unfolded by reflection: a point is folded onto the modelled
+part (|x|, |y| on symmetry planes) and the shear components that change sign under the
+mirror (sigma_xy and sigma_xz for x -> -x; sigma_xy and sigma_yz for y -> -y) are flipped.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["FEMStressField", "TET10_TO_TET4"]
+
+#: 8 linear tetrahedra of a VTK QUADRATIC_TETRA: the four corner tets and the inner
+#: octahedron (mid-nodes 4..9) split along its 4-9 diagonal.
+TET10_TO_TET4 = np.array(
+    [
+        [0, 4, 6, 7], [4, 1, 5, 8], [6, 5, 2, 9], [7, 8, 9, 3],
+        [4, 9, 5, 8], [4, 9, 8, 7], [4, 9, 7, 6], [4, 9, 6, 5],
+    ]
+)  # fmt: skip
+#: 4 linear triangles of a 6-node triangle (corners 0-2, mids (01), (12), (20)).
+TRI6_TO_TRI3 = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])
+
+
+class FEMStressField:
+    """A :class:`fea.Solution` seen by the optics.
+
+    Parameters
+    ----------
+    solution : fea.Solution
+    mask_contact : bool
+        Rays within an indenter's contact radius are not valid (the indenter covers them
+        and the fringes there are beyond any camera's resolution; the seed paper masks the
+        centre too).
+    """
+
+    def __init__(self, solution, *, mask_contact: bool = True):
+        import matplotlib.tri as mtri
+        import pyvista as pv
+
+        mesh = solution.mesh
+        x = solution.points
+        self.solution = solution
+        self.sym_axes = tuple(
+            a for a, name in ((0, "symmetry_x0"), (1, "symmetry_y0")) if name in mesh.facets
+        )
+        sheet = mesh.cells[mesh.regions == 0]
+        lin = sheet[:, TET10_TO_TET4].reshape(-1, 4)
+        cells = np.hstack([np.full((len(lin), 1), 4), lin]).ravel()
+        self._grid = pv.UnstructuredGrid(cells, np.full(len(lin), pv.CellType.TETRA, np.uint8), x)
+        self._grid.point_data["s"] = solution.stress_nodes.reshape(-1, 9)
+
+        def surface(name):
+            tri = mesh.facet_nodes(name)[:, TRI6_TO_TRI3].reshape(-1, 3)
+            used, inv = np.unique(tri, return_inverse=True)
+            t = mtri.Triangulation(x[used, 0], x[used, 1], inv.reshape(-1, 3))
+            return mtri.LinearTriInterpolator(t, x[used, 2])
+
+        self._top = surface("contact")
+        self._bottom = surface("interface") if "interface" in mesh.facets else None
+        self._contact = [
+            (ind.centre[:2].copy(), ind.contact_radius) for ind in solution.indenters
+        ] if mask_contact else []  # fmt: skip
+        lo = mesh.points.min(axis=0)
+        hi = mesh.points.max(axis=0)
+        self.extent = (lo, hi)
+
+    def _fold(self, p: np.ndarray):
+        q = np.array(p, dtype=float, copy=True)
+        flips = []
+        for a in self.sym_axes:
+            neg = q[..., a] < 0
+            q[..., a] = np.abs(q[..., a])
+            flips.append((a, neg))
+        return q, flips
+
+    def z_range(self, xy):
+        """Deformed interface and contact-face heights (m) under xy (P, 2), and validity."""
+        xy = np.asarray(xy, float)
+        q, _ = self._fold(np.column_stack([xy, np.zeros(len(xy))]))
+        z1 = np.ma.filled(self._top(q[:, 0], q[:, 1]), np.nan)
+        if self._bottom is None:
+            z0 = np.zeros(len(xy))
+        else:
+            z0 = np.ma.filled(self._bottom(q[:, 0], q[:, 1]), np.nan)
+        valid = np.isfinite(z0) & np.isfinite(z1) & (z1 > z0)
+        for c, a in self._contact:
+            valid &= np.hypot(xy[:, 0] - c[0], xy[:, 1] - c[1]) > a
+        z0 = np.where(valid, z0, 0.0)
+        z1 = np.where(valid, z1, 0.0)
+        return z0, z1, valid
+
+    def stress(self, points):
+        """Cauchy stress (..., 3, 3) (Pa) at points (..., 3) in the deformed sheet.
+
+        Points outside the deformed sheet get zero stress (they carry no light path).
+        """
+        import pyvista as pv
+
+        p = np.asarray(points, float)
+        shape = p.shape[:-1]
+        q, flips = self._fold(p.reshape(-1, 3))
+        probe = pv.PolyData(q).sample(self._grid)
+        ok = np.asarray(probe.point_data["vtkValidPointMask"], bool)
+        s = np.asarray(probe.point_data["s"], float).reshape(-1, 3, 3).copy()
+        s[~ok] = 0.0
+        for a, neg in flips:
+            neg = neg.reshape(-1)
+            for i, j in ((0, 1), (0, 2)) if a == 0 else ((0, 1), (1, 2)):
+                s[neg, i, j] *= -1.0
+                s[neg, j, i] *= -1.0
+        self.outside_fraction = float(1.0 - ok.mean()) if ok.size else 0.0
+        return s.reshape(shape + (3, 3))

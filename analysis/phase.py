@@ -248,7 +248,8 @@ class FringeOrderMap:
     reliable : (rows, cols) bool — valid, resolved, and no phase step above pi/2 between
         neighbouring pixels (fringes resolved by the pixel pitch)
     isoclinic : (rows, cols) rad — principal direction consistent with ``order``
-    offset : int — integer added to the unwrapped phase / 2 pi to meet the anchor
+    offset : int — integer added to the unwrapped phase / 2 pi to meet the anchor, in the
+        largest connected region (each region has its own)
     flipped_groups : int — groups of bands whose global sign was reversed
     info : dict — counts for reports
     """
@@ -352,7 +353,8 @@ def unwrap_fringe_order(
         phase[flip_pixels] = wrap(-phase[flip_pixels])
         unw = _unwrap(phase, valid) / TWO_PI
     shift = np.round(group_median(target - unw, anchor))
-    offset = int(shift[1]) if n_lab else 0
+    present, counts = np.unique(lab[valid], return_counts=True)
+    offset = int(shift[present[np.argmax(counts)]]) if present.size else 0
     order = np.where(valid, unw + shift[lab], np.nan)
     iso = res.isoclinic.copy()
     iso[flip_pixels] = (iso[flip_pixels] + np.pi) % np.pi - np.pi / 2
@@ -378,8 +380,8 @@ def unwrap_fringe_order(
         "conflicts": res.conflicts,
         "flipped_groups": flipped,
         "offset": offset,
-        "regions": n_lab,
-        "regions_without_anchor": int(n_lab - has_anchor[1:].sum()),
+        "regions": int(present.size),
+        "regions_without_anchor": int((~has_anchor[present]).sum()),
     }
     return FringeOrderMap(order, reliable, iso, offset, flipped, info)
 

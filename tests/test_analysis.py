@@ -152,6 +152,7 @@ def test_wrapped_phase_round_trip_on_masked_arrays():
     np.testing.assert_allclose(fo.order[mask], order[mask], atol=1e-9)
     assert np.isnan(fo.order[~mask]).all()
     assert fo.info["conflicts"] == 0
+    assert fo.info["regions"] == 1 and fo.info["regions_without_anchor"] == 0
 
 
 def test_quarter_wave_error_is_reported(dent):

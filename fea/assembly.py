@@ -98,7 +98,7 @@ def body_state(
         if tangent and isinstance(mat, NeoHookean):
             W, Pi = _neo_hookean_stiffness(mat, Fi, Gi, Ji, pJ, grads.dNdX[idx], dV[idx], Ke, idx)
         else:
-            W, Pi, Ai = mat.isochoric(Fi)
+            W, Pi, Ai = mat.isochoric(Fi, tangent=tangent)
             if tangent:
                 # geometric part of the volume: d(J G_iJ)/dF_kL = J (G_iJ G_kL - G_iL G_kJ)
                 At = Ai + pJ[..., None, None, None, None] * (

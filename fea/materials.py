@@ -72,13 +72,18 @@ class Material:
         d = J - 1.0
         return 0.5 * self.K * d * d, self.K * d, np.full_like(J, self.K)
 
-    def isochoric(self, F: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def isochoric(
+        self, F: np.ndarray, *, tangent: bool = True
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """Isochoric energy, first Piola-Kirchhoff stress and tangent.
 
         Parameters
         ----------
         F : (..., 3, 3) float array
             Deformation gradient.
+        tangent : bool
+            Compute A; when False it is None (residual-only evaluations, e.g. line search
+            and stress recovery, cost ~1/3).
 
         Returns
         -------
@@ -116,12 +121,14 @@ class NeoHookean(Material):
         _check_nu(nu)
         return cls(mu=E / (2 * (1 + nu)), K=E / (3 * (1 - 2 * nu)))
 
-    def isochoric(self, F):
+    def isochoric(self, F, *, tangent: bool = True):
         J, G, I1 = _invariant_parts(F)
         a = J ** (-2.0 / 3.0)
         mu = self.mu
         W = 0.5 * mu * (a * I1 - 3.0)
         P = mu * a[..., None, None] * (F - (I1 / 3.0)[..., None, None] * G)
+        if not tangent:
+            return W, P, None
         # dP_iJ/dF_kL = mu a [ d_ik d_JL - 2/3 (G_kL F_iJ + F_kL G_iJ)
         #                      + 2/9 I1 G_iJ G_kL + 1/3 I1 G_iL G_kJ ]
         eye = np.eye(3)
@@ -164,7 +171,7 @@ class MooneyRivlin(Material):
     def to_dict(self) -> dict:
         return {"model": "MooneyRivlin", "c10": self.c10, "c01": self.c01, "K": self.K}
 
-    def isochoric(self, F):
+    def isochoric(self, F, *, tangent: bool = True):
         J, G, I1 = _invariant_parts(F)
         C = np.einsum("...kI,...kJ->...IJ", F, F)
         FC = F @ C
@@ -178,6 +185,8 @@ class MooneyRivlin(Material):
         dI2 = 2.0 * (I1[ex] * F - FC)
         P2 = self.c01 * b[ex] * (dI2 - (4.0 / 3.0) * I2[ex] * G)
         P = P1 + P2
+        if not tangent:
+            return W, P, None
         ex4 = (..., None, None, None, None)
         eye = np.eye(3)
         dd = np.einsum("ik,JL->iJkL", eye, eye) + np.zeros(F.shape[:-2] + (1, 1, 1, 1))

@@ -717,7 +717,7 @@ def _make_solution(model, st, s, iter_log, stats) -> Solution:
     J = np.linalg.det(F)
     sigma = np.empty_like(F)
     for idx, mat in model.groups:
-        _, P, _ = mat.isochoric(F[idx])
+        _, P, _ = mat.isochoric(F[idx], tangent=False)
         _, dU, _ = mat.volumetric(body.Jbar[idx])
         sigma[idx] = np.einsum("cqiJ,cqkJ->cqik", P, F[idx]) / J[idx][..., None, None]
         sigma[idx] += dU[:, None, None, None] * np.eye(3)

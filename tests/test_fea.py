@@ -297,7 +297,9 @@ def test_symmetry_models_agree(coarse):
 
     The half and full meshes are the quarter mesh mirrored, so the three share one
     discretisation and any difference comes from the symmetry conditions and the load
-    shares; the issue asks for 1 %, identical meshes allow 1e-5.
+    shares; the issue asks for 1 %. What is left is the augmented-Lagrangian stopping
+    point (the multiplier loop stops once the penetration is under 1 % of the depth, and
+    the models may stop one update apart): 1e-4 relative was seen, 1e-3 is allowed.
     """
     quarter, half, full = coarse["quarter"], coarse["half"], coarse["full"]
     assert full.region_volume(0) == pytest.approx(4 * quarter.region_volume(0), rel=1e-12)
@@ -309,8 +311,8 @@ def test_symmetry_models_agree(coarse):
         base = sols[-1].base_reaction[2] / sols[-1].model_fraction[0]
         out[name] = (ind.depth, ind.contact_radius, base)
     for name in ("quarter", "half"):
-        assert out[name][0] == pytest.approx(out["full"][0], rel=1e-5)
-        assert out[name][1] == pytest.approx(out["full"][1], rel=1e-5)
+        assert out[name][0] == pytest.approx(out["full"][0], rel=1e-3)
+        assert out[name][1] == pytest.approx(out["full"][1], rel=1e-3)
         assert out[name][2] == pytest.approx(8.0, rel=1e-6)
 
 

@@ -1,0 +1,165 @@
+"""Solutions on disk: a load path's states in one ``.npz``, and a solve cache keyed by inputs.
+
+Re-rendering optics with other polariscope, light or camera settings must not re-solve
+(issue 6): :func:`solve_cached` hashes everything the states depend on (mesh spec, mesher
+salt, materials, indenters, contact and Newton settings, this module's format version)
+and stores the converged states next to the mesh cache.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import logging
+import os
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from meshes import Mesh, default_cache_dir
+
+from .materials import Material
+from .problem import ContactSettings, Indenter, SolverSettings
+from .solution import IndenterState, Solution
+from .solver import SolveStats, solve
+
+__all__ = ["save_solutions", "load_solutions", "solution_key", "solve_cached"]
+
+log = logging.getLogger("fringekit.fea")
+
+#: Bump when the stored arrays or the solver's converged answer change meaning.
+STORE_VERSION = 1
+
+_IND_ARRAYS = ("centre", "force", "points", "pressure")
+_IND_SCALARS = ("radius", "depth", "contact_radius", "max_penetration")
+
+
+def save_solutions(path: str | os.PathLike, solutions: Sequence[Solution]) -> Path:
+    """Write the states of one load path to ``path`` (.npz, written atomically).
+
+    The mesh is not stored; :func:`load_solutions` takes it back as an argument.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    arrays: dict[str, np.ndarray] = {"n_states": np.array(len(solutions))}
+    for k, s in enumerate(solutions):
+        p = f"s{k}_"
+        arrays[p + "displacement"] = s.displacement
+        arrays[p + "stress_qp"] = s.stress_qp
+        arrays[p + "jbar"] = s.jbar
+        arrays[p + "base_reaction"] = s.base_reaction
+        arrays[p + "model_fraction"] = np.asarray(s.model_fraction, float)
+        arrays[p + "load_factor"] = np.array(s.load_factor)
+        arrays[p + "log"] = np.array(json.dumps(s.log, default=float))
+        arrays[p + "n_ind"] = np.array(len(s.indenters))
+        for j, ind in enumerate(s.indenters):
+            for name in _IND_ARRAYS + _IND_SCALARS:
+                arrays[f"{p}i{j}_{name}"] = np.asarray(getattr(ind, name))
+    tmp = path.with_name(path.name + ".part.npz")
+    np.savez(tmp, **arrays)
+    os.replace(tmp, path)
+    return path
+
+
+def load_solutions(path: str | os.PathLike, mesh: Mesh) -> list[Solution]:
+    """Read what :func:`save_solutions` wrote; ``mesh`` must be the mesh it was solved on."""
+    with np.load(path, allow_pickle=False) as z:
+        n = int(z["n_states"])
+        out = []
+        for k in range(n):
+            p = f"s{k}_"
+            if z[p + "displacement"].shape != mesh.points.shape:
+                raise ValueError(
+                    f"{path}: stored displacement has shape {z[p + 'displacement'].shape} but "
+                    f"the mesh has {mesh.points.shape}; it was solved on another mesh"
+                )
+            inds = []
+            for j in range(int(z[p + "n_ind"])):
+                kw = {name: np.array(z[f"{p}i{j}_{name}"]) for name in _IND_ARRAYS}
+                kw.update({name: float(z[f"{p}i{j}_{name}"]) for name in _IND_SCALARS})
+                inds.append(IndenterState(**kw))
+            out.append(
+                Solution(
+                    mesh=mesh,
+                    displacement=np.array(z[p + "displacement"]),
+                    stress_qp=np.array(z[p + "stress_qp"]),
+                    jbar=np.array(z[p + "jbar"]),
+                    indenters=tuple(inds),
+                    base_reaction=np.array(z[p + "base_reaction"]),
+                    model_fraction=tuple(float(v) for v in z[p + "model_fraction"]),
+                    load_factor=float(z[p + "load_factor"]),
+                    log=json.loads(str(z[p + "log"])),
+                )
+            )
+    return out
+
+
+def _material_dict(m: Material) -> dict:
+    return {"type": type(m).__name__, **dataclasses.asdict(m)}
+
+
+def solution_key(
+    mesh: Mesh,
+    indenters: Sequence[Indenter],
+    materials: dict[int, Material],
+    contact: ContactSettings,
+    settings: SolverSettings,
+) -> str:
+    """SHA-256 over everything the converged states depend on."""
+    if mesh.spec is None:
+        raise ValueError("solve_cached needs a mesh built from a MeshSpec (mesh.spec is None)")
+    payload = {
+        "store": STORE_VERSION,
+        "mesh": mesh.spec.to_dict(),
+        "mesh_points": mesh.n_points,
+        "mesh_cells": len(mesh.cells),
+        "mesh_sum": float(np.round(mesh.points.sum(), 12)),
+        "materials": {str(k): _material_dict(v) for k, v in sorted(materials.items())},
+        "indenters": [dataclasses.asdict(i) for i in indenters],
+        "contact": dataclasses.asdict(contact),
+        "settings": {
+            k: v for k, v in dataclasses.asdict(settings).items() if k != "backend"
+        },  # the backend changes round-off, not the answer
+    }
+    text = json.dumps(payload, sort_keys=True, default=repr)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def solve_cached(
+    mesh: Mesh,
+    indenters: Sequence[Indenter],
+    *,
+    materials: dict[int, Material],
+    contact: ContactSettings,
+    settings: SolverSettings,
+    cache_dir: str | os.PathLike | None = None,
+    use_cache: bool = True,
+    progress: bool | Callable = False,
+) -> tuple[list[Solution], SolveStats | None, Path]:
+    """:func:`fea.solve` through an on-disk cache.
+
+    Returns
+    -------
+    solutions : list of Solution
+    stats : SolveStats, or None when the states came from the cache
+    path : where the states are (or would be) cached
+    """
+    root = Path(cache_dir) if cache_dir is not None else default_cache_dir()
+    key = solution_key(mesh, indenters, materials, contact, settings)
+    path = root / "solutions" / f"{key[:32]}.npz"
+    if use_cache and path.exists():
+        try:
+            sols = load_solutions(path, mesh)
+            log.info("solution cache hit: %s", path)
+            return sols, None, path
+        except (OSError, ValueError, KeyError) as exc:  # a stale or truncated file: re-solve
+            log.warning("solution cache %s unreadable (%s); solving again", path, exc)
+    sols, stats = solve(
+        mesh, indenters, materials=materials, contact=contact, settings=settings, progress=progress
+    )
+    if use_cache:
+        save_solutions(path, sols)
+        log.info("solution cached: %s", path)
+    return sols, stats, path

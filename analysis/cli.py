@@ -1,9 +1,15 @@
 """The ``fringekit`` command.
 
-Subcommands available now: ``mesh`` (generate, summarise and export the mesh of the
-reference sensor or of a variant given on the command line). ``predict``, ``analyze``,
-``compare``, ``calibrate`` and ``sweep`` arrive with their pipeline stages.
-User errors exit with status 2 and a one-line reason, never a traceback.
+Subcommands available now:
+
+- ``predict [CONFIG]``: config (a TOML file or a built-in case name; none = the reference
+  case) -> mesh -> contact solution -> optics -> an output folder (analysis.predict);
+- ``config show [CONFIG]``: the effective configuration with defaults and units;
+- ``mesh``: generate, summarise and export the mesh of the reference sensor or a variant.
+
+``analyze``, ``compare``, ``calibrate``, ``estimate`` and ``sweep`` are still to come.
+Exit status: 0 success, 2 a user error (bad config or input; one line, no traceback),
+1 a run that failed (the solver did not reach a load; what converged is written).
 """
 
 from __future__ import annotations
@@ -18,7 +24,7 @@ from pathlib import Path
 
 __all__ = ["main"]
 
-PLANNED = ("predict", "analyze", "compare", "calibrate", "estimate", "sweep", "config")
+PLANNED = ("analyze", "compare", "calibrate", "estimate", "sweep")
 
 
 def _version() -> str:
@@ -71,6 +77,76 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     return 0
 
 
+def _overrides(cfg_source, sets: list[str]) -> dict:
+    """Effective config from CONFIG plus ``--set table.key=value`` overrides (TOML values)."""
+    import copy
+
+    from .config import ConfigError, effective_config, load_config, tomllib
+
+    base = load_config(cfg_source)
+    if not sets:
+        return base
+    given = copy.deepcopy(base)
+    for item in sets:
+        key, sep, text = item.partition("=")
+        parts = key.strip().split(".")
+        if not sep or not all(parts):
+            raise ConfigError(f"--set {item!r} is not allowed; use --set table.key=value")
+        try:
+            value = tomllib.loads(f"v = {text.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            value = text.strip()  # a bare word is a string
+        node = given
+        for p in parts[:-1]:
+            if p == "indenter":
+                node = node["indenter"][0]
+                continue
+            if p not in node or not isinstance(node[p], dict):
+                raise ConfigError(f"--set {item!r}: unknown table {p!r}")
+            node = node[p]
+        node[parts[-1]] = value
+        other = {"depth_mm": "load_N", "load_N": "depth_mm"}.get(parts[-1])
+        if parts[0] == "indenter" and other:
+            node.pop(other, None)  # setting one control mode replaces the other
+    for d in given["indenter"]:  # keep only what was given or set, so checks see the user's keys
+        if d.get("load_N") is None:
+            d.pop("load_N", None)
+        for k in ("depth_mm", "shear_N"):
+            if d.get(k) is None:
+                d.pop(k, None)
+    return effective_config(given)
+
+
+def _cmd_predict(args: argparse.Namespace) -> int:
+    from .predict import run_predict
+
+    cfg = _overrides(args.config, args.set or [])
+    out = Path(args.out) if args.out else Path("fringekit-out") / cfg["case"]
+    t0 = time.perf_counter()
+    summary = run_predict(
+        cfg, out, cache_dir=args.cache_dir, use_cache=not args.no_cache, progress=not args.quiet
+    )
+    if not args.quiet:
+        print(f"fringekit {_version()} - {cfg['case']}: done in {time.perf_counter() - t0:.1f} s")
+        for j, ind in enumerate(summary["indenters"]):
+            f = ", ".join(f"{v:.3g}" for v in ind["force_N"])
+            print(
+                f"  indenter {j}: force [{f}] N, depth {ind['depth_mm']:.4f} mm, "
+                f"contact radius {ind['contact_radius_mm']:.3f} mm"
+            )
+        print(f"  max fringe order {summary['max_fringe_order']:.2f} (contact zone masked)")
+        print(f"  results in {out}/ (summary.json, state_*/solution.vtu, images, figures)")
+    return 0
+
+
+def _cmd_config(args: argparse.Namespace) -> int:
+    from .config import to_toml
+
+    cfg = _overrides(args.config, args.set or [])
+    sys.stdout.write(to_toml(cfg))
+    return 0
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="fringekit",
@@ -80,6 +156,29 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--version", action="version", version=f"fringekit {_version()}")
     sub = p.add_subparsers(dest="command")
+    pr = sub.add_parser(
+        "predict",
+        help="mesh, solve and render fringes for a config (default: the reference case)",
+    )
+    pr.add_argument(
+        "config", nargs="?", default=None,
+        help="TOML config file or built-in case (reference, shear); default reference",
+    )  # fmt: skip
+    pr.add_argument("--out", default=None, help="output folder (default fringekit-out/<case>)")
+    pr.add_argument(
+        "--set", action="append", metavar="TABLE.KEY=VALUE",
+        help="override one config value, e.g. --set optics.pixels=128 (repeatable)",
+    )  # fmt: skip
+    pr.add_argument("--cache-dir", default=None, help="mesh and solution cache root")
+    pr.add_argument("--no-cache", action="store_true", help="re-mesh and re-solve")
+    pr.add_argument("--quiet", action="store_true", help="no progress output")
+    pr.set_defaults(func=_cmd_predict)
+    cf = sub.add_parser("config", help="configuration tools")
+    cfs = cf.add_subparsers(dest="action", required=True)
+    show = cfs.add_parser("show", help="print the effective config with defaults and units")
+    show.add_argument("config", nargs="?", default=None)
+    show.add_argument("--set", action="append", metavar="TABLE.KEY=VALUE")
+    show.set_defaults(func=_cmd_config, quiet=True)
     m = sub.add_parser("mesh", help="mesh the reference sensor (or a variant) and export VTU")
     m.add_argument("--symmetry", choices=("full", "half", "quarter"), default="quarter")
     m.add_argument("--thickness-mm", type=float, default=3.0, help="sheet thickness (mm)")
@@ -109,11 +208,16 @@ def main(argv: list[str] | None = None) -> int:
         level=logging.WARNING if getattr(args, "quiet", False) else logging.INFO,
         format="%(name)s: %(message)s",
     )
+    from .predict import PredictError
+
     try:
         return args.func(args)
     except (ValueError, OSError) as exc:
         print(f"fringekit {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except PredictError as exc:
+        print(f"fringekit {args.command}: failed: {exc}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":  # pragma: no cover

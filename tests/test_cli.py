@@ -1,0 +1,231 @@
+"""The fringekit command: configs, symmetry choice, predict end to end on a tiny case."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from analysis.cli import main
+from analysis.config import (
+    BUILTIN_CASES,
+    ConfigError,
+    effective_config,
+    load_config,
+    to_toml,
+)
+from analysis.predict import build_inputs, choose_symmetry
+
+# The small block of conftest.py (12 x 12 mm, 3 mm sheet on 4 mm PC, coarse sizes), a
+# 32 x 32 image and few samples: the whole pipeline in well under a minute.
+TINY = """
+case = "tiny"
+[sheet]
+width_mm = 12
+length_mm = 12
+[substrate]
+thickness_mm = 4
+[mesh]
+h_contact_mm = 0.6
+refine_radius_mm = 1.5
+h_sheet_mm = 1.5
+h_far_mm = 3
+growth = 0.5
+[optics]
+field_of_view_mm = 10
+pixels = 32
+samples_per_ray = 24
+white_light_wavelengths = 7
+[[indenter]]
+load_N = [8.0]
+"""
+
+
+def test_defaults_are_the_reference_case():
+    cfg = load_config()
+    assert cfg["case"] == "reference"
+    assert cfg["sheet"]["thickness_mm"] == 3.0 and cfg["substrate"]["thickness_mm"] == 15.0
+    assert cfg["sheet"]["E_MPa"] == 4.0 and cfg["sheet"]["nu"] == 0.49
+    assert len(cfg["indenter"]) == 1
+    assert cfg["indenter"][0]["diameter_mm"] == 3.5 and cfg["indenter"][0]["load_N"] == [8.0]
+    spec, inds, mats, contact, _ = build_inputs(cfg)
+    assert spec.symmetry == "quarter"
+    assert spec.layers.sheet_thickness == pytest.approx(3e-3)
+    assert inds[0].radius == pytest.approx(1.75e-3) and inds[0].normal_force == (8.0,)
+    assert mats[0].E == pytest.approx(4e6) and contact.friction == 0.0
+
+
+def test_shear_case_is_a_stuck_half_model():
+    cfg = load_config("shear")
+    spec, inds, _, contact, _ = build_inputs(cfg)
+    assert spec.symmetry == "half" and math.isinf(contact.friction)
+    assert inds[0].shear_force == ((0.0, 0.0), (8.0, 0.0))
+
+
+@pytest.mark.parametrize("name", sorted(BUILTIN_CASES) + ["depth"])
+def test_toml_round_trip(name, tmp_path):
+    if name == "depth":
+        cfg = effective_config({"indenter": [{"depth_mm": [0.1, 0.2]}], "case": "depth"})
+        assert cfg["indenter"][0]["load_N"] is None
+    else:
+        cfg = load_config(name)
+    f = tmp_path / "c.toml"
+    f.write_text(to_toml(cfg))
+    assert load_config(f) == cfg
+
+
+@pytest.mark.parametrize(
+    "given, words",
+    [
+        ({"sheet": {"thickness": 3}}, ["unknown key sheet.thickness", "thickness_mm"]),
+        ({"optic": {}}, ["unknown key 'optic'", "optics"]),
+        ({"sheet": {"E_MPa": -1}}, ["sheet.E_MPa = -1", "allowed range (0"]),
+        ({"sheet": {"nu": 0.5}}, ["sheet.nu = 0.5", "0.4999"]),
+        ({"optics": {"pixels": "many"}}, ["optics.pixels = 'many'", "integer"]),
+        ({"optics": {"wavelength_nm": 1000}}, ["optics.wavelength_nm = 1000", "360, 830"]),
+        ({"optics": {"light": "sun"}}, ["optics.light = 'sun'", "LED"]),
+        ({"contact": {"friction": "glue"}}, ["contact.friction = 'glue'", "stick"]),
+        ({"contact": {"friction": -0.1}}, ["contact.friction = -0.1", "allowed range"]),
+        ({"indenter": [{"load_N": [-2.0]}]}, ["indenter[0].load_N[0] = -2.0"]),
+        ({"indenter": [{"load_N": [1.0, 2.0], "shear_N": [[0, 0], [1, 0], [2, 0]]}]}, ["3 load"]),
+        ({"indenter": [{"load_N": [8.0], "depth_mm": [0.1]}]}, ["not both"]),
+        ({"indenter": [{"load_N": [1.0]}, {"x_mm": 5, "load_N": [1.0, 2.0]}]}, ["different"]),
+        ({"mesh": {"h_contact_mm": 2, "h_sheet_mm": 1}}, ["h_contact <= h_sheet"]),
+        ({"case": "a/b"}, ["case = 'a/b'"]),
+        ({"optics": {"read_noise_e": 5}}, ["full_well_e"]),
+    ],
+)
+def test_bad_config_names_key_value_and_allowed(given, words):
+    with pytest.raises(ConfigError) as err:
+        effective_config(given)
+    for w in words:
+        assert w in str(err.value)
+
+
+def _sym(indenters, **mesh):
+    return choose_symmetry(effective_config({"indenter": indenters, "mesh": mesh}))
+
+
+def test_symmetry_choice_follows_positions_and_loads():
+    assert _sym([{}]) == "quarter"
+    assert _sym([{"load_N": [8.0], "shear_N": [4.0, 0.0]}], **{}) == "half"
+    assert _sym([{"load_N": [8.0], "shear_N": [0.0, 4.0]}]) == "full"
+    pair = [{"x_mm": -5.0, "load_N": [2.0]}, {"x_mm": 5.0, "load_N": [2.0]}]
+    assert _sym(pair) == "quarter"
+    pair[1]["load_N"] = [3.0]
+    assert _sym(pair) == "half"  # still mirror-symmetric about y = 0 only
+    assert _sym([{"x_mm": 3.0, "y_mm": 2.0}]) == "full"
+    with pytest.raises(ConfigError, match="mesh.symmetry = 'quarter' is not allowed"):
+        _sym([{"load_N": [8.0], "shear_N": [4.0, 0.0]}], symmetry="quarter")
+    # the model keeps y >= 0 (and x >= 0): only the indenter at y = +5 mm is solved
+    cfg = effective_config({"indenter": [{"y_mm": 5.0}, {"y_mm": -5.0}]})
+    spec, inds, *_ = build_inputs(cfg)
+    assert spec.symmetry == "quarter" and [i.y for i in inds] == [5e-3]
+
+
+def test_geometry_errors_are_config_errors():
+    with pytest.raises(ConfigError, match="outside the sheet"):
+        build_inputs(effective_config({"indenter": [{"x_mm": 19.0}]}))
+
+
+def test_config_show_and_user_errors(tmp_path, capsys):
+    assert main(["config", "show", "shear", "--set", "optics.pixels=64"]) == 0
+    out = capsys.readouterr().out
+    assert 'friction = "stick"' in out and "pixels = 64" in out and "[mm]" in out
+    assert main(["predict", str(tmp_path / "missing.toml")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "neither a file nor a built-in case" in err and "Traceback" not in err
+    assert len(err.splitlines()) == 1
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[sheet]\nE_MPa = 0\n")
+    assert main(["predict", str(bad), "--out", str(tmp_path / "o")]) == 2
+    assert "sheet.E_MPa = 0" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()  # nothing written for a config that fails its checks
+    assert main(["config", "show", "--set", "sheet.bogus=1"]) == 2
+    assert "unknown key sheet.bogus" in capsys.readouterr().err
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory, cache_dir):
+    root = tmp_path_factory.mktemp("predict")
+    cfg = root / "tiny.toml"
+    cfg.write_text(TINY)
+    out = root / "out"
+    args = ["predict", str(cfg), "--out", str(out), "--cache-dir", str(cache_dir), "--quiet"]
+    assert main(args) == 0
+    return root, out, args
+
+
+def test_predict_end_to_end(tiny_run):
+    import imageio.v3 as iio
+    import pyvista as pv
+
+    _, out, _ = tiny_run
+    s = json.loads((out / "summary.json").read_text())
+    assert s["status"] == "ok" and s["model"]["symmetry"] == "quarter"
+    (ind,) = s["indenters"]
+    assert ind["force_N"][2] == pytest.approx(-8.0, rel=1e-6)
+    assert 0.5 < ind["depth_mm"] < 0.9 and 0.9 < ind["contact_radius_mm"] < 1.5
+    assert set(s["times_s"]) >= {"mesh_s", "solve_s", "total_s"}
+    assert s["versions"]["fringekit"] and s["config"]["case"] == "tiny"
+    d = out / "state_01"
+    maps = np.load(d / "maps.npz")
+    order = maps["fringe_order"]
+    assert order.shape == (32, 32)
+    assert s["max_fringe_order"] == pytest.approx(np.nanmax(order))
+    # 8 N on this sheet gives ~3.5 fringes at the contact edge (bench/optics.py: 3.67)
+    assert 2.5 < s["max_fringe_order"] < 5.0
+    ok = maps["mask"]
+    assert 0.8 < ok.mean() < 1.0 and np.all(np.isnan(order[~ok]))
+    # the characteristic order follows the rotation-free integral closely here
+    assert np.nanmax(np.abs(order - maps["simple_order"])) < 0.1
+    # the pattern is centred: the map is symmetric under x -> -x to interpolation accuracy
+    assert np.nanmax(np.abs(order - order[:, ::-1])) < 0.05
+    for k in range(1, 7):
+        img = iio.imread(d / "six_step" / f"step{k}.png")
+        assert img.shape == (32, 32) and img.dtype == np.uint8
+    rgb = iio.imread(d / "white_light.png")
+    assert rgb.shape == (32, 32, 3) and rgb.dtype == np.uint8
+    for f in ("fringe_order.png", "isoclinic.png", "fringe_image.png", "profile.png"):
+        assert (d / f).stat().st_size > 1000
+    prof = np.loadtxt(d / "profile.csv", delimiter=",", skiprows=1)
+    assert prof.shape == (32, 2) and np.isnan(prof[16, 1])  # the contact zone is masked
+    grid = pv.read(d / "solution.vtu")
+    assert "stress_Pa" in grid.point_data and grid.n_cells > 0
+    assert load_config(out / "config.toml") == s["config"]
+
+
+def test_predict_rerender_uses_the_cached_solution(tiny_run):
+    import imageio.v3 as iio
+
+    root, out, args = tiny_run
+    out2 = root / "out2"
+    args2 = [a if a != str(out) else str(out2) for a in args]
+    assert main(args2 + ["--set", "optics.qwp_error_deg=10"]) == 0
+    s = json.loads((out2 / "summary.json").read_text())
+    assert s["model"]["solution_from_cache"] is True
+    a, b = (np.load(o / "state_01" / "maps.npz")["fringe_order"] for o in (out, out2))
+    np.testing.assert_array_equal(a, b)  # same solution, same optics integral
+    i1, i2 = (iio.imread(o / "state_01" / "six_step" / "step3.png") for o in (out, out2))
+    assert np.abs(i1.astype(int) - i2.astype(int)).max() > 5  # the plate error shows
+
+
+def test_predict_failure_keeps_converged_states(tmp_path, cache_dir, capsys):
+    cfg = tmp_path / "fail.toml"
+    cfg.write_text(
+        TINY.replace("load_N = [8.0]", "load_N = [1.0, 400.0]")
+        + "[solver]\nmax_iterations = 20\nmax_cutbacks = 2\n"
+    )
+    out = tmp_path / "out"
+    code = main(["predict", str(cfg), "--out", str(out), "--cache-dir", str(cache_dir), "--quiet"])
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "could not reach load state 2" in err and "Traceback" not in err
+    s = json.loads((out / "summary.json").read_text())
+    assert s["status"] == "failed" and len(s["states"]) == 1
+    assert s["indenters"][0]["force_N"][2] == pytest.approx(-1.0, rel=1e-9)
+    assert (out / "state_01" / "solution.vtu").exists()
+    assert Path(out / "config.toml").exists()

@@ -163,14 +163,27 @@ class Resolution:
     unreliable: np.ndarray
 
 
-def _edges(valid: np.ndarray):
-    """Flat index pairs of 4-neighbour pixels that are both valid."""
+def _edges(valid: np.ndarray, *, reach: int = 2):
+    """Flat index pairs of valid pixels 1..``reach`` apart along a row or a column.
+
+    Pairs two apart let the ambiguity tree step over a pixel that sits on a fringe
+    contour where sin d ~ 0: that pixel's vector is tiny and its direction is noise, so
+    the two relations through it are a coin toss each, while the pair across it measures
+    the sign change directly (seen on an 8-bit indentation image: one such pixel line
+    around the order-1 ring flipped the whole inner field).
+    """
     idx = np.arange(valid.size).reshape(valid.shape)
+    v = valid.ravel()
     p, q = [], []
-    for a, b in ((idx[:, :-1], idx[:, 1:]), (idx[:-1, :], idx[1:, :])):
-        ok = valid.ravel()[a] & valid.ravel()[b]
-        p.append(a[ok])
-        q.append(b[ok])
+    for k in range(1, reach + 1):
+        for a, b in ((idx[:, :-k], idx[:, k:]), (idx[:-k, :], idx[k:, :])):
+            ok = v[a] & v[b]
+            # pixels in between must be valid too: the groups stay the 4-connected
+            # regions that unwrap_phase unwraps independently
+            for j in range(1, k):
+                ok &= v[(a + j * (b - a) // k)]
+            p.append(a[ok])
+            q.append(b[ok])
     return np.concatenate(p), np.concatenate(q)
 
 
@@ -206,7 +219,14 @@ def resolve_ambiguity(result: SixStep, *, conflict_weight: float = 0.05) -> Reso
     sign = np.zeros(n, np.int8)
     group = np.full(n, -1, np.int64)
     if len(p):
-        w = coo_matrix((-(np.abs(dot) + 1e-12), (p, q)), shape=(n, n)).tocsr()
+        # reliability |v_p . v_q| cos^2(phi), phi the angle between the two vectors: a
+        # relation is only trusted when the vectors are (anti)parallel. Near integer
+        # orders, where |v| is small, the characteristic isoclinic of a ray with rotating
+        # axes may turn quickly (Aben's characteristic parameters are undefined at
+        # Delta* = 2 pi k); cos^2 keeps such oblique pairs out of the tree.
+        norm = np.hypot(vx[p], vy[p]) * np.hypot(vx[q], vy[q]) + 1e-300
+        w = coo_matrix((-(np.abs(dot) * (dot / norm) ** 2 + 1e-12), (p, q)), shape=(n, n))
+        w = w.tocsr()
         tree = minimum_spanning_tree(w).tocoo()
         tp, tq = tree.row, tree.col
         tdot = vx[tp] * vx[tq] + vy[tp] * vy[tq]

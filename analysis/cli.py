@@ -7,7 +7,11 @@ Subcommands available now:
 - ``config show [CONFIG]``: the effective configuration with defaults and units;
 - ``mesh``: generate, summarise and export the mesh of the reference sensor or a variant.
 
-``analyze``, ``compare``, ``calibrate``, ``estimate`` and ``sweep`` are still to come.
+- ``analyze IMAGES...``: fringe order maps, profiles and figures from six phase-stepped
+  images or one RGB image (analysis.analyze);
+- ``compare PREDICTION MEASUREMENT``: registration, residual maps and statistics.
+
+``calibrate``, ``estimate`` and ``sweep`` are still to come.
 Exit status: 0 success, 2 a user error (bad config or input; one line, no traceback),
 1 a run that failed (the solver did not reach a load; what converged is written).
 """
@@ -24,7 +28,7 @@ from pathlib import Path
 
 __all__ = ["main"]
 
-PLANNED = ("analyze", "compare", "calibrate", "estimate", "sweep")
+PLANNED = ("calibrate", "estimate", "sweep")
 
 
 def _version() -> str:
@@ -147,6 +151,67 @@ def _cmd_config(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_analyze(args: argparse.Namespace) -> int:
+    from .analyze import run_analyze
+
+    if args.f_sigma_N_per_m is not None and not args.f_sigma_N_per_m > 0:
+        raise ValueError(f"--f-sigma-N-per-m = {args.f_sigma_N_per_m} is not allowed; must be > 0")
+    out = Path(args.out or "fringekit-out/analysis")
+    summary = run_analyze(
+        args.images,
+        out,
+        method=args.method,
+        dark=args.dark,
+        roi_circle=tuple(args.roi_circle) if args.roi_circle else None,
+        exclude=[tuple(e) for e in args.exclude_circle or []],
+        pixel_size=(args.pixel_mm or 0.0) * 1e-3,
+        anchor_order=args.anchor_order,
+        min_modulation=args.min_modulation,
+        calibration=args.calibration,
+        chart={
+            "light": args.light,
+            "camera": args.camera,
+            "max_order": args.max_order,
+            "exposure": args.exposure,
+        },
+        seeds=[tuple(s) for s in args.seed or []],
+        window=args.window,
+        line=tuple(args.line) if args.line else None,
+        f_sigma=args.f_sigma_N_per_m,
+        thickness=args.thickness_mm * 1e-3 if args.thickness_mm else None,
+    )
+    if not args.quiet:
+        rng = summary["fringe_order_range"]
+        print(
+            f"fringekit analyze ({summary['method']}): {summary['valid_pixels']} valid, "
+            f"{summary['reliable_pixels']} reliable pixels; fringe order "
+            + (f"{rng[0]:.2f}..{rng[1]:.2f}" if rng else "none")
+            + f"; results in {out}/"
+        )
+    return 0
+
+
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from .analyze import run_compare
+
+    out = Path(args.out or "fringekit-out/compare")
+    s = run_compare(
+        args.prediction,
+        args.measurement,
+        out,
+        predicted_pixel_size=(args.predicted_pixel_mm or 0) * 1e-3 or None,
+        measured_pixel_size=(args.measured_pixel_mm or 0) * 1e-3 or None,
+        centre_measured=tuple(args.centre_measured) if args.centre_measured else None,
+        rotation_deg=args.rotation_deg,
+    )
+    if not args.quiet:
+        print(
+            f"fringekit compare: residual RMS {s['rms_fringe']:.3f}, p95 {s['p95_fringe']:.3f} "
+            f"fringe over {s['pixels']} pixels; results in {out}/"
+        )
+    return 0
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="fringekit",
@@ -179,6 +244,45 @@ def _parser() -> argparse.ArgumentParser:
     show.add_argument("config", nargs="?", default=None)
     show.add_argument("--set", action="append", metavar="TABLE.KEY=VALUE")
     show.set_defaults(func=_cmd_config, quiet=True)
+    an = sub.add_parser("analyze", help="fringe order from six phase-stepped or RGB images")
+    an.add_argument("images", nargs="+", help="six step images (or a 6-page TIFF), or one RGB")
+    an.add_argument("--method", choices=("phase", "rgb"), default=None,
+                    help="default: rgb for one PNG/JPEG, phase otherwise")  # fmt: skip
+    an.add_argument("--out", default=None, help="output folder (default fringekit-out/analysis)")
+    an.add_argument("--dark", default=None, help="dark frame subtracted from every image")
+    an.add_argument("--roi-circle", nargs=3, type=float, metavar=("ROW", "COL", "R"))
+    an.add_argument(
+        "--exclude-circle", nargs=3, type=float, action="append", metavar=("ROW", "COL", "R"),
+        help="masked circle, e.g. the indenter",
+    )  # fmt: skip
+    an.add_argument("--pixel-mm", type=float, default=None, help="pixel pitch on the sheet (mm)")
+    an.add_argument("--anchor-order", type=float, default=0.0,
+                    help="(phase) fringe order of the image border ring")  # fmt: skip
+    an.add_argument("--min-modulation", type=float, default=0.1)
+    an.add_argument("--calibration", default=None, help="(rgb) table CSV: order,R,G,B")
+    an.add_argument("--light", default="LED", help="(rgb) light of the synthetic chart")
+    an.add_argument("--camera", default="CIE1931", help="(rgb) camera of the synthetic chart")
+    an.add_argument("--max-order", type=float, default=4.0, help="(rgb) chart range")
+    an.add_argument("--exposure", type=float, default=0.9,
+                    help="(rgb) chart exposure, as in predict's optics.exposure")  # fmt: skip
+    an.add_argument("--seed", nargs=3, type=float, action="append", metavar=("ROW", "COL", "N"),
+                    help="(rgb) pixel of known order: refined search from it")  # fmt: skip
+    an.add_argument("--window", type=float, default=0.25, help="(rgb) refined window (fringe)")
+    an.add_argument("--line", nargs=4, type=float, metavar=("R0", "C0", "R1", "C1"))
+    an.add_argument("--f-sigma-N-per-m", type=float, default=None)
+    an.add_argument("--thickness-mm", type=float, default=None)
+    an.add_argument("--quiet", action="store_true")
+    an.set_defaults(func=_cmd_analyze)
+    co = sub.add_parser("compare", help="prediction vs measurement: residuals and figures")
+    co.add_argument("prediction", help="predict output folder or maps.npz")
+    co.add_argument("measurement", help="analyze output folder or maps.npz")
+    co.add_argument("--out", default=None, help="output folder (default fringekit-out/compare)")
+    co.add_argument("--predicted-pixel-mm", type=float, default=None)
+    co.add_argument("--measured-pixel-mm", type=float, default=None)
+    co.add_argument("--centre-measured", nargs=2, type=float, metavar=("ROW", "COL"))
+    co.add_argument("--rotation-deg", type=float, default=0.0)
+    co.add_argument("--quiet", action="store_true")
+    co.set_defaults(func=_cmd_compare)
     m = sub.add_parser("mesh", help="mesh the reference sensor (or a variant) and export VTU")
     m.add_argument("--symmetry", choices=("full", "half", "quarter"), default="quarter")
     m.add_argument("--thickness-mm", type=float, default=3.0, help="sheet thickness (mm)")

@@ -181,7 +181,15 @@ SCHEMA: dict[str, Any] = {
         ),
         "camera": Key("CIE1931", "observer or colour-science camera name", kind="str"),
         "bit_depth": Key(8, "image bit depth", kind="int", choices=(8, 16)),
-        "exposure": _f(1.0, "transmittance at full scale", "", 0, 1e3, True),
+        "exposure": _f(
+            0.9,
+            "grey level of a fully transmitting pixel / full scale (< 1 keeps the brightest "
+            "fringes unsaturated, as an experimenter exposes)",
+            "",
+            0,
+            1e3,
+            True,
+        ),
         "full_well_e": _f(0.0, "electrons at full scale (shot noise; 0 = none)", "e-", 0, 1e7),
         "read_noise_e": _f(0.0, "read noise (needs full_well_e)", "e-", 0, 1e4),
         "seed": Key(0, "noise seed", kind="int", lo=0, hi=2**32 - 1),

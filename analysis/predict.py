@@ -312,6 +312,10 @@ def _render_state(sol, k: int, cfg: dict, out: Path, optics, progress) -> dict:
         mask=omap.mask,
         x_m=xy[..., 0],
         y_m=xy[..., 1],
+        pixel_size_m=grid.pixel_size,
+        indenter_rc=np.array(
+            [grid.xy_to_pixel(i.centre[0], i.centre[1]) for i in sol.indenters], float
+        ),
         wavelength_m=law.wavelength_ref,
     )
     times["integrate_s"] = time.perf_counter() - t0

@@ -229,3 +229,73 @@ def test_predict_failure_keeps_converged_states(tmp_path, cache_dir, capsys):
     assert s["indenters"][0]["force_N"][2] == pytest.approx(-1.0, rel=1e-9)
     assert (out / "state_01" / "solution.vtu").exists()
     assert Path(out / "config.toml").exists()
+
+
+@pytest.fixture(scope="module")
+def tiny_images(tiny_run):
+    """The tiny solution rendered at 96 x 96 pixels (0.104 mm/px) from the solve cache."""
+    root, out, args = tiny_run
+    out96 = root / "out96"
+    args96 = [a if a != str(out) else str(out96) for a in args]
+    assert main(args96 + ["--set", "optics.pixels=96"]) == 0
+    d = out96 / "state_01"
+    maps = np.load(d / "maps.npz")
+    s = json.loads((out96 / "summary.json").read_text())
+    ((r, c),) = maps["indenter_rc"]
+    rad = s["indenters"][0]["contact_radius_mm"] * 1e-3 / float(maps["pixel_size_m"]) + 1.5
+    border = np.concatenate([maps["fringe_order"][:3].ravel(), maps["fringe_order"][-3:].ravel()])
+    geo = ["--exclude-circle", str(r), str(c), str(rad)]
+    geo += ["--pixel-mm", str(float(maps["pixel_size_m"]) * 1e3)]
+    return root, out96, d, geo, float(np.nanmedian(border))
+
+
+def test_analyze_phase_and_compare_recover_the_prediction(tiny_images):
+    root, out96, d, geo, border = tiny_images
+    steps = [str(d / "six_step" / f"step{k}.png") for k in range(1, 7)]
+    an = root / "an_phase"
+    code = main(["analyze", *steps, "--out", str(an), "--anchor-order", str(border), *geo,
+                 "--f-sigma-N-per-m", "386", "--thickness-mm", "3", "--quiet"])  # fmt: skip
+    assert code == 0
+    s = json.loads((an / "summary.json").read_text())
+    assert s["method"] == "phase" and s["phase"]["info"]["regions_without_anchor"] == 0
+    m = np.load(an / "maps.npz")
+    for k in ("isoclinic_rad", "delta_eq3_rad", "modulation", "stress_difference_Pa"):
+        assert m[k].shape == (96, 96)
+    np.testing.assert_allclose(
+        m["stress_difference_Pa"], m["fringe_order"] * 386 / 6e-3, rtol=1e-12
+    )  # seed eq. 4 in reflection
+    for f in ("fringe_order.png", "phasemap_eq3.png", "isoclinic.png", "profile.png"):
+        assert (an / f).stat().st_size > 1000
+    cmp = root / "cmp_phase"
+    assert main(["compare", str(out96), str(an), "--out", str(cmp), "--quiet"]) == 0
+    c = json.loads((cmp / "summary.json").read_text())
+    # 8-bit images of the exact Jones model: the six-step order matches the prediction
+    assert c["rms_fringe"] < 0.02 and c["pixels"] > 0.5 * 96 * 96  # 0.003-0.006 seen
+    assert (cmp / "comparison.png").stat().st_size > 1000
+
+
+def test_analyze_rgb_refined_from_a_far_field_seed(tiny_images):
+    root, out96, d, geo, border = tiny_images
+    an = root / "an_rgb"
+    seed = ["--seed", "0", "0", str(border)]
+    assert (
+        main(["analyze", str(d / "white_light.png"), "--out", str(an), *geo, *seed, "--quiet"]) == 0
+    )
+    s = json.loads((an / "summary.json").read_text())
+    assert s["method"] == "rgb" and s["rgb"]["refined"]
+    cmp = root / "cmp_rgb"
+    assert main(["compare", str(out96), str(an), "--out", str(cmp), "--quiet"]) == 0
+    c = json.loads((cmp / "summary.json").read_text())
+    assert c["rms_fringe"] < 0.05  # 0.011 seen here and at 256 px on the reference case
+
+
+def test_analyze_and_compare_bad_input(tiny_images, capsys):
+    root, _, d, geo, _ = tiny_images
+    steps = [str(d / "six_step" / f"step{k}.png") for k in range(1, 6)]
+    assert main(["analyze", *steps, "--method", "phase", "--out", str(root / "x")]) == 2
+    assert "exactly 6 images" in capsys.readouterr().err
+    grey = str(d / "six_step" / "step1.png")
+    assert main(["analyze", grey, "--method", "rgb", "--out", str(root / "y")]) == 2
+    assert "needs colour" in capsys.readouterr().err
+    assert main(["compare", str(root / "nowhere"), str(root / "nowhere")]) == 2
+    assert "no maps.npz" in capsys.readouterr().err

@@ -1,0 +1,323 @@
+"""``fringekit analyze`` and ``fringekit compare``: image files -> maps, profiles, figures.
+
+``run_analyze`` reads a six-step set (phase) or one colour image (RGB), builds the masks,
+runs :mod:`analysis.phase` or :mod:`analysis.rgb`, and writes to an output folder:
+
+- ``maps.npz`` - ``fringe_order`` (NaN where unknown), ``reliable`` (bool), and for the
+  phase method ``isoclinic_rad``, ``delta_eq3_rad``, ``delta_axis_insensitive_rad``,
+  ``modulation``; for RGB ``colour_error``; ``stress_difference_Pa`` when a fringe value
+  and thickness are given; ``pixel_size_m`` (0 when not given);
+- ``fringe_order.png`` and the method's other maps as PNG figures;
+- ``profile.csv`` / ``profile.png`` - the order along a line (the seed paper's a-b line);
+- ``summary.json`` - method, inputs, counts of valid and reliable pixels, order range.
+
+``run_compare`` registers a predicted fringe-order map (a ``fringekit predict`` folder or
+its ``maps.npz``) onto a measured one (a ``fringekit analyze`` folder or ``maps.npz``) and
+writes ``comparison.png``, ``residual.npz`` and ``summary.json`` (RMS and 95th percentile
+of the residual in fringe orders).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .compare import compare_maps, comparison_figure, line_profile
+from .images import load_image, load_six_step
+from .masks import circle_mask, exclude_circle
+from .phase import principal_stress_difference, resolve_ambiguity, six_step, unwrap_fringe_order
+from .rgb import CalibrationTable, search, search_refined
+
+__all__ = ["run_analyze", "run_compare", "find_maps"]
+
+
+def _figure(path, data, title, label, cmap="turbo", pixel_size=0.0, vmin=None, vmax=None):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows, cols = data.shape[:2]
+    fig, ax = plt.subplots(figsize=(5.2, 4.4), dpi=120)
+    if pixel_size:
+        ext = (0, cols * pixel_size * 1e3, rows * pixel_size * 1e3, 0)
+        im = ax.imshow(data, cmap=cmap, extent=ext, vmin=vmin, vmax=vmax, interpolation="nearest")
+        ax.set_xlabel("mm")
+        ax.set_ylabel("mm")
+    else:
+        im = ax.imshow(data, cmap=cmap, vmin=vmin, vmax=vmax, interpolation="nearest")
+        ax.set_xlabel("column (px)")
+        ax.set_ylabel("row (px)")
+    fig.colorbar(im, ax=ax, label=label)
+    ax.set_title(title)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def _mask(shape, roi_circle, exclude) -> np.ndarray:
+    mask = np.ones(shape, bool)
+    if roi_circle is not None:
+        r, c, rad = roi_circle
+        mask = circle_mask(shape, (r, c), rad)
+    for r, c, rad in exclude or ():
+        mask = exclude_circle(mask, (r, c), rad)
+    return mask
+
+
+def _table(calibration, chart: dict | None) -> CalibrationTable:
+    if calibration is not None:
+        return CalibrationTable.from_csv(calibration)
+    from optics import PSM4_ASSUMED, Camera, colour_chart, light_source
+
+    chart = chart or {}
+    lam = np.linspace(400e-9, 700e-9, 31)
+    orders, rgb = colour_chart(
+        PSM4_ASSUMED,
+        light_source(chart.get("light", "LED"), lam),
+        Camera(sensitivities=chart.get("camera", "CIE1931")),
+        max_order=chart.get("max_order", 4.0),
+        n=2001,
+    )
+    import colour
+
+    # the chart is linear RGB at exposure 1; images carry the camera's exposure and, for
+    # the CIE observer (fringekit's PNGs, most cameras' JPEGs), the sRGB encoding
+    rgb = np.clip(rgb * chart.get("exposure", 0.9), 0, 1)
+    if chart.get("camera", "CIE1931") == "CIE1931":
+        rgb = np.clip(colour.cctf_encoding(rgb, function="sRGB"), 0, 1)
+    return CalibrationTable.from_chart(orders, rgb, "synthetic colour chart (optics)")
+
+
+def run_analyze(
+    images: Sequence[str | os.PathLike],
+    out: str | os.PathLike,
+    *,
+    method: str | None = None,
+    dark=None,
+    roi_circle: tuple[float, float, float] | None = None,
+    exclude: Sequence[tuple[float, float, float]] = (),
+    pixel_size: float = 0.0,
+    anchor_order: float = 0.0,
+    min_modulation: float = 0.1,
+    calibration: str | os.PathLike | None = None,
+    chart: dict | None = None,
+    seeds: Sequence[tuple[float, float, float]] = (),
+    window: float = 0.25,
+    line: tuple[float, float, float, float] | None = None,
+    f_sigma: float | None = None,
+    thickness: float | None = None,
+) -> dict:
+    """Analyse fringe images; write maps, figures and a summary to ``out``.
+
+    Parameters
+    ----------
+    images : paths
+        ``phase``: six files in :data:`analysis.SIX_STEP_ORDER` or one 6-page TIFF.
+        ``rgb``: one colour image.
+    method : {"phase", "rgb"}, optional
+        Default: ``rgb`` for a single non-TIFF image, ``phase`` otherwise.
+    roi_circle : (row, col, radius) px, optional — region of interest.
+    exclude : sequence of (row, col, radius) px — masked circles (the indenter centre).
+    pixel_size : float (m) — for axes in mm; 0 = pixels.
+    anchor_order : float — (phase) fringe order of the far field (image border ring).
+    min_modulation : float — (phase) quality threshold.
+    calibration : path, optional — (rgb) table CSV (order, R, G, B); default a synthetic
+        chart from :func:`optics.colour_chart` with ``chart`` settings (light, camera,
+        max_order).
+    seeds : sequence of (row, col, order) — (rgb) seeds for the refined search; none
+        gives the plain search.
+    line : (r0, c0, r1, c1) px — profile line; default the horizontal line through the
+        first excluded circle's centre, else through the image centre.
+    f_sigma, thickness : float (N/m, m) — give both for the principal stress difference
+        (seed eq. 4, reflection).
+    """
+    paths = [str(p) for p in images]
+    if not paths:
+        raise ValueError("analyze needs at least one image")
+    if method is None:
+        single = len(paths) == 1 and not paths[0].lower().endswith((".tif", ".tiff"))
+        method = "rgb" if single else "phase"
+    if method not in ("phase", "rgb"):
+        raise ValueError(f"method = {method!r} is not allowed; use 'phase' or 'rgb'")
+    if (f_sigma is None) != (thickness is None):
+        raise ValueError("give both the fringe value and the thickness for stress, or neither")
+    out = Path(out)
+    maps: dict[str, np.ndarray] = {}
+    summary: dict = {"method": method, "images": paths}
+    if method == "phase":
+        frames = load_six_step(paths[0] if len(paths) == 1 else paths, dark=dark)
+        shape = frames[0].shape
+        mask = _mask(shape, roi_circle, exclude)
+        res = six_step(frames, mask=mask, min_modulation=min_modulation)
+        resolution = resolve_ambiguity(res)
+        fo = unwrap_fringe_order(res, resolution, anchor_order=anchor_order)
+        order, reliable = fo.order, fo.reliable
+        maps.update(
+            isoclinic_rad=fo.isoclinic,
+            delta_eq3_rad=np.where(res.valid, res.delta_eq3, np.nan),
+            delta_axis_insensitive_rad=np.where(res.valid, res.delta_axis_insensitive, np.nan),
+            modulation=res.modulation,
+        )
+        summary["phase"] = {"info": fo.info, "offset": fo.offset, "anchor_order": anchor_order}
+    else:
+        if len(paths) != 1:
+            raise ValueError(f"the rgb method takes one colour image, got {len(paths)}")
+        frame = load_image(paths[0], dark=dark)
+        if frame.data.ndim != 3:
+            raise ValueError(f"{paths[0]}: a grey image; the rgb method needs colour")
+        shape = frame.shape
+        # one channel at full scale still constrains the order (vivid fringe colours leave
+        # the sRGB gamut and clip, in the chart exactly as in the image); a pixel with
+        # every channel at full scale does not
+        mask = _mask(shape, roi_circle, exclude) & ~np.all(frame.data >= 1.0, axis=-1)
+        table = _table(calibration, chart)
+        if seeds:
+            seed_list = [((r, c), o) for r, c, o in seeds]
+            rr = search_refined(frame.data, table, seed_list, mask=mask, window=window)
+        else:
+            rr = search(frame.data, table, mask=mask)
+        order = rr.order
+        reliable = np.isfinite(order) & (rr.error < 0.1)
+        maps["colour_error"] = rr.error
+        summary["rgb"] = {
+            "table": table.source,
+            "rows": len(table),
+            "orders": [float(table.orders[0]), float(table.orders[-1])],
+            "refined": bool(seeds),
+        }
+    out.mkdir(parents=True, exist_ok=True)
+    maps["fringe_order"] = order
+    maps["reliable"] = reliable
+    maps["pixel_size_m"] = np.array(pixel_size)
+    if f_sigma is not None:
+        maps["stress_difference_Pa"] = principal_stress_difference(order, f_sigma, thickness)
+    np.savez_compressed(out / "maps.npz", **maps)
+
+    _figure(out / "fringe_order.png", order, f"fringe order ({method})", "fringe order",
+            pixel_size=pixel_size)  # fmt: skip
+    if method == "phase":
+        _figure(out / "isoclinic.png", np.degrees(maps["isoclinic_rad"]), "isoclinic",
+                "deg", "twilight", pixel_size)  # fmt: skip
+        _figure(out / "phasemap_eq3.png", maps["delta_eq3_rad"], "isochromatic phase (eq. 3)",
+                "rad", "gray", pixel_size, 0, 2 * np.pi)  # fmt: skip
+        _figure(out / "phasemap_axis_insensitive.png", maps["delta_axis_insensitive_rad"],
+                "axis-insensitive phase (eq. 4)", "rad", "gray", pixel_size, 0, np.pi)  # fmt: skip
+        _figure(out / "modulation.png", maps["modulation"], "modulation", "", "viridis",
+                pixel_size, 0, 1)  # fmt: skip
+    else:
+        _figure(out / "colour_error.png", maps["colour_error"], "colour distance to table", "",
+                "magma", pixel_size)  # fmt: skip
+    if "stress_difference_Pa" in maps:
+        _figure(out / "stress_difference.png", maps["stress_difference_Pa"] * 1e-6,
+                "principal stress difference", "MPa", "viridis", pixel_size)  # fmt: skip
+
+    rows, cols = shape
+    if line is None:
+        r = exclude[0][0] if exclude else (rows - 1) / 2
+        line = (r, 0.0, r, cols - 1.0)
+    prof = line_profile(order, line[:2], line[2:], pixel_size=pixel_size or None)
+    unit = "mm" if pixel_size else "px"
+    dist = prof.distance * (1e3 if pixel_size else 1.0)
+    np.savetxt(out / "profile.csv", np.column_stack([dist, prof.values]), delimiter=",",
+               header=f"distance_{unit},fringe_order", comments="")  # fmt: skip
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 3.4), dpi=120)
+    ax.plot(dist, prof.values)
+    ax.set_xlabel(f"distance along the line ({unit})")
+    ax.set_ylabel("fringe order")
+    ax.set_title(f"profile ({line[0]:.0f}, {line[1]:.0f}) -> ({line[2]:.0f}, {line[3]:.0f})")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out / "profile.png")
+    plt.close(fig)
+
+    finite = np.isfinite(order)
+    summary.update(
+        shape=[rows, cols],
+        valid_pixels=int(finite.sum()),
+        reliable_pixels=int(np.sum(reliable)),
+        masked_pixels=int((~mask).sum()),
+        fringe_order_range=[float(np.nanmin(order)), float(np.nanmax(order))]
+        if finite.any()
+        else None,
+        pixel_size_mm=pixel_size * 1e3,
+        line_px=list(line),
+    )
+    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=float))
+    return summary
+
+
+def find_maps(path: str | os.PathLike) -> Path:
+    """``maps.npz`` of a predict or analyze output: the file itself, the folder's, or the
+    last rendered state's of a predict case folder."""
+    p = Path(path)
+    if p.is_file():
+        return p
+    if (p / "maps.npz").is_file():
+        return p / "maps.npz"
+    states = sorted(p.glob("state_*/maps.npz"))
+    if states:
+        return states[-1]
+    raise FileNotFoundError(f"{p}: no maps.npz here (give a predict or analyze output folder)")
+
+
+def run_compare(
+    prediction: str | os.PathLike,
+    measurement: str | os.PathLike,
+    out: str | os.PathLike,
+    *,
+    predicted_pixel_size: float | None = None,
+    measured_pixel_size: float | None = None,
+    centre_measured: tuple[float, float] | None = None,
+    rotation_deg: float = 0.0,
+) -> dict:
+    """Register a prediction onto a measurement and write residuals, figure and summary.
+
+    Pixel sizes (m) default to those stored in the maps; the prediction's centre is its
+    first indenter's axis when stored; the measurement's centre is fitted by phase
+    correlation unless given as (row, col).
+    """
+    pf, mf = find_maps(prediction), find_maps(measurement)
+    with np.load(pf) as z:
+        pred = np.array(z["fringe_order"], float)
+        pp = float(z["pixel_size_m"]) if "pixel_size_m" in z else 0.0
+        cp = tuple(z["indenter_rc"][0]) if "indenter_rc" in z and len(z["indenter_rc"]) else None
+    with np.load(mf) as z:
+        meas = np.array(z["fringe_order"], float)
+        mp = float(z["pixel_size_m"]) if "pixel_size_m" in z else 0.0
+        rel = np.array(z["reliable"], bool) if "reliable" in z else None
+    pp = predicted_pixel_size or pp
+    mp = measured_pixel_size or mp
+    for name, v, f in (("predicted", pp, pf), ("measured", mp, mf)):
+        if not v:
+            raise ValueError(
+                f"{f} stores no pixel size; give --{name}-pixel-mm (the {name} pixel pitch)"
+            )
+    comp = compare_maps(
+        pred, meas, predicted_pixel_size=pp, measured_pixel_size=mp, centre_predicted=cp,
+        centre_measured=centre_measured, rotation_deg=rotation_deg, mask=rel,
+    )  # fmt: skip
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    comparison_figure(comp, out / "comparison.png", title=f"{pf.parent.name} vs {mf.parent.name}")
+    np.savez_compressed(
+        out / "residual.npz", residual=comp.residual, predicted=comp.predicted, measured=meas
+    )
+    summary = {
+        "prediction": str(pf),
+        "measurement": str(mf),
+        "rms_fringe": comp.rms,
+        "p95_fringe": comp.p95,
+        "centre_measured_px": list(comp.centre_measured),
+        "scale": comp.scale,
+        "rotation_deg": comp.rotation_deg,
+        **comp.info,
+    }
+    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    return summary

@@ -11,7 +11,10 @@ Subcommands available now:
   images or one RGB image (analysis.analyze);
 - ``compare PREDICTION MEASUREMENT``: registration, residual maps and statistics.
 
-``calibrate``, ``estimate`` and ``sweep`` are still to come.
+- ``calibrate [CONFIG]``: load-to-fringe relations over a load path, or ``--disc`` the
+  fringe value from a disc; ``estimate MAPS --calibration FILE``: the load back.
+
+``sweep`` is still to come.
 Exit status: 0 success, 2 a user error (bad config or input; one line, no traceback),
 1 a run that failed (the solver did not reach a load; what converged is written).
 """
@@ -28,7 +31,7 @@ from pathlib import Path
 
 __all__ = ["main"]
 
-PLANNED = ("calibrate", "estimate", "sweep")
+PLANNED = ("sweep",)
 
 
 def _version() -> str:
@@ -81,13 +84,13 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     return 0
 
 
-def _overrides(cfg_source, sets: list[str]) -> dict:
-    """Effective config from CONFIG plus ``--set table.key=value`` overrides (TOML values)."""
+def _overrides(cfg_source, sets: list[str], base: dict | None = None) -> dict:
+    """Effective config from CONFIG (or ``base``) plus ``--set table.key=value`` overrides."""
     import copy
 
     from .config import ConfigError, effective_config, load_config, tomllib
 
-    base = load_config(cfg_source)
+    base = load_config(cfg_source) if base is None or cfg_source is not None else base
     if not sets:
         return base
     given = copy.deepcopy(base)
@@ -212,6 +215,65 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_calibrate(args: argparse.Namespace) -> int:
+    from .calibration_run import default_calibration_config, run_calibrate, run_disc
+
+    if args.disc:
+        for name in ("load_N", "diameter_mm", "thickness_mm"):
+            if getattr(args, name) is None:
+                raise ValueError(f"--disc needs --{name.replace('_', '-')}")
+        res = run_disc(
+            args.disc, load_N=args.load_N, diameter_mm=args.diameter_mm,
+            thickness_mm=args.thickness_mm, pixel_mm=args.pixel_mm,
+            centre=tuple(args.centre) if args.centre else None,
+        )  # fmt: skip
+        if args.out:
+            Path(args.out).mkdir(parents=True, exist_ok=True)
+            (Path(args.out) / "fringe_value.json").write_text(json.dumps(res, indent=2))
+        print(
+            f"fringe value f_sigma = {res['f_sigma_N_per_m']:.4g} N/m per fringe (whole-field "
+            f"fit over {res['pixels']} pixels, residual {res['rms_residual_fringe']:.3f} fringe"
+            + (
+                f"; centre only {res['f_sigma_centre_N_per_m']:.4g}"
+                if res["f_sigma_centre_N_per_m"]
+                else ""
+            )
+            + ")"
+        )
+        return 0
+    base = default_calibration_config() if args.config is None else None
+    cfg = _overrides(args.config, args.set or [], base=base)
+    out = Path(args.out) if args.out else Path("fringekit-out") / cfg["case"]
+    cal = run_calibrate(
+        cfg, out, cache_dir=args.cache_dir, use_cache=not args.no_cache, progress=not args.quiet
+    )
+    if not args.quiet:
+        print(f"fringekit calibrate - {len(cal['loads_N'])} load states, results in {out}/")
+        for n, fit in cal["normal_fits"].items():
+            print(
+                f"  F = {fit['a']:.4g} * {n}^{fit['b']:.3f}   (scatter "
+                f"{100 * fit['sigma_logF']:.1f} % in F over {fit['n']} states)"
+            )
+        for n, fit in cal["shear_fits"].items():
+            print(f"  {n} = {fit['c0']:.3g} + {fit['c1']:.4g} * {fit['feature']}")
+    return 0
+
+
+def _cmd_estimate(args: argparse.Namespace) -> int:
+    from .calibration_run import run_estimate
+
+    est = run_estimate(
+        args.maps, args.calibration, pixel_mm=args.pixel_mm,
+        centre=tuple(args.centre) if args.centre else None, out=args.out,
+    )  # fmt: skip
+    line = f"normal load {est['normal_N']:.3f} N (+- {est['normal_sigma_N']:.2g} N"
+    line += f", {len(est['per_feature'])} features, spread {est['spread_N']:.2g} N)"
+    if "shear_N" in est:
+        line += f"; shear [{est['shear_N'][0]:.3f}, {est['shear_N'][1]:.3f}] N"
+    print(line)
+    return 0
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="fringekit",
@@ -283,6 +345,38 @@ def _parser() -> argparse.ArgumentParser:
     co.add_argument("--rotation-deg", type=float, default=0.0)
     co.add_argument("--quiet", action="store_true")
     co.set_defaults(func=_cmd_compare)
+    ca = sub.add_parser(
+        "calibrate",
+        help="load-to-fringe relations from a load path, or the fringe value from a disc",
+    )
+    ca.add_argument(
+        "config", nargs="?", default=None,
+        help="config with a load path (default: the reference case at 1..10 N)",
+    )  # fmt: skip
+    ca.add_argument("--set", action="append", metavar="TABLE.KEY=VALUE")
+    ca.add_argument("--out", default=None, help="output folder (default fringekit-out/<case>)")
+    ca.add_argument("--cache-dir", default=None)
+    ca.add_argument("--no-cache", action="store_true")
+    ca.add_argument("--quiet", action="store_true")
+    ca.add_argument(
+        "--disc", default=None, metavar="MAPS",
+        help="fringe-order map of a diametral disc (transmission): fit f_sigma",
+    )  # fmt: skip
+    ca.add_argument("--load-N", type=float, default=None, help="(disc) diametral load")
+    ca.add_argument("--diameter-mm", type=float, default=None, help="(disc) diameter")
+    ca.add_argument("--thickness-mm", type=float, default=None, help="(disc) thickness")
+    ca.add_argument("--pixel-mm", type=float, default=None)
+    ca.add_argument("--centre", nargs=2, type=float, metavar=("ROW", "COL"))
+    ca.set_defaults(func=_cmd_calibrate)
+    es = sub.add_parser("estimate", help="load (and shear) from a fringe-order map")
+    es.add_argument("maps", help="maps.npz, or a fringekit analyze / predict output folder")
+    es.add_argument("--calibration", required=True, help="calibration.json from calibrate")
+    es.add_argument("--pixel-mm", type=float, default=None)
+    es.add_argument("--centre", nargs=2, type=float, metavar=("ROW", "COL"),
+                    help="indenter axis in pixels (default: stored in the maps)")  # fmt: skip
+    es.add_argument("--out", default=None)
+    es.add_argument("--quiet", action="store_true")
+    es.set_defaults(func=_cmd_estimate)
     m = sub.add_parser("mesh", help="mesh the reference sensor (or a variant) and export VTU")
     m.add_argument("--symmetry", choices=("full", "half", "quarter"), default="quarter")
     m.add_argument("--thickness-mm", type=float, default=3.0, help="sheet thickness (mm)")

@@ -34,7 +34,14 @@ import numpy as np
 
 from .config import ConfigError, to_toml
 
-__all__ = ["PredictError", "choose_symmetry", "build_inputs", "run_predict"]
+__all__ = [
+    "PredictError",
+    "choose_symmetry",
+    "build_inputs",
+    "solve_config",
+    "fringe_order_map",
+    "run_predict",
+]
 
 log = logging.getLogger("fringekit.predict")
 
@@ -224,6 +231,54 @@ def _optics_setup(cfg: dict):
     }
     err = {k: v for k, v in err.items() if v != 0.0}
     return law, grid, camera, err
+
+
+def fringe_order_map(sol, cfg: dict, optics=None):
+    """Monochrome fringe-order map of one solution on the config's pixel grid.
+
+    Returns
+    -------
+    order : (rows, cols) total fringe order at ``optics.wavelength_nm``, NaN outside the
+        sheet and in contact zones
+    grid : optics.PixelGrid
+    centres_rc : (m, 2) each indenter's current axis in pixels (row, col)
+    """
+    from optics import FEMStressField, integrate_samples, sample_rays
+    from optics.opticalmap import OpticalMap
+
+    law, grid, _, _ = optics or _optics_setup(cfg)
+    samples = sample_rays(FEMStressField(sol), grid, cfg["optics"]["samples_per_ray"])
+    q, simple = integrate_samples(samples, law, law.wavelength_ref)
+    rows, cols = grid.shape
+    omap = OpticalMap(
+        grid=grid,
+        wavelengths=np.array([law.wavelength_ref]),
+        q=q.reshape(rows, cols, 1, 4),
+        simple_order=np.where(samples.valid, simple, np.nan).reshape(rows, cols),
+        mask=samples.valid.reshape(rows, cols),
+        reflection=True,
+        law=law,
+    )
+    centres = np.array([grid.xy_to_pixel(i.centre[0], i.centre[1]) for i in sol.indenters])
+    return omap.fringe_order(), grid, centres
+
+
+def solve_config(cfg: dict, *, cache_dir=None, use_cache: bool = True, progress: bool = True):
+    """Mesh and solve a config through the caches: (mesh, solutions, stats, failure text)."""
+    from fea import SolverError
+    from fea.store import solve_cached
+    from meshes import build_mesh
+
+    spec, indenters, materials, contact, settings = build_inputs(cfg)
+    mesh = build_mesh(spec, cache_dir=cache_dir, use_cache=use_cache)
+    try:
+        sols, stats, _ = solve_cached(
+            mesh, indenters, materials=materials, contact=contact, settings=settings,
+            cache_dir=cache_dir, use_cache=use_cache, progress=progress,
+        )  # fmt: skip
+        return mesh, sols, stats, None
+    except SolverError as exc:
+        return mesh, exc.solutions, None, str(exc)
 
 
 def _write_map_figure(path, data, grid, title, label, cmap, mask_value=np.nan) -> None:

@@ -299,3 +299,43 @@ def test_analyze_and_compare_bad_input(tiny_images, capsys):
     assert "needs colour" in capsys.readouterr().err
     assert main(["compare", str(root / "nowhere"), str(root / "nowhere")]) == 2
     assert "no maps.npz" in capsys.readouterr().err
+
+
+def test_calibrate_and_estimate_end_to_end(tiny_images, cache_dir, capsys):
+    """One continuation run 2..8 N calibrates; the 8 N prediction and its six-step
+    analysis give 8 N back."""
+    root, out96, d, geo, border = tiny_images
+    cfg = root / "cal.toml"
+    cfg.write_text(
+        TINY.replace("load_N = [8.0]", "load_N = [2.0, 4.0, 6.0, 8.0]").replace(
+            "pixels = 32", "pixels = 64"
+        )
+    )
+    cal_dir = root / "cal"
+    args = ["calibrate", str(cfg), "--out", str(cal_dir), "--cache-dir", str(cache_dir)]
+    assert main([*args, "--quiet"]) == 0
+    cal = json.loads((cal_dir / "calibration.json").read_text())
+    assert cal["loads_N"] == pytest.approx([2, 4, 6, 8], rel=1e-6)
+    fit = cal["normal_fits"]["order_at_3mm"]
+    assert 0.8 < fit["b"] < 1.6 and fit["sigma_logF"] < 0.05
+    assert (cal_dir / "calibration.png").stat().st_size > 1000
+    feats = np.loadtxt(cal_dir / "features.csv", delimiter=",", skiprows=1)
+    assert feats.shape[0] == 4
+    calf = str(cal_dir / "calibration.json")
+    assert main(["estimate", str(out96), "--calibration", calf]) == 0
+    line = capsys.readouterr().out
+    est = float(line.split("normal load")[1].split("N")[0])
+    assert est == pytest.approx(8.0, rel=0.03)
+    an = root / "an_est"
+    steps = [str(d / "six_step" / f"step{k}.png") for k in range(1, 7)]
+    assert main(["analyze", *steps, "--out", str(an), "--anchor-order", str(border), *geo,
+                 "--quiet"]) == 0  # fmt: skip
+    centre = geo[1:3]
+    assert main(["estimate", str(an), "--calibration", calf, "--centre", *centre,
+                 "--out", str(an)]) == 0  # fmt: skip
+    got = json.loads((an / "estimate.json").read_text())
+    assert got["normal_N"] == pytest.approx(8.0, rel=0.03)
+    capsys.readouterr()
+    assert main(["calibrate", str(root / "tiny.toml"), "--out", str(root / "c1")]) == 2
+    assert "at least 3 different loads" in capsys.readouterr().err
+    assert main(["estimate", str(an), "--calibration", str(root / "none.json")]) == 2

@@ -1,0 +1,335 @@
+"""Load-to-fringe calibration, inverse load estimates, and the fringe value from a disc.
+
+Features of a fringe-order map about an indenter axis (:func:`fringe_features`):
+
+- ``order_at_<r>mm`` - azimuthal mean of the fringe order on the circle of radius r;
+- ``radius_fringe_<k>`` - outermost radius (mm) where the azimuthal mean reaches order k
+  (k = 1, 2, 3): the radii of the first, second and third dark fringes of a monochrome
+  dark-field image;
+- ``integrated_order`` - the order integrated over the annulus ``r_in <= r <= r_out``
+  (fringe mm^2), inside the contact-free zone at every calibrated load;
+- ``centroid_x_mm``, ``centroid_y_mm`` - first moment of the order over that annulus about
+  the axis (mm): the shift of the pattern that shear causes (seed paper Fig. 3b).
+
+A calibration (:func:`calibrate_from_maps`) fits, for each feature that grows with the
+normal load, ``F = a feature^b`` by least squares in log-log (a power law: Hertz gives
+b = 3/2 for order-like features and b = 3 for radii); its uncertainty is the residual
+scatter in log F, which :func:`estimate_load` turns into a relative standard uncertainty
+of each per-feature estimate, then combines them by inverse-variance weighting (the
+features are correlated, so the combined uncertainty is reported as the smallest
+per-feature one, not the weighted-mean formula). Where the load path carries shear,
+``shear_x = c0 + c1 centroid_x`` (and y) are fitted linearly.
+
+:func:`fringe_value_from_disc` fits the fringe value f_sigma of a diametral disc at a known
+load to a measured fringe-order map in transmission (Frocht's closed form,
+:class:`optics.DiametralDisc`).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+__all__ = [
+    "RADII_MM",
+    "fringe_features",
+    "calibrate_from_maps",
+    "estimate_load",
+    "save_calibration",
+    "load_calibration",
+    "fringe_value_from_disc",
+]
+
+#: Radii (mm) at which the order is sampled; beyond the 8 N contact radius (1.2 mm).
+RADII_MM = (1.5, 2.0, 3.0, 4.0, 6.0)
+CAL_VERSION = 1
+
+
+def _radial_profile(order, pixel_size, centre_rc):
+    """Azimuthal mean of the order in 1-pixel annuli: (r_mm, mean), NaN where no pixel."""
+    rows, cols = order.shape
+    r, c = np.mgrid[:rows, :cols]
+    dist = np.hypot(r - centre_rc[0], c - centre_rc[1])
+    ok = np.isfinite(order)
+    k = np.round(dist).astype(np.int64)
+    n = np.bincount(k[ok], minlength=k.max() + 1)
+    s = np.bincount(k[ok], weights=order[ok], minlength=k.max() + 1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(n > 0, s / np.maximum(n, 1), np.nan)
+    return np.arange(len(mean)) * pixel_size * 1e3, mean
+
+
+def fringe_features(
+    order: np.ndarray,
+    pixel_size: float,
+    centre_rc: tuple[float, float],
+    *,
+    radii_mm=RADII_MM,
+    fringes=(1, 2, 3),
+    r_in_mm: float = 2.0,
+    r_out_mm: float = 6.0,
+) -> dict[str, float]:
+    """Scalar features of a fringe-order map about an indenter axis.
+
+    Parameters
+    ----------
+    order : (rows, cols) fringe order, NaN where unknown (masks, the contact zone)
+    pixel_size : float (m)
+    centre_rc : (row, col) the indenter axis in pixels
+    radii_mm, fringes, r_in_mm, r_out_mm : see the module docstring
+
+    Returns
+    -------
+    dict of float (NaN where a feature is not defined, e.g. a fringe the load does not reach)
+    """
+    order = np.asarray(order, float)
+    if order.ndim != 2:
+        raise ValueError(f"fringe order map shape {order.shape} is not allowed; need (rows, cols)")
+    if not (pixel_size > 0 and np.isfinite(pixel_size)):
+        raise ValueError(f"pixel_size = {pixel_size!r} m is not allowed; must be > 0")
+    r_mm, prof = _radial_profile(order, pixel_size, centre_rc)
+    ok = np.isfinite(prof)
+    out: dict[str, float] = {}
+    for rr in radii_mm:
+        inside = ok & (np.abs(r_mm - rr) <= 1.5 * pixel_size * 1e3)
+        out[f"order_at_{rr:g}mm"] = (
+            float(np.interp(rr, r_mm[ok], prof[ok])) if inside.any() else float("nan")
+        )
+    for k in fringes:
+        above = ok & (prof >= k)
+        if not above.any():
+            out[f"radius_fringe_{k}"] = float("nan")
+            continue
+        i = int(np.flatnonzero(above)[-1])  # the outermost annulus at or above order k
+        j = next((m for m in range(i + 1, len(prof)) if ok[m]), None)
+        if j is None:
+            out[f"radius_fringe_{k}"] = float("nan")  # the fringe runs off the image
+            continue
+        f = (prof[i] - k) / (prof[i] - prof[j])
+        out[f"radius_fringe_{k}"] = float(r_mm[i] + f * (r_mm[j] - r_mm[i]))
+    rows, cols = order.shape
+    r, c = np.mgrid[:rows, :cols]
+    dx = (c - centre_rc[1]) * pixel_size * 1e3
+    dy = -(r - centre_rc[0]) * pixel_size * 1e3  # rows grow downwards, y upwards
+    dist = np.hypot(dx, dy)
+    ring = np.isfinite(order) & (dist >= r_in_mm) & (dist <= r_out_mm)
+    # the annulus must be covered (a masked or clipped annulus would bias the integral)
+    full = (np.pi * (r_out_mm**2 - r_in_mm**2)) / (pixel_size * 1e3) ** 2
+    if ring.sum() < 0.9 * full:
+        out["integrated_order"] = float("nan")
+        out["centroid_x_mm"] = out["centroid_y_mm"] = float("nan")
+    else:
+        w = np.where(ring, order, 0.0)
+        out["integrated_order"] = float(w.sum() * (pixel_size * 1e3) ** 2)
+        out["centroid_x_mm"] = float((w * dx).sum() / w.sum())
+        out["centroid_y_mm"] = float((w * dy).sum() / w.sum())
+    return out
+
+
+def _power_fit(loads, values):
+    """F = a v^b by least squares on log F vs log v; returns dict or None."""
+    loads, values = np.asarray(loads, float), np.asarray(values, float)
+    ok = np.isfinite(values) & (values > 0) & (loads > 0)
+    if ok.sum() < 3 or np.ptp(np.log(values[ok])) < 1e-6 or np.ptp(np.log(loads[ok])) < 1e-9:
+        return None  # nothing to fit: fewer than 3 states, or feature or load constant
+    x, y = np.log(values[ok]), np.log(loads[ok])
+    (b, loga), cov = np.polyfit(x, y, 1, cov="unscaled")
+    resid = y - (loga + b * x)
+    dof = max(ok.sum() - 2, 1)
+    s2 = float(resid @ resid / dof)
+    return {
+        "model": "F = a * v**b",
+        "a": float(np.exp(loga)),
+        "b": float(b),
+        "cov_b_loga": (np.asarray(cov) * s2).tolist(),
+        "sigma_logF": float(np.sqrt(s2)),
+        "n": int(ok.sum()),
+        "range": [float(values[ok].min()), float(values[ok].max())],
+    }
+
+
+def _linear_fit(y, x):
+    y, x = np.asarray(y, float), np.asarray(x, float)
+    ok = np.isfinite(x) & np.isfinite(y)
+    if ok.sum() < 3 or np.ptp(y[ok]) == 0:
+        return None
+    (c1, c0), cov = np.polyfit(x[ok], y[ok], 1, cov="unscaled")
+    resid = y[ok] - (c0 + c1 * x[ok])
+    s2 = float(resid @ resid / max(ok.sum() - 2, 1))
+    return {"model": "y = c0 + c1 * v", "c0": float(c0), "c1": float(c1),
+            "sigma": float(np.sqrt(s2)), "n": int(ok.sum())}  # fmt: skip
+
+
+def calibrate_from_maps(loads_N, shears_N, features: list[dict]) -> dict:
+    """Fit load-to-feature relations.
+
+    Parameters
+    ----------
+    loads_N : (S,) normal load at each state (N)
+    shears_N : (S, 2) shear at each state (N)
+    features : S dicts from :func:`fringe_features`
+    """
+    names = sorted(features[0])
+    table = {n: [f[n] for f in features] for n in names}
+    loads = np.asarray(loads_N, float)
+    shears = np.asarray(shears_N, float).reshape(len(loads), 2)
+    normal = {}
+    for n in names:
+        if n.startswith("centroid"):
+            continue
+        fit = _power_fit(loads, table[n])
+        if fit is not None:
+            normal[n] = fit
+    shear = {}
+    for axis, n in ((0, "centroid_x_mm"), (1, "centroid_y_mm")):
+        fit = _linear_fit(shears[:, axis], table[n])
+        if fit is not None:
+            shear[f"shear_{'xy'[axis]}_N"] = {**fit, "feature": n}
+    if not normal and not shear:
+        raise ValueError(
+            "no feature changes with the load along this path: give at least 3 load states "
+            "with different normal loads (or shear forces)"
+        )
+    return {
+        "version": CAL_VERSION,
+        "loads_N": loads.tolist(),
+        "shears_N": shears.tolist(),
+        "features": table,
+        "normal_fits": normal,
+        "shear_fits": shear,
+    }
+
+
+def estimate_load(cal: dict, features: dict, *, extrapolate: float = 0.1) -> dict:
+    """Invert a calibration: the normal load (and shear, where calibrated) from features.
+
+    Features outside the calibrated range by more than ``extrapolate`` (relative) are not
+    used. Returns ``{"normal_N", "normal_sigma_N", "per_feature": {...}, "shear_N"}``.
+    """
+    per = {}
+    if not cal["normal_fits"]:  # a shear-only calibration at one normal load
+        loads = np.asarray(cal["loads_N"], float)
+        out = {
+            "normal_N": float(loads.mean()),
+            "normal_sigma_N": float("nan"),
+            "spread_N": 0.0,
+            "per_feature": {},
+            "note": "calibrated at a single normal load; the normal load is that load",
+        }
+        out["shear_N"] = _shear(cal, features)
+        return out
+    for n, fit in cal["normal_fits"].items():
+        v = features.get(n, np.nan)
+        lo, hi = fit["range"]
+        if (
+            not (np.isfinite(v) and v > 0)
+            or v < lo * (1 - extrapolate)
+            or v > hi * (1 + extrapolate)
+        ):
+            continue
+        F = fit["a"] * v ** fit["b"]
+        per[n] = {"value": float(v), "load_N": float(F), "sigma_N": float(F * fit["sigma_logF"])}
+    if not per:
+        raise ValueError(
+            "no feature of this map lies in the calibrated range; the load is outside the "
+            "calibration or the map does not show the indenter (check the centre and pixel size)"
+        )
+    sig = np.array([max(p["sigma_N"], 1e-9 * p["load_N"]) for p in per.values()])
+    F = np.array([p["load_N"] for p in per.values()])
+    w = 1 / sig**2
+    out = {
+        "normal_N": float((w * F).sum() / w.sum()),
+        "normal_sigma_N": float(sig.min()),
+        "spread_N": float(F.max() - F.min()),
+        "per_feature": per,
+    }
+    if cal.get("shear_fits"):
+        out["shear_N"] = _shear(cal, features)
+    return out
+
+
+def _shear(cal: dict, features: dict) -> list[float]:
+    """Shear (fx, fy) from the centroid fits; an axis without a fit gets 0 (not calibrated)."""
+    sh = []
+    for axis in "xy":
+        fit = cal["shear_fits"].get(f"shear_{axis}_N")
+        v = features.get(fit["feature"], np.nan) if fit else np.nan
+        sh.append(float(fit["c0"] + fit["c1"] * v) if fit and np.isfinite(v) else 0.0)
+    return sh
+
+
+def save_calibration(cal: dict, path: str | os.PathLike) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".part")
+    tmp.write_text(json.dumps(cal, indent=2, default=float))
+    os.replace(tmp, path)
+    return path
+
+
+def load_calibration(path: str | os.PathLike) -> dict:
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"calibration file {str(path)!r} does not exist")
+    try:
+        cal = json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path}: not a fringekit calibration (invalid JSON: {exc})") from None
+    if not isinstance(cal, dict) or cal.get("version") != CAL_VERSION or "normal_fits" not in cal:
+        raise ValueError(f"{path}: not a fringekit calibration file (version {CAL_VERSION})")
+    return cal
+
+
+def fringe_value_from_disc(
+    order: np.ndarray,
+    pixel_size: float,
+    centre_rc: tuple[float, float],
+    *,
+    load_N: float,
+    diameter: float,
+    thickness: float,
+    r_max: float = 0.45,
+) -> dict:
+    """Fringe value f_sigma (N/m per fringe) of a diametral disc at a known load.
+
+    Least squares over the pixels within ``r_max`` D of the centre (away from the load
+    points) of N = t (sigma1 - sigma2)(x, y) / f_sigma (transmission, Frocht's field);
+    the load axis is the image's vertical. Also returns the centre-only estimate
+    8 P / (pi D N_centre) (DESIGN.md).
+    """
+    from optics import DiametralDisc
+
+    order = np.asarray(order, float)
+    for name, v in (("load_N", load_N), ("diameter", diameter), ("thickness", thickness),
+                    ("pixel_size", pixel_size)):  # fmt: skip
+        if not (np.isfinite(v) and v > 0):
+            raise ValueError(f"{name} = {v!r} is not allowed; must be > 0")
+    rows, cols = order.shape
+    r, c = np.mgrid[:rows, :cols]
+    xy = np.stack([(c - centre_rc[1]) * pixel_size, -(r - centre_rc[0]) * pixel_size], -1)
+    disc = DiametralDisc(P=load_N, D=diameter, t=thickness)
+    inside = np.hypot(xy[..., 0], xy[..., 1]) <= r_max * diameter
+    use = inside & np.isfinite(order)
+    if use.sum() < 10:
+        raise ValueError(
+            "fewer than 10 measured pixels inside the disc: check the centre, pixel size "
+            "and diameter"
+        )
+    S = thickness * disc.stress_difference(xy[use])  # N/m: N = S / f_sigma
+    Nm = order[use]
+    inv_f = float((S * Nm).sum() / (S * S).sum())
+    f = 1.0 / inv_f
+    resid = Nm - S * inv_f
+    rc, cc = int(round(centre_rc[0])), int(round(centre_rc[1]))
+    n_c = order[rc, cc] if 0 <= rc < rows and 0 <= cc < cols else np.nan
+    return {
+        "f_sigma_N_per_m": f,
+        "rms_residual_fringe": float(np.sqrt(np.mean(resid**2))),
+        "pixels": int(use.sum()),
+        "f_sigma_centre_N_per_m": float(8 * load_N / (np.pi * diameter * n_c))
+        if np.isfinite(n_c) and n_c > 0
+        else None,
+    }

@@ -13,8 +13,7 @@ Subcommands available now:
 
 - ``calibrate [CONFIG]``: load-to-fringe relations over a load path, or ``--disc`` the
   fringe value from a disc; ``estimate MAPS --calibration FILE``: the load back.
-
-``sweep`` is still to come.
+- ``sweep SWEEP.toml``: a grid or list of cases on Dask, resumable (analysis.sweep).
 Exit status: 0 success, 2 a user error (bad config or input; one line, no traceback),
 1 a run that failed (the solver did not reach a load; what converged is written).
 """
@@ -30,8 +29,6 @@ from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 __all__ = ["main"]
-
-PLANNED = ("sweep",)
 
 
 def _version() -> str:
@@ -86,42 +83,19 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
 
 def _overrides(cfg_source, sets: list[str], base: dict | None = None) -> dict:
     """Effective config from CONFIG (or ``base``) plus ``--set table.key=value`` overrides."""
-    import copy
-
-    from .config import ConfigError, effective_config, load_config, tomllib
+    from .config import ConfigError, apply_overrides, load_config, tomllib
 
     base = load_config(cfg_source) if base is None or cfg_source is not None else base
-    if not sets:
-        return base
-    given = copy.deepcopy(base)
+    values = {}
     for item in sets:
         key, sep, text = item.partition("=")
-        parts = key.strip().split(".")
-        if not sep or not all(parts):
+        if not sep or not key.strip():
             raise ConfigError(f"--set {item!r} is not allowed; use --set table.key=value")
         try:
-            value = tomllib.loads(f"v = {text.strip()}")["v"]
+            values[key.strip()] = tomllib.loads(f"v = {text.strip()}")["v"]
         except tomllib.TOMLDecodeError:
-            value = text.strip()  # a bare word is a string
-        node = given
-        for p in parts[:-1]:
-            if p == "indenter":
-                node = node["indenter"][0]
-                continue
-            if p not in node or not isinstance(node[p], dict):
-                raise ConfigError(f"--set {item!r}: unknown table {p!r}")
-            node = node[p]
-        node[parts[-1]] = value
-        other = {"depth_mm": "load_N", "load_N": "depth_mm"}.get(parts[-1])
-        if parts[0] == "indenter" and other:
-            node.pop(other, None)  # setting one control mode replaces the other
-    for d in given["indenter"]:  # keep only what was given or set, so checks see the user's keys
-        if d.get("load_N") is None:
-            d.pop("load_N", None)
-        for k in ("depth_mm", "shear_N"):
-            if d.get(k) is None:
-                d.pop(k, None)
-    return effective_config(given)
+            values[key.strip()] = text.strip()  # a bare word is a string
+    return apply_overrides(base, values) if values else base
 
 
 def _cmd_predict(args: argparse.Namespace) -> int:
@@ -274,12 +248,31 @@ def _cmd_estimate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from .sweep import load_sweep, run_sweep
+
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"--workers = {args.workers} is not allowed; must be >= 1")
+    sweep = load_sweep(args.sweep)
+    out = Path(args.out) if args.out else Path("fringekit-out") / sweep["name"]
+    res = run_sweep(
+        sweep, out, scheduler=args.scheduler, workers=args.workers, cache_dir=args.cache_dir,
+        progress=not args.quiet,
+    )  # fmt: skip
+    if not args.quiet:
+        print(
+            f"fringekit sweep {sweep['name']}: {res['cases']} cases ({res['run']} run, "
+            f"{res['skipped']} already finished, {res['failed']} failed) in {res['time_s']:.1f} s;"
+            f" table {res['table']}"
+        )
+    return 1 if res["failed"] else 0
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="fringekit",
         description="Contact stress and photoelastic fringe prediction for photoelastic "
         "tactile sensors.",
-        epilog="Planned subcommands (not yet available): " + ", ".join(PLANNED),
     )
     p.add_argument("--version", action="version", version=f"fringekit {_version()}")
     sub = p.add_subparsers(dest="command")
@@ -377,6 +370,14 @@ def _parser() -> argparse.ArgumentParser:
     es.add_argument("--out", default=None)
     es.add_argument("--quiet", action="store_true")
     es.set_defaults(func=_cmd_estimate)
+    sw = sub.add_parser("sweep", help="run a grid or list of cases in parallel (Dask)")
+    sw.add_argument("sweep", help="sweep TOML file (base, [set], [grid] or [[case]])")
+    sw.add_argument("--out", default=None, help="output folder (default fringekit-out/<name>)")
+    sw.add_argument("--scheduler", default=None, help="address of an existing Dask scheduler")
+    sw.add_argument("--workers", type=int, default=None, help="local worker processes")
+    sw.add_argument("--cache-dir", default=None)
+    sw.add_argument("--quiet", action="store_true")
+    sw.set_defaults(func=_cmd_sweep)
     m = sub.add_parser("mesh", help="mesh the reference sensor (or a variant) and export VTU")
     m.add_argument("--symmetry", choices=("full", "half", "quarter"), default="quarter")
     m.add_argument("--thickness-mm", type=float, default=3.0, help="sheet thickness (mm)")
@@ -406,6 +407,8 @@ def main(argv: list[str] | None = None) -> int:
         level=logging.WARNING if getattr(args, "quiet", False) else logging.INFO,
         format="%(name)s: %(message)s",
     )
+    for noisy in ("distributed", "tornado", "bokeh"):  # Dask's cluster chatter
+        logging.getLogger(noisy).setLevel(logging.WARNING)
     from .predict import PredictError
 
     try:

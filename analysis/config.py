@@ -32,6 +32,7 @@ __all__ = [
     "Key",
     "SCHEMA",
     "INDENTER_SCHEMA",
+    "apply_overrides",
     "effective_config",
     "load_config",
     "to_toml",
@@ -372,6 +373,47 @@ def load_config(source: str | os.PathLike | None = None) -> dict:
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path}: not valid TOML: {exc}") from None
     given.setdefault("case", path.stem)
+    return effective_config(given)
+
+
+def apply_overrides(cfg: dict, overrides: dict[str, Any]) -> dict:
+    """``cfg`` with dotted-key values replaced, checked again as a whole.
+
+    Keys are ``"table.key"`` (``"sheet.E_MPa"``), ``"case"``, or ``"indenter.key"`` /
+    ``"indenter[k].key"`` (indenter 0 / k). Setting ``load_N`` replaces ``depth_mm`` and
+    the other way round.
+    """
+    import re
+
+    given = copy.deepcopy(cfg)
+    for key, value in overrides.items():
+        parts = key.split(".")
+        if key == "case":
+            given["case"] = value
+            continue
+        if len(parts) != 2 or not all(parts):
+            raise ConfigError(f"override key {key!r} is not allowed; use table.key")
+        table, name = parts
+        m = re.fullmatch(r"indenter(?:\[(\d+)\])?", table)
+        if m:
+            k = int(m.group(1) or 0)
+            if k >= len(given["indenter"]):
+                raise ConfigError(
+                    f"override {key!r}: there are {len(given['indenter'])} indenters (0-based)"
+                )
+            node = given["indenter"][k]
+            other = {"depth_mm": "load_N", "load_N": "depth_mm"}.get(name)
+            if other:
+                node.pop(other, None)  # setting one control mode replaces the other
+        elif isinstance(SCHEMA.get(table), dict):
+            node = given[table]
+        else:
+            raise ConfigError(f"override {key!r}: unknown table {table!r}")
+        node[name] = value
+    for d in given["indenter"]:  # only given or set keys, so the checks see the user's keys
+        for k in ("load_N", "depth_mm", "shear_N"):
+            if d.get(k) is None:
+                d.pop(k, None)
     return effective_config(given)
 
 

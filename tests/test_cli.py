@@ -399,3 +399,14 @@ def test_sweep_killed_then_resumed_matches_an_uninterrupted_run(tiny_run, cache_
     (root / "bad_sweep.toml").write_text('[grid]\n"sheet.E_MPa" = [-1.0]\n')
     assert main(["sweep", str(root / "bad_sweep.toml")]) == 2
     assert "sheet.E_MPa = -1.0" in capsys.readouterr().err
+
+
+def test_mesh_command(tmp_path, cache_dir, capsys):
+    args = ["mesh", "--width-mm", "12", "--substrate-mm", "4", "--h-contact-mm", "0.6",
+            "--refine-radius-mm", "1.5", "--h-sheet-mm", "1.5", "--h-far-mm", "3",
+            "--cache-dir", str(cache_dir), "--out", str(tmp_path / "m")]  # fmt: skip
+    assert main(args) == 0
+    s = json.loads((tmp_path / "m" / "mesh_summary.json").read_text())
+    assert s["quality"]["n_cells"] > 0 and (tmp_path / "m" / "mesh.vtu").stat().st_size > 0
+    assert main(["mesh", "--thickness-mm", "-1", "--out", str(tmp_path / "n")]) == 2
+    assert "sheet_thickness = -0.001" in capsys.readouterr().err

@@ -163,25 +163,27 @@ class Resolution:
     unreliable: np.ndarray
 
 
-def _edges(valid: np.ndarray, *, reach: int = 2):
-    """Flat index pairs of valid pixels 1..``reach`` apart along a row or a column.
+def _edges(valid: np.ndarray, weak: np.ndarray | None = None):
+    """Flat index pairs of valid 4-neighbours, plus pairs two apart across a weak pixel.
 
-    Pairs two apart let the ambiguity tree step over a pixel that sits on a fringe
-    contour where sin d ~ 0: that pixel's vector is tiny and its direction is noise, so
-    the two relations through it are a coin toss each, while the pair across it measures
-    the sign change directly (seen on an 8-bit indentation image: one such pixel line
-    around the order-1 ring flipped the whole inner field).
+    A pixel on a fringe contour (sin d ~ 0, ``weak``) has a tiny vector whose direction is
+    noise, so the two relations through it are a coin toss each, while the pair across it
+    measures the sign change directly (seen on 8-bit FEM indentation images: one such pixel
+    line around the order-1 ring flipped the whole field inside it). The pixel between
+    must be valid, so the groups stay the 4-connected regions ``unwrap_phase`` unwraps.
     """
     idx = np.arange(valid.size).reshape(valid.shape)
     v = valid.ravel()
     p, q = [], []
-    for k in range(1, reach + 1):
-        for a, b in ((idx[:, :-k], idx[:, k:]), (idx[:-k, :], idx[k:, :])):
-            ok = v[a] & v[b]
-            # pixels in between must be valid too: the groups stay the 4-connected
-            # regions that unwrap_phase unwraps independently
-            for j in range(1, k):
-                ok &= v[(a + j * (b - a) // k)]
+    for a, b in ((idx[:, :-1], idx[:, 1:]), (idx[:-1, :], idx[1:, :])):
+        ok = v[a] & v[b]
+        p.append(a[ok])
+        q.append(b[ok])
+    if weak is not None:
+        w = weak.ravel() & v
+        for a, m, b in ((idx[:, :-2], idx[:, 1:-1], idx[:, 2:]),
+                        (idx[:-2, :], idx[1:-1, :], idx[2:, :])):  # fmt: skip
+            ok = v[a] & w[m] & v[b]
             p.append(a[ok])
             q.append(b[ok])
     return np.concatenate(p), np.concatenate(q)
@@ -213,7 +215,7 @@ def resolve_ambiguity(result: SixStep, *, conflict_weight: float = 0.05) -> Reso
     amp = result.modulation * np.sin(d)  # = |v| >= 0 on the atan2 branch
     vx = (amp * np.cos(2 * th)).ravel()
     vy = (amp * np.sin(2 * th)).ravel()
-    p, q = _edges(valid)
+    p, q = _edges(valid, weak=np.abs(amp) < 0.3 * np.maximum(result.modulation, 1e-12))
     dot = vx[p] * vx[q] + vy[p] * vy[q]
     n = valid.size
     sign = np.zeros(n, np.int8)

@@ -301,7 +301,9 @@ def _write_map_figure(path, data, grid, title, label, cmap, mask_value=np.nan) -
     plt.close(fig)
 
 
-def _render_state(sol, k: int, cfg: dict, out: Path, optics, progress) -> dict:
+def _render_state(
+    sol, k: int, cfg: dict, out: Path, optics, progress, show_bars: bool = False
+) -> dict:
     """Write the VTU, maps, images and figures of one load state; return its figures."""
     import matplotlib
 
@@ -335,7 +337,7 @@ def _render_state(sol, k: int, cfg: dict, out: Path, optics, progress) -> dict:
 
     t0 = time.perf_counter()
     field = FEMStressField(sol)
-    samples = sample_rays(field, grid, o["samples_per_ray"])
+    samples = sample_rays(field, grid, o["samples_per_ray"], progress=show_bars)
     if not samples.valid.any():
         raise ConfigError(
             f"optics: the field of view (centre {o['center_mm']} mm, width "
@@ -519,7 +521,7 @@ def run_predict(
     rendered = []
     for k in render:
         say(f"optics: state {k + 1} of {len(sols)}")
-        rendered.append(_render_state(sols[k], k, cfg, out, optics, say))
+        rendered.append(_render_state(sols[k], k, cfg, out, optics, say, progress))
 
     final = sols[-1] if sols else None
     summary = {

@@ -100,13 +100,16 @@ class RaySamples:
     valid: np.ndarray
 
 
-def sample_rays(field, grid: PixelGrid, n_samples: int, *, chunk: int = 1 << 14) -> RaySamples:
+def sample_rays(
+    field, grid: PixelGrid, n_samples: int, *, chunk: int = 1 << 14, progress: bool = False
+) -> RaySamples:
     """Sample ``field`` at ``n_samples`` slab midpoints along each pixel's vertical ray.
 
     The ray runs from the layer's bottom to its top (``field.z_range``); slabs of equal
     thickness, stress taken at their midpoints (midpoint rule, 2nd order in 1/S).
     Rays are processed in blocks of ``chunk`` so the (chunk, S, 3, 3) stress block
-    stays small; invalid rays get zero stress and zero thickness.
+    stays small; invalid rays get zero stress and zero thickness. ``progress`` shows a
+    bar over the blocks.
     """
     if int(n_samples) < 1:
         raise ValueError(f"n_samples = {n_samples!r} is not allowed; need >= 1")
@@ -119,7 +122,10 @@ def sample_rays(field, grid: PixelGrid, n_samples: int, *, chunk: int = 1 << 14)
     ds = np.zeros((P, n_samples))
     theta = np.zeros((P, n_samples))
     idx = np.flatnonzero(valid)
-    for start in range(0, idx.size, chunk):
+    from tqdm.auto import tqdm
+
+    starts = range(0, idx.size, chunk)
+    for start in tqdm(starts, desc="rays", unit="block", disable=not progress, leave=False):
         rows = idx[start : start + chunk]
         pts = np.empty((rows.size, n_samples, 3))
         pts[..., 0] = xy[rows, 0, None]

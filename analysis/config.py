@@ -176,6 +176,22 @@ SCHEMA: dict[str, Any] = {
         "center_mm": Key([0.0, 0.0], "field-of-view centre [x, y]", "mm", "point", -1e3, 1e3),
         "pixels": Key(256, "image size (pixels x pixels)", kind="int", lo=8, hi=4096),
         "samples_per_ray": Key(64, "slabs per ray through the sheet", kind="int", lo=4, hi=4096),
+        "include_substrate": Key(
+            False,
+            "also integrate through the polycarbonate (light enters from the PC side)",
+            kind="bool",
+        ),
+        "substrate_f_sigma_N_per_m": _f(
+            7000.0,
+            "polycarbonate fringe value at wavelength_nm (handbook, assumed)",
+            "N/m",
+            0,
+            1e9,
+            True,
+        ),  # fmt: skip
+        "substrate_samples_per_ray": Key(
+            32, "slabs per ray through the polycarbonate", kind="int", lo=2, hi=4096
+        ),
         "light": Key("LED", "white-light source", kind="str", choices=("LED", "A", "D65")),
         "white_light_wavelengths": Key(
             31, "wavelengths 400-700 nm for white light", kind="int", lo=3, hi=301
@@ -248,6 +264,10 @@ def _check(name: str, v, k: Key):
             raise _bad(name, v, "give a non-empty string")
         if k.choices is not None and v not in k.choices:
             raise _bad(name, v, f"allowed values {list(k.choices)}")
+        return v
+    if k.kind == "bool":
+        if not isinstance(v, bool):
+            raise _bad(name, v, "give true or false")
         return v
     if k.kind == "friction":
         if v == "stick":

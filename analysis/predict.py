@@ -230,7 +230,41 @@ def _optics_setup(cfg: dict):
         "analyser": math.radians(o["analyser_error_deg"]),
     }
     err = {k: v for k, v in err.items() if v != 0.0}
+    if o["include_substrate"]:
+        if cfg["substrate"]["thickness_mm"] == 0:
+            raise ConfigError(
+                "optics.include_substrate = true needs a substrate (substrate.thickness_mm > 0)"
+            )
+        pc_law = StressOpticLaw(
+            f_sigma=o["substrate_f_sigma_N_per_m"], wavelength_ref=o["wavelength_nm"] * 1e-9
+        )
+        law = (law, pc_law)
     return law, grid, camera, err
+
+
+def _integrate(sol, cfg: dict, optics, wavelengths, *, progress: bool = False, samples=None):
+    """Sample (once) and integrate the sheet, and the PC first when configured.
+
+    Returns (q (P, W, 4), simple (P,), valid (P,), samples) with ``samples`` reusable
+    for other wavelengths.
+    """
+    from optics import FEMStressField, integrate_layers, sample_rays
+
+    law, grid = optics[0], optics[1]
+    o = cfg["optics"]
+    if samples is None:
+        samples = [sample_rays(FEMStressField(sol), grid, o["samples_per_ray"], progress=progress)]
+        if isinstance(law, tuple):
+            pc = FEMStressField(sol, region="substrate")
+            n_pc = o["substrate_samples_per_ray"]
+            samples.insert(0, sample_rays(pc, grid, n_pc, progress=progress))
+    laws = [law[1], law[0]] if isinstance(law, tuple) else [law]
+    q, simple, valid = integrate_layers(samples, laws, wavelengths)
+    return q, simple, valid, samples
+
+
+def _sheet_law(optics):
+    return optics[0][0] if isinstance(optics[0], tuple) else optics[0]
 
 
 def fringe_order_map(sol, cfg: dict, optics=None):
@@ -243,19 +277,18 @@ def fringe_order_map(sol, cfg: dict, optics=None):
     grid : optics.PixelGrid
     centres_rc : (m, 2) each indenter's current axis in pixels (row, col)
     """
-    from optics import FEMStressField, integrate_samples, sample_rays
     from optics.opticalmap import OpticalMap
 
-    law, grid, _, _ = optics or _optics_setup(cfg)
-    samples = sample_rays(FEMStressField(sol), grid, cfg["optics"]["samples_per_ray"])
-    q, simple = integrate_samples(samples, law, law.wavelength_ref)
+    optics = optics or _optics_setup(cfg)
+    law, grid = _sheet_law(optics), optics[1]
+    q, simple, valid, _ = _integrate(sol, cfg, optics, [law.wavelength_ref])
     rows, cols = grid.shape
     omap = OpticalMap(
         grid=grid,
         wavelengths=np.array([law.wavelength_ref]),
         q=q.reshape(rows, cols, 1, 4),
-        simple_order=np.where(samples.valid, simple, np.nan).reshape(rows, cols),
-        mask=samples.valid.reshape(rows, cols),
+        simple_order=np.where(valid, simple, np.nan).reshape(rows, cols),
+        mask=valid.reshape(rows, cols),
         reflection=True,
         law=law,
     )
@@ -312,12 +345,9 @@ def _render_state(
 
     from fea import write_solution_vtu
     from optics import (
-        FEMStressField,
         dark_field_circular,
-        integrate_samples,
         light_source,
         monochrome_image,
-        sample_rays,
         six_step_arrangements,
         white_light_image,
         write_image,
@@ -326,7 +356,8 @@ def _render_state(
 
     from .compare import line_profile
 
-    law, grid, camera, err = optics
+    _, grid, camera, err = optics
+    law = _sheet_law(optics)
     o = cfg["optics"]
     d = out / f"state_{k + 1:02d}"
     (d / "six_step").mkdir(parents=True, exist_ok=True)
@@ -336,25 +367,25 @@ def _render_state(
     times["vtu_s"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    field = FEMStressField(sol)
-    samples = sample_rays(field, grid, o["samples_per_ray"], progress=show_bars)
-    if not samples.valid.any():
+    q, simple, valid, samples = _integrate(
+        sol, cfg, optics, [law.wavelength_ref], progress=show_bars
+    )
+    if not valid.any():
         raise ConfigError(
             f"optics: the field of view (centre {o['center_mm']} mm, width "
             f"{o['field_of_view_mm']} mm) has no pixel over the sheet outside the contact zone"
         )
-    times["locate_s"] = time.perf_counter() - t0
-    progress("optics: rays located")
+    times["locate_integrate_s"] = time.perf_counter() - t0
+    progress("optics: rays located and integrated")
 
     t0 = time.perf_counter()
     rows, cols = grid.shape
-    q, simple = integrate_samples(samples, law, law.wavelength_ref)
     omap = OpticalMap(
         grid=grid,
         wavelengths=np.array([law.wavelength_ref]),
         q=q.reshape(rows, cols, 1, 4),
-        simple_order=np.where(samples.valid, simple, np.nan).reshape(rows, cols),
-        mask=samples.valid.reshape(rows, cols),
+        simple_order=np.where(valid, simple, np.nan).reshape(rows, cols),
+        mask=valid.reshape(rows, cols),
         reflection=True,
         law=law,
     )
@@ -375,7 +406,7 @@ def _render_state(
         ),
         wavelength_m=law.wavelength_ref,
     )
-    times["integrate_s"] = time.perf_counter() - t0
+    times["maps_s"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
     arrs = six_step_arrangements(**err)
@@ -388,7 +419,7 @@ def _render_state(
 
     t0 = time.perf_counter()
     lam = np.linspace(400e-9, 700e-9, o["white_light_wavelengths"])
-    qw, _ = integrate_samples(samples, law, lam)
+    qw, _, _, _ = _integrate(sol, cfg, optics, lam, samples=samples)
     spec = light_source(o["light"], lam)
     rgb = white_light_image(
         qw.reshape(rows, cols, len(lam), 4), spec, camera, dark_field_circular(**err),

@@ -107,12 +107,24 @@ class Solution:
         separately per region so the sheet/substrate jump is kept on the sheet side
         of interface nodes (they take the sheet's value).
         """
+        return self._recover((1, 0))  # substrate first, the sheet overwrites shared nodes
+
+    def stress_nodes_region(self, region: int) -> np.ndarray:
+        """(n, 3, 3) Cauchy stress recovered from the cells of one region only (Pa).
+
+        Nodes outside the region get zero. At the sheet/substrate interface the in-plane
+        stresses jump; this is the value on the given region's side (used for the light
+        path through the polycarbonate, where :attr:`stress_nodes` holds the sheet's).
+        """
+        return self._recover((int(region),))
+
+    def _recover(self, regions) -> np.ndarray:
         E = _extrapolation_matrix()
         cells = self.mesh.cells
         vals = np.einsum("aq,cqij->caij", E, self.stress_qp).reshape(len(cells), 10, 9)
         w = np.abs(self.mesh.volumes)
         out = np.zeros((self.mesh.n_points, 9))
-        for region in (1, 0):  # substrate first, the sheet overwrites shared nodes
+        for region in regions:
             sel = self.mesh.regions == region
             if not np.any(sel):
                 continue

@@ -13,7 +13,7 @@ from .fem import FEMStressField
 from .fields import Boussinesq, DiametralDisc, StressField, TwistedStress, UniformStress
 from .grid import PixelGrid, RaySamples, sample_rays
 from .jones import characteristic, integrate_path, retarder, rotator, secondary_principal
-from .opticalmap import OpticalMap, integrate_samples, optical_map
+from .opticalmap import OpticalMap, integrate_layers, integrate_samples, optical_map
 from .polariscope import (
     SIX_STEPS,
     Arrangement,
@@ -48,6 +48,7 @@ __all__ = [
     "colour_chart",
     "dark_field_circular",
     "integrate_path",
+    "integrate_layers",
     "integrate_samples",
     "intensity",
     "light_source",

@@ -41,9 +41,13 @@ class FEMStressField:
         Rays within an indenter's contact radius are not valid (the indenter covers them
         and the fringes there are beyond any camera's resolution; the seed paper masks the
         centre too).
+    region : {"sheet", "substrate"}
+        The photoelastic sheet (rays from the deformed interface to the deformed contact
+        face) or the polycarbonate (from the fixed bottom to the deformed interface, with
+        the stress recovered from substrate cells only).
     """
 
-    def __init__(self, solution, *, mask_contact: bool = True):
+    def __init__(self, solution, *, mask_contact: bool = True, region: str = "sheet"):
         import matplotlib.tri as mtri
         import pyvista as pv
 
@@ -53,11 +57,18 @@ class FEMStressField:
         self.sym_axes = tuple(
             a for a, name in ((0, "symmetry_x0"), (1, "symmetry_y0")) if name in mesh.facets
         )
-        sheet = mesh.cells[mesh.regions == 0]
-        lin = sheet[:, TET10_TO_TET4].reshape(-1, 4)
+        if region not in ("sheet", "substrate"):
+            raise ValueError(f"region = {region!r} is not allowed; use 'sheet' or 'substrate'")
+        rid = 0 if region == "sheet" else 1
+        if not np.any(mesh.regions == rid):
+            raise ValueError(f"the mesh has no {region} cells (substrate thickness 0?)")
+        self.region = region
+        sel = mesh.cells[mesh.regions == rid]
+        lin = sel[:, TET10_TO_TET4].reshape(-1, 4)
         cells = np.hstack([np.full((len(lin), 1), 4), lin]).ravel()
         self._grid = pv.UnstructuredGrid(cells, np.full(len(lin), pv.CellType.TETRA, np.uint8), x)
-        self._grid.point_data["s"] = solution.stress_nodes.reshape(-1, 9)
+        s_nodes = solution.stress_nodes if rid == 0 else solution.stress_nodes_region(1)
+        self._grid.point_data["s"] = s_nodes.reshape(-1, 9)
 
         def surface(name):
             tri = mesh.facet_nodes(name)[:, TRI6_TO_TRI3].reshape(-1, 3)
@@ -65,8 +76,12 @@ class FEMStressField:
             t = mtri.Triangulation(x[used, 0], x[used, 1], inv.reshape(-1, 3))
             return mtri.LinearTriInterpolator(t, x[used, 2])
 
-        self._top = surface("contact")
-        self._bottom = surface("interface") if "interface" in mesh.facets else None
+        if rid == 0:
+            self._top = surface("contact")
+            self._bottom = surface("interface") if "interface" in mesh.facets else None
+        else:
+            self._top = surface("interface")
+            self._bottom = surface("bottom")
         self._contact = [
             (ind.centre[:2].copy(), ind.contact_radius) for ind in solution.indenters
         ] if mask_contact else []  # fmt: skip
@@ -84,7 +99,10 @@ class FEMStressField:
         return q, flips
 
     def z_range(self, xy):
-        """Deformed interface and contact-face heights (m) under xy (P, 2), and validity."""
+        """Bottom and top heights (m) of the layer under xy (P, 2), and validity.
+
+        Sheet: deformed interface and contact face; substrate: bottom and deformed interface.
+        """
         xy = np.asarray(xy, float)
         q, _ = self._fold(np.column_stack([xy, np.zeros(len(xy))]))
         z1 = np.ma.filled(self._top(q[:, 0], q[:, 1]), np.nan)

@@ -111,8 +111,9 @@ def integrate_path(
     ds, theta, dz : (P, S) arrays
         Secondary principal stress difference (Pa), angle (rad) and slab thickness (m),
         slab 1 first (where the light enters).
-    k : (W,) or (P, S, W) array
-        2 pi C(lam) / lam (rad/(Pa m)) per wavelength, optionally per slab (materials).
+    k : (W,), (S, W) or (P, S, W) array
+        2 pi C(lam) / lam (rad/(Pa m)) per wavelength, optionally per slab (layers of
+        different materials along every ray) or per ray and slab.
     chunk : int
         Rays per block (bounds memory at ~ chunk * W * 40 bytes).
 
@@ -123,7 +124,12 @@ def integrate_path(
     ds, theta, dz = (np.asarray(a, float) for a in (ds, theta, dz))
     P, S = ds.shape
     k = np.asarray(k, float)
-    per_slab = k.ndim == 3
+    if k.ndim == 2 and k.shape[0] != S:
+        raise ValueError(
+            f"k shape {k.shape} does not match {S} slabs; give (W,), (S, W) or (P, S, W)"
+        )
+    per_ray_slab = k.ndim == 3
+    per_slab = k.ndim == 2
     W = k.shape[-1]
     out = np.empty((P, W, 4))
     for start in range(0, P, chunk):
@@ -137,7 +143,7 @@ def integrate_path(
         s2 = np.sin(2 * theta[sl])
         phase = ds[sl] * dz[sl]
         for s in range(S):  # loop over ray samples; vectorised over rays and wavelengths
-            kk = k[sl, s, :] if per_slab else k[None, :]
+            kk = k[sl, s, :] if per_ray_slab else k[None, s, :] if per_slab else k[None, :]
             half = 0.5 * phase[:, s, None] * kk
             sw, sn = np.cos(half), np.sin(half)
             sx, sz = sn * s2[:, s, None], sn * c2[:, s, None]

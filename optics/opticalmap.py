@@ -113,6 +113,57 @@ def integrate_samples(
     return q, simple
 
 
+def integrate_layers(
+    samples: list[RaySamples],
+    laws: list[StressOpticLaw],
+    wavelengths,
+    *,
+    reflection: bool = True,
+    reference: int = -1,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Path quaternions through stacked layers of different materials.
+
+    Parameters
+    ----------
+    samples : list of RaySamples on the same grid, in the order the light meets them
+        (for the sensor viewed from the PC side: the polycarbonate, then the sheet; the
+        coated contact face reflects it back, DESIGN.md).
+    laws : one StressOpticLaw per layer
+    wavelengths : (W,) m
+    reflection : bool — double pass U^T U
+    reference : int — the layer whose law defines the fringe order (default: the last,
+        the photoelastic sheet)
+
+    Returns
+    -------
+    q : (P, W, 4); simple : (P,) rotation-free order summed over the layers, in fringes of
+    the reference law at its reference wavelength; valid : (P,) rays valid in every layer
+    """
+    if len(samples) != len(laws) or not samples:
+        raise ValueError("give one StressOpticLaw per layer of samples (and at least one)")
+    lam = check_wavelengths(wavelengths)
+    ds = np.concatenate([s.ds for s in samples], axis=1)
+    th = np.concatenate([s.theta for s in samples], axis=1)
+    dz = np.concatenate([s.dz for s in samples], axis=1)
+    valid = np.logical_and.reduce([s.valid for s in samples])
+    k = np.concatenate(
+        [np.repeat(law.retardation_per_stress_length(lam)[None, :], s.ds.shape[1], axis=0)
+         for s, law in zip(samples, laws, strict=True)]
+    )  # fmt: skip
+    ds = np.where(valid[:, None], ds, 0.0)
+    q = integrate_path(ds, th, dz, k)
+    ref = laws[reference]
+    passes = 2.0 if reflection else 1.0
+    simple = np.zeros(len(valid))
+    for s, law in zip(samples, laws, strict=True):
+        k_ref = law.retardation_per_stress_length(np.array([ref.wavelength_ref]))[0]
+        simple += passes * np.sum(s.ds * s.dz, axis=1) * k_ref / (2 * np.pi)
+    simple = np.where(valid, simple, 0.0)
+    if reflection:
+        q = qmul(qtranspose(q), q)
+    return q, simple, valid
+
+
 def optical_map(
     field,
     grid: PixelGrid,

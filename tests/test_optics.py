@@ -283,3 +283,29 @@ def test_grid_pixel_mapping_round_trip():
     r, c = g.xy_to_pixel(*g.pixel_to_xy(np.array([3.0]), np.array([5.0])))
     np.testing.assert_allclose([r[0], c[0]], [3.0, 5.0])
     np.testing.assert_allclose(g.pixel_to_xy(2, 3), (1e-3, -2e-3))
+
+
+def test_layers_of_two_materials_compose_in_light_order():
+    """PC then sheet: each layer with its own law; the reflected path is U^T U of the
+    product J_sheet J_pc, which for non-commuting axes depends on the order."""
+    from optics import POLYCARBONATE_ASSUMED, integrate_layers, sample_rays
+
+    grid = PixelGrid((2, 3), 1e-3)
+    pc = UniformStress(_sigma(3e5, 0.0, 0.0), -4e-3, 0.0)  # axes at 0
+    sheet = UniformStress(_sigma(0.0, 0.0, 1.5e4), 0.0, 3e-3)  # axes at 45 deg
+    laws = [POLYCARBONATE_ASSUMED, LAW]
+    s_pc, s_sh = sample_rays(pc, grid, 3), sample_rays(sheet, grid, 5)
+    lam = np.array([575e-9, 480e-9])
+    q, simple, valid = integrate_layers([s_pc, s_sh], laws, lam)
+    assert valid.all() and q.shape == (6, 2, 4)
+    for w in range(2):
+        d_pc = POLYCARBONATE_ASSUMED.retardation_per_stress_length(lam[w : w + 1])[0] * 3e5 * 4e-3
+        d_sh = LAW.retardation_per_stress_length(lam[w : w + 1])[0] * 3e4 * 3e-3
+        u = qmul(retarder(d_sh, np.pi / 4), retarder(d_pc, 0.0))
+        np.testing.assert_allclose(q[0, w], qmul(qtranspose(u), u), atol=1e-12)
+        wrong = qmul(retarder(d_pc, 0.0), retarder(d_sh, np.pi / 4))
+        assert np.abs(q[0, w] - qmul(qtranspose(wrong), wrong)).max() > 1e-3
+    n_exact = 2 * (4e-3 * 3e5 / POLYCARBONATE_ASSUMED.f_sigma + 3e-3 * 3e4 / LAW.f_sigma)
+    np.testing.assert_allclose(simple, n_exact, rtol=1e-12)
+    with pytest.raises(ValueError, match="one StressOpticLaw per layer"):
+        integrate_layers([s_pc], laws, lam)

@@ -82,3 +82,33 @@ def test_indentation_rays_converge_and_contact_is_masked(cache_dir):
     np.testing.assert_allclose(N64, N64[:, ::-1], atol=1e-9, equal_nan=True)
     np.testing.assert_allclose(N64, N64[::-1, :], atol=1e-9, equal_nan=True)
     assert 1.0 < np.nanmax(N64) < 10.0
+
+
+def test_polycarbonate_layer_uses_its_own_stress_and_law(small_meshes):
+    """Sheet and substrate with different uniform stresses: the PC rays run from the
+    bottom to the deformed interface with the substrate's stress only (not the sheet's
+    value at shared interface nodes), and the layered order is exact."""
+    from optics import POLYCARBONATE_ASSUMED, integrate_layers, sample_rays
+
+    mesh = small_meshes["quarter"]
+    Fh = np.diag([1.0, 1.0, 1.02])
+    sol = _homogeneous(mesh, Fh, np.zeros((3, 3)))
+    s_sheet = np.diag([2e4, -1e4, 0.0])
+    s_pc = np.array([[0.0, 4e5, 0.0], [4e5, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    stress = np.where((mesh.regions == 0)[:, None, None, None], s_sheet, s_pc)
+    sol = Solution(**{**sol.__dict__, "stress_qp": np.broadcast_to(stress, sol.stress_qp.shape)})
+    grid = PixelGrid.from_field_of_view(10e-3, (12, 12))
+    pc = FEMStressField(sol, region="substrate")
+    sheet = FEMStressField(sol)
+    z0, z1, ok = pc.z_range(grid.xy())
+    assert ok.all()
+    np.testing.assert_allclose(z0, -4e-3 * 1.02, rtol=1e-12)
+    np.testing.assert_allclose(z1, 0.0, atol=1e-15)
+    laws = [POLYCARBONATE_ASSUMED, LAW]
+    q, simple, valid = integrate_layers(
+        [sample_rays(pc, grid, 6), sample_rays(sheet, grid, 6)], laws, [575e-9]
+    )
+    t_pc, t_sh = 4e-3 * 1.02, 3e-3 * 1.02
+    exact = 2 * (t_pc * 8e5 / POLYCARBONATE_ASSUMED.f_sigma + t_sh * 3e4 / LAW.f_sigma)
+    np.testing.assert_allclose(simple[valid], exact, rtol=1e-9)
+    assert valid.all()

@@ -1,0 +1,76 @@
+"""Every example of examples/ runs at its coarse setting and shows what it claims."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def _run(name: str, tmp_path, cache_dir) -> dict:
+    sys.path.insert(0, str(EXAMPLES))
+    try:
+        spec = importlib.util.spec_from_file_location(name, EXAMPLES / f"{name}.py")
+        mod = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(mod)
+        return mod.main(["--coarse", "--out", str(tmp_path), "--cache-dir", str(cache_dir),
+                         "--quiet"])  # fmt: skip
+    finally:
+        sys.path.remove(str(EXAMPLES))
+
+
+def test_fig3_shear_shifts_the_pattern(tmp_path, cache_dir):
+    res = _run("fig3_white_light", tmp_path, cache_dir)
+    assert abs(res["vertical"]["centroid_mm"][0]) < 0.05
+    assert res["pattern_shift_x_mm"] > 0.3  # towards +x, the direction of the shear force
+    assert res["shear"]["max_fringe_order"] > res["vertical"]["max_fringe_order"]
+    assert (tmp_path / "fig3_white_light.png").stat().st_size > 10_000
+    assert json.loads((tmp_path / "fig3.json").read_text())["shear"]["force_N"][0] == pytest.approx(
+        8.0
+    )
+
+
+def test_fig6_rgb_tracks_the_prediction_to_some_order(tmp_path, cache_dir):
+    res = _run("fig6_rgb_calibration", tmp_path, cache_dir)
+    assert res["plain"]["order_within_0.1"] >= 1.0
+    assert res["refined"]["order_within_0.1"] >= res["plain"]["order_within_0.1"]
+    assert (tmp_path / "fig6_rgb.png").is_file()
+
+
+def test_fig7_optics_errors_distort_the_phasemap(tmp_path, cache_dir):
+    res = _run("fig7_phasemaps_misalignment", tmp_path, cache_dir)
+    # eq. 2's plain arctan reverses zones with perfect optics too (the paper's ambiguity)
+    assert res["perfect"]["reversed_fraction"] > 0.1
+    assert (
+        res["misaligned"]["oval_amplitude_fringe"] > 1.5 * res["perfect"]["oval_amplitude_fringe"]
+    )
+
+
+def test_fig8_axis_insensitive_is_folded(tmp_path, cache_dir):
+    res = _run("fig8_axis_insensitive", tmp_path, cache_dir)
+    assert res["range"][1] <= 0.5 + 1e-9 and res["rms_fringe"] < 0.02
+
+
+def test_fig9_unwrapping_flags_the_centre(tmp_path, cache_dir):
+    res = _run("fig9_unwrapped", tmp_path, cache_dir)
+    assert res["rms_fringe_reliable"] < 0.05
+    near = res["unreliable_near_contact"] / res["pixels_near_contact"]
+    far = res["unreliable_elsewhere"] / res["pixels_elsewhere"]
+    assert near > 5 * far
+
+
+def test_fig10_11_foot_like_load(tmp_path, cache_dir):
+    res = _run("fig10_11_foot", tmp_path, cache_dir)
+    assert len(res["indenters"]) == 2 and res["symmetry"] == "half"
+    assert res["rms_fringe_reliable"] < 0.05 and res["reliable_fraction"] > 0.9
+
+
+def test_calibration_estimates_an_uncalibrated_load(tmp_path, cache_dir):
+    res = _run("calibration_load_to_fringe", tmp_path, cache_dir)
+    assert res["check"]["estimate_N"] == pytest.approx(5.0, rel=0.03)
+    assert (tmp_path / "calibration.png").is_file()

@@ -5,7 +5,8 @@ transmission, loaded to 4.5 fringes at its centre; Frocht's closed form) imaged 
 same white LED and camera as the sensor; the table is read along its horizontal radius,
 where the order falls monotonically from the centre to the edge. The sensor's white-light
 image is searched with the plain least-squares search (seed eq. 1, what the paper did) and
-the refined search propagated from a far-field seed; the centre is masked as in the paper.
+the refined search propagated from far-field seeds (the four image corners); the centre
+is masked as in the paper.
 
     python examples/fig6_rgb_calibration.py [--coarse] [--out DIR]
 
@@ -101,8 +102,13 @@ def main(argv=None) -> dict:
     table = disc_table(cfg)
     img = load_image(state / "white_light.png").data
     plain = search(img, table, mask=mask)
-    seed_rc = (2, 2)
-    refined = search_refined(img, table, [(seed_rc, float(pred[seed_rc]))], mask=mask)
+    # seeds: the four corners of the far field, whose order a calibration (or the zero
+    # order of an unloaded border) gives; one seed alone lets a wrong step on one side
+    # propagate round the ring (seen on the coarse 96 px image)
+    n_r, n_c = pred.shape
+    corners = [(2, 2), (2, n_c - 3), (n_r - 3, 2), (n_r - 3, n_c - 3)]
+    seeds = [(rc_, float(pred[rc_])) for rc_ in corners if mask[rc_]]
+    refined = search_refined(img, table, seeds, mask=mask)
     row = rc[0]
     ab = ((row, 0.0), (row, pred.shape[1] - 1.0))
     x = (np.arange(pred.shape[1]) - rc[1]) * px * 1e3

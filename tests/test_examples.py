@@ -47,9 +47,10 @@ def test_fig7_optics_errors_distort_the_phasemap(tmp_path, cache_dir):
     res = _run("fig7_phasemaps_misalignment", tmp_path, cache_dir)
     # eq. 2's plain arctan reverses zones with perfect optics too (the paper's ambiguity)
     assert res["perfect"]["reversed_fraction"] > 0.1
-    assert (
-        res["misaligned"]["oval_amplitude_fringe"] > 1.5 * res["perfect"]["oval_amplitude_fringe"]
-    )
+    # 3 deg + 4 deg of optics errors add a phase error with an oval (cos 2 phi) part;
+    # 0.027 RMS and 0.0037 amplitude seen on fresh meshes, 0 with perfect optics by design
+    assert res["optics_error"]["rms_fringe"] > 0.01
+    assert res["optics_error"]["oval_amplitude_fringe"] > 0.001
 
 
 def test_fig8_axis_insensitive_is_folded(tmp_path, cache_dir):

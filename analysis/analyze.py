@@ -22,6 +22,7 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -32,31 +33,51 @@ from .masks import circle_mask, exclude_circle
 from .phase import principal_stress_difference, resolve_ambiguity, six_step, unwrap_fringe_order
 from .rgb import CalibrationTable, search, search_refined
 
-__all__ = ["run_analyze", "run_compare", "find_maps"]
+__all__ = ["run_analyze", "run_compare", "find_maps", "map_figure", "OrderMap", "read_order_map"]
 
 
-def _figure(path, data, title, label, cmap="turbo", pixel_size=0.0, vmin=None, vmax=None):
+def map_figure(
+    path,
+    data,
+    title: str,
+    label: str,
+    cmap="turbo",
+    *,
+    extent=None,
+    axis_labels=("column (px)", "row (px)"),
+    vmin=None,
+    vmax=None,
+) -> None:
+    """PNG of a (rows, cols) map with a colour bar, or of an RGB image (no colour bar).
+
+    ``extent`` (left, right, bottom, top) in the axis units; None plots in pixels.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    rows, cols = data.shape[:2]
     fig, ax = plt.subplots(figsize=(5.2, 4.4), dpi=120)
-    if pixel_size:
-        ext = (0, cols * pixel_size * 1e3, rows * pixel_size * 1e3, 0)
-        im = ax.imshow(data, cmap=cmap, extent=ext, vmin=vmin, vmax=vmax, interpolation="nearest")
-        ax.set_xlabel("mm")
-        ax.set_ylabel("mm")
-    else:
-        im = ax.imshow(data, cmap=cmap, vmin=vmin, vmax=vmax, interpolation="nearest")
-        ax.set_xlabel("column (px)")
-        ax.set_ylabel("row (px)")
-    fig.colorbar(im, ax=ax, label=label)
+    im = ax.imshow(data, cmap=cmap, extent=extent, vmin=vmin, vmax=vmax, interpolation="nearest")
+    if np.ndim(data) == 2:
+        fig.colorbar(im, ax=ax, label=label)
+    ax.set_xlabel(axis_labels[0])
+    ax.set_ylabel(axis_labels[1])
     ax.set_title(title)
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
+
+
+def _figure(path, data, title, label, cmap="turbo", pixel_size=0.0, vmin=None, vmax=None):
+    """:func:`map_figure` in mm from the image corner when the pixel size is known."""
+    rows, cols = data.shape[:2]
+    if pixel_size:
+        ext = (0, cols * pixel_size * 1e3, rows * pixel_size * 1e3, 0)
+        map_figure(path, data, title, label, cmap, extent=ext, axis_labels=("mm", "mm"),
+                   vmin=vmin, vmax=vmax)  # fmt: skip
+    else:
+        map_figure(path, data, title, label, cmap, vmin=vmin, vmax=vmax)
 
 
 def _mask(shape, roi_circle, exclude) -> np.ndarray:
@@ -267,6 +288,42 @@ def find_maps(path: str | os.PathLike) -> Path:
     raise FileNotFoundError(f"{p}: no maps.npz here (give a predict or analyze output folder)")
 
 
+@dataclass(frozen=True)
+class OrderMap:
+    """A stored fringe-order map (``maps.npz`` of ``predict`` or ``analyze``).
+
+    Attributes
+    ----------
+    path : the file read
+    order : (rows, cols) fringe order, NaN where unknown
+    pixel_size : float (m), the given one, else the stored one
+    indenter_rc : (row, col) of the first indenter's axis, or None when not stored
+    reliable : (rows, cols) bool, or None when not stored
+    """
+
+    path: Path
+    order: np.ndarray
+    pixel_size: float
+    indenter_rc: tuple[float, float] | None
+    reliable: np.ndarray | None
+
+
+def read_order_map(path, *, pixel_size: float | None = None, hint: str = "--pixel-mm"):
+    """Read a :class:`OrderMap` (see :func:`find_maps`); a pixel size is required, from
+    the file or ``pixel_size`` (m); the error names ``hint``, the option that gives it."""
+    f = find_maps(path)
+    with np.load(f) as z:
+        order = np.array(z["fringe_order"], float)
+        px = float(z["pixel_size_m"]) if "pixel_size_m" in z else 0.0
+        rc = z["indenter_rc"][0] if "indenter_rc" in z and len(z["indenter_rc"]) else None
+        rel = np.array(z["reliable"], bool) if "reliable" in z else None
+    px = pixel_size or px
+    if not px:
+        raise ValueError(f"{f} stores no pixel size; give {hint}")
+    rc = (float(rc[0]), float(rc[1])) if rc is not None else None
+    return OrderMap(f, order, px, rc, rel)
+
+
 def run_compare(
     prediction: str | os.PathLike,
     measurement: str | os.PathLike,
@@ -283,22 +340,12 @@ def run_compare(
     first indenter's axis when stored; the measurement's centre is fitted by phase
     correlation unless given as (row, col).
     """
-    pf, mf = find_maps(prediction), find_maps(measurement)
-    with np.load(pf) as z:
-        pred = np.array(z["fringe_order"], float)
-        pp = float(z["pixel_size_m"]) if "pixel_size_m" in z else 0.0
-        cp = tuple(z["indenter_rc"][0]) if "indenter_rc" in z and len(z["indenter_rc"]) else None
-    with np.load(mf) as z:
-        meas = np.array(z["fringe_order"], float)
-        mp = float(z["pixel_size_m"]) if "pixel_size_m" in z else 0.0
-        rel = np.array(z["reliable"], bool) if "reliable" in z else None
-    pp = predicted_pixel_size or pp
-    mp = measured_pixel_size or mp
-    for name, v, f in (("predicted", pp, pf), ("measured", mp, mf)):
-        if not v:
-            raise ValueError(
-                f"{f} stores no pixel size; give --{name}-pixel-mm (the {name} pixel pitch)"
-            )
+    p = read_order_map(prediction, pixel_size=predicted_pixel_size,
+                       hint="--predicted-pixel-mm (the predicted pixel pitch)")  # fmt: skip
+    m = read_order_map(measurement, pixel_size=measured_pixel_size,
+                       hint="--measured-pixel-mm (the measured pixel pitch)")  # fmt: skip
+    pf, mf, pred, meas = p.path, m.path, p.order, m.order
+    pp, mp, cp, rel = p.pixel_size, m.pixel_size, p.indenter_rc, m.reliable
     comp = compare_maps(
         pred, meas, predicted_pixel_size=pp, measured_pixel_size=mp, centre_predicted=cp,
         centre_measured=centre_measured, rotation_deg=rotation_deg, mask=rel,

@@ -27,7 +27,7 @@ from .calibrate import (
     load_calibration,
     save_calibration,
 )
-from .config import ConfigError, effective_config, to_toml
+from .config import ConfigError, effective_config, normal_path, to_toml
 
 __all__ = ["default_calibration_config", "run_calibrate", "run_estimate", "run_disc"]
 
@@ -92,7 +92,7 @@ def run_calibrate(
 
     say = echo if progress else (lambda s: None)
     ind0 = cfg["indenter"][0]
-    path = ind0["load_N"] if ind0["load_N"] is not None else ind0["depth_mm"]
+    path = normal_path(ind0)
     if len(path) < 3 or len(set(path)) < 3:
         raise ConfigError(
             f"calibrate needs a load path with at least 3 different loads on indenter[0]; got "
@@ -111,7 +111,7 @@ def run_calibrate(
     if len(sols) < 3:
         raise PredictError(f"{failure}; only {len(sols)} state(s) converged, calibration needs 3")
     feats, profiles, loads, shears = [], [], [], []
-    pixel = optics[1].pixel_size
+    pixel = optics.grid.pixel_size
     for sol in tqdm(sols, desc="fringe maps", unit="state", disable=not progress):
         order, grid, centres = fringe_order_map(sol, cfg, optics)
         feats.append(fringe_features(order, pixel, tuple(centres[0])))
@@ -142,21 +142,13 @@ def run_calibrate(
 
 
 def _read_map(maps, pixel_mm, centre):
-    from .analyze import find_maps
+    from .analyze import read_order_map
 
-    f = find_maps(maps)
-    with np.load(f) as z:
-        order = np.array(z["fringe_order"], float)
-        px = float(z["pixel_size_m"]) if "pixel_size_m" in z else 0.0
-        rc = z["indenter_rc"][0] if "indenter_rc" in z and len(z["indenter_rc"]) else None
-    px = pixel_mm * 1e-3 if pixel_mm else px
-    if not px:
-        raise ValueError(f"{f} stores no pixel size; give --pixel-mm")
-    if centre is not None:
-        rc = centre
+    m = read_order_map(maps, pixel_size=pixel_mm * 1e-3 if pixel_mm else None)
+    rc = centre if centre is not None else m.indenter_rc
     if rc is None:
-        raise ValueError(f"{f} stores no indenter position; give --centre ROW COL (pixels)")
-    return f, order, px, (float(rc[0]), float(rc[1]))
+        raise ValueError(f"{m.path} stores no indenter position; give --centre ROW COL (pixels)")
+    return m.path, m.order, m.pixel_size, (float(rc[0]), float(rc[1]))
 
 
 def run_estimate(maps, calibration, *, pixel_mm=None, centre=None, out=None) -> dict:
@@ -175,15 +167,10 @@ def run_estimate(maps, calibration, *, pixel_mm=None, centre=None, out=None) -> 
 
 def run_disc(maps, *, load_N, diameter_mm, thickness_mm, pixel_mm=None, centre=None) -> dict:
     """Fringe value from a diametral-disc fringe-order map at a known load."""
-    from .analyze import find_maps
+    from .analyze import read_order_map
 
-    f = find_maps(maps)
-    with np.load(f) as z:
-        order = np.array(z["fringe_order"], float)
-        px = float(z["pixel_size_m"]) if "pixel_size_m" in z else 0.0
-    px = pixel_mm * 1e-3 if pixel_mm else px
-    if not px:
-        raise ValueError(f"{f} stores no pixel size; give --pixel-mm")
+    m = read_order_map(maps, pixel_size=pixel_mm * 1e-3 if pixel_mm else None)
+    f, order, px = m.path, m.order, m.pixel_size
     rc = centre if centre is not None else ((order.shape[0] - 1) / 2, (order.shape[1] - 1) / 2)
     res = fringe_value_from_disc(
         order, px, rc, load_N=load_N, diameter=diameter_mm * 1e-3, thickness=thickness_mm * 1e-3

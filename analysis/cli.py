@@ -25,17 +25,15 @@ import json
 import logging
 import sys
 import time
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 __all__ = ["main"]
 
 
 def _version() -> str:
-    try:
-        return version("fringekit")
-    except PackageNotFoundError:  # running from a source tree
-        return "0+unknown"
+    from .predict import _pkg_version
+
+    return _pkg_version("fringekit", missing="0+unknown")
 
 
 def _cmd_mesh(args: argparse.Namespace) -> int:
@@ -268,6 +266,18 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     return 1 if res["failed"] else 0
 
 
+def _run_options(p: argparse.ArgumentParser) -> None:
+    """Options of the commands that mesh and solve a config (predict, calibrate)."""
+    p.add_argument("--out", default=None, help="output folder (default fringekit-out/<case>)")
+    p.add_argument(
+        "--set", action="append", metavar="TABLE.KEY=VALUE",
+        help="override one config value, e.g. --set optics.pixels=128 (repeatable)",
+    )  # fmt: skip
+    p.add_argument("--cache-dir", default=None, help="mesh and solution cache root")
+    p.add_argument("--no-cache", action="store_true", help="re-mesh and re-solve")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="fringekit",
@@ -284,14 +294,7 @@ def _parser() -> argparse.ArgumentParser:
         "config", nargs="?", default=None,
         help="TOML config file or built-in case (reference, shear); default reference",
     )  # fmt: skip
-    pr.add_argument("--out", default=None, help="output folder (default fringekit-out/<case>)")
-    pr.add_argument(
-        "--set", action="append", metavar="TABLE.KEY=VALUE",
-        help="override one config value, e.g. --set optics.pixels=128 (repeatable)",
-    )  # fmt: skip
-    pr.add_argument("--cache-dir", default=None, help="mesh and solution cache root")
-    pr.add_argument("--no-cache", action="store_true", help="re-mesh and re-solve")
-    pr.add_argument("--quiet", action="store_true", help="no progress output")
+    _run_options(pr)
     pr.set_defaults(func=_cmd_predict)
     cf = sub.add_parser("config", help="configuration tools")
     cfs = cf.add_subparsers(dest="action", required=True)
@@ -346,11 +349,7 @@ def _parser() -> argparse.ArgumentParser:
         "config", nargs="?", default=None,
         help="config with a load path (default: the reference case at 1..10 N)",
     )  # fmt: skip
-    ca.add_argument("--set", action="append", metavar="TABLE.KEY=VALUE")
-    ca.add_argument("--out", default=None, help="output folder (default fringekit-out/<case>)")
-    ca.add_argument("--cache-dir", default=None)
-    ca.add_argument("--no-cache", action="store_true")
-    ca.add_argument("--quiet", action="store_true")
+    _run_options(ca)
     ca.add_argument(
         "--disc", default=None, metavar="MAPS",
         help="fringe-order map of a diametral disc (transmission): fit f_sigma",

@@ -35,6 +35,7 @@ __all__ = [
     "apply_overrides",
     "effective_config",
     "load_config",
+    "normal_path",
     "to_toml",
 ]
 
@@ -307,6 +308,11 @@ def _merge_table(name: str, given: dict, schema: dict) -> dict:
     }
 
 
+def normal_path(indenter: dict) -> list:
+    """An effective ``[[indenter]]``'s normal load path: ``load_N`` (N) or ``depth_mm``."""
+    return indenter["load_N"] if indenter["load_N"] is not None else indenter["depth_mm"]
+
+
 def _indenter(i: int, given: dict) -> dict:
     name = f"indenter[{i}]"
     d = _merge_table(name, given, INDENTER_SCHEMA)
@@ -316,7 +322,7 @@ def _indenter(i: int, given: dict) -> dict:
                 f"{name}: give load_N (force control) or depth_mm (displacement control), not both"
             )
         d["load_N"] = None
-    n = len(d["load_N"] if d["load_N"] is not None else d["depth_mm"])
+    n = len(normal_path(d))
     if d["shear_N"] is not None:
         if len(d["shear_N"]) == 1 and n > 1:
             d["shear_N"] = d["shear_N"] * n
@@ -347,9 +353,7 @@ def effective_config(given: dict | None = None) -> dict:
     if not isinstance(inds, list) or not inds:
         raise _bad("indenter", inds, "give one or more [[indenter]] tables")
     cfg["indenter"] = [_indenter(i, d) for i, d in enumerate(inds)]
-    counts = {
-        len(d["load_N"] if d["load_N"] is not None else d["depth_mm"]) for d in cfg["indenter"]
-    }
+    counts = {len(normal_path(d)) for d in cfg["indenter"]}
     if len(counts) != 1:
         raise ConfigError(
             f"indenters have different numbers of load states {sorted(counts)}; every indenter "

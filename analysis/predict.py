@@ -27,12 +27,13 @@ import os
 import platform
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 import numpy as np
 
-from .config import ConfigError, to_toml
+from .config import ConfigError, normal_path, to_toml
 
 __all__ = [
     "PredictError",
@@ -50,15 +51,16 @@ class PredictError(RuntimeError):
     """The pipeline could not finish; converged states were written before raising."""
 
 
-def _pkg_version(name: str) -> str:
+def _pkg_version(name: str, missing: str = "unknown") -> str:
+    """Installed version of a distribution, ``missing`` when it is not installed."""
     try:
         return version(name)
-    except PackageNotFoundError:
-        return "unknown"
+    except PackageNotFoundError:  # e.g. fringekit run from a source tree
+        return missing
 
 
 def _load_path(d: dict) -> tuple[tuple, tuple]:
-    normal = tuple(d["load_N"] if d["load_N"] is not None else d["depth_mm"])
+    normal = tuple(normal_path(d))
     shear = tuple(tuple(p) for p in d["shear_N"]) if d["shear_N"] is not None else None
     return normal, shear
 
@@ -200,7 +202,19 @@ def build_inputs(cfg: dict):
     return spec, indenters, materials, contact, settings
 
 
-def _optics_setup(cfg: dict):
+@dataclass(frozen=True)
+class OpticsSetup:
+    """The optics of a config in SI: the sheet's law, the pixel grid, the camera, the
+    polariscope element errors (rad) and, when the PC is in the light path, its law."""
+
+    law: object
+    grid: object
+    camera: object
+    errors: dict
+    substrate_law: object | None = None
+
+
+def _optics_setup(cfg: dict) -> OpticsSetup:
     from optics import Camera, PixelGrid, StressOpticLaw
 
     o = cfg["optics"]
@@ -230,6 +244,7 @@ def _optics_setup(cfg: dict):
         "analyser": math.radians(o["analyser_error_deg"]),
     }
     err = {k: v for k, v in err.items() if v != 0.0}
+    pc_law = None
     if o["include_substrate"]:
         if cfg["substrate"]["thickness_mm"] == 0:
             raise ConfigError(
@@ -238,11 +253,12 @@ def _optics_setup(cfg: dict):
         pc_law = StressOpticLaw(
             f_sigma=o["substrate_f_sigma_N_per_m"], wavelength_ref=o["wavelength_nm"] * 1e-9
         )
-        law = (law, pc_law)
-    return law, grid, camera, err
+    return OpticsSetup(law, grid, camera, err, pc_law)
 
 
-def _integrate(sol, cfg: dict, optics, wavelengths, *, progress: bool = False, samples=None):
+def _integrate(
+    sol, cfg: dict, optics: OpticsSetup, wavelengths, *, progress: bool = False, samples=None
+):
     """Sample (once) and integrate the sheet, and the PC first when configured.
 
     Returns (q (P, W, 4), simple (P,), valid (P,), samples) with ``samples`` reusable
@@ -250,38 +266,29 @@ def _integrate(sol, cfg: dict, optics, wavelengths, *, progress: bool = False, s
     """
     from optics import FEMStressField, integrate_layers, sample_rays
 
-    law, grid = optics[0], optics[1]
     o = cfg["optics"]
+    pc = optics.substrate_law is not None
     if samples is None:
-        samples = [sample_rays(FEMStressField(sol), grid, o["samples_per_ray"], progress=progress)]
-        if isinstance(law, tuple):
-            pc = FEMStressField(sol, region="substrate")
+        samples = [
+            sample_rays(FEMStressField(sol), optics.grid, o["samples_per_ray"], progress=progress)
+        ]
+        if pc:
+            field = FEMStressField(sol, region="substrate")
             n_pc = o["substrate_samples_per_ray"]
-            samples.insert(0, sample_rays(pc, grid, n_pc, progress=progress))
-    laws = [law[1], law[0]] if isinstance(law, tuple) else [law]
+            samples.insert(0, sample_rays(field, optics.grid, n_pc, progress=progress))
+    laws = [optics.substrate_law, optics.law] if pc else [optics.law]
     q, simple, valid = integrate_layers(samples, laws, wavelengths)
     return q, simple, valid, samples
 
 
-def _sheet_law(optics):
-    return optics[0][0] if isinstance(optics[0], tuple) else optics[0]
-
-
-def fringe_order_map(sol, cfg: dict, optics=None):
-    """Monochrome fringe-order map of one solution on the config's pixel grid.
-
-    Returns
-    -------
-    order : (rows, cols) total fringe order at ``optics.wavelength_nm``, NaN outside the
-        sheet and in contact zones
-    grid : optics.PixelGrid
-    centres_rc : (m, 2) each indenter's current axis in pixels (row, col)
-    """
+def _mono_map(sol, cfg: dict, optics: OpticsSetup, *, progress: bool = False):
+    """(OpticalMap at the reference wavelength, the ray samples for reuse)."""
     from optics.opticalmap import OpticalMap
 
-    optics = optics or _optics_setup(cfg)
-    law, grid = _sheet_law(optics), optics[1]
-    q, simple, valid, _ = _integrate(sol, cfg, optics, [law.wavelength_ref])
+    law, grid = optics.law, optics.grid
+    q, simple, valid, samples = _integrate(
+        sol, cfg, optics, [law.wavelength_ref], progress=progress
+    )
     rows, cols = grid.shape
     omap = OpticalMap(
         grid=grid,
@@ -292,8 +299,27 @@ def fringe_order_map(sol, cfg: dict, optics=None):
         reflection=True,
         law=law,
     )
-    centres = np.array([grid.xy_to_pixel(i.centre[0], i.centre[1]) for i in sol.indenters])
-    return omap.fringe_order(), grid, centres
+    return omap, samples
+
+
+def _centres_rc(sol, grid) -> np.ndarray:
+    """(m, 2) each indenter's current axis in pixels (row, col)."""
+    return np.array([grid.xy_to_pixel(i.centre[0], i.centre[1]) for i in sol.indenters], float)
+
+
+def fringe_order_map(sol, cfg: dict, optics: OpticsSetup | None = None):
+    """Monochrome fringe-order map of one solution on the config's pixel grid.
+
+    Returns
+    -------
+    order : (rows, cols) total fringe order at ``optics.wavelength_nm``, NaN outside the
+        sheet and in contact zones
+    grid : optics.PixelGrid
+    centres_rc : (m, 2) each indenter's current axis in pixels (row, col)
+    """
+    optics = optics or _optics_setup(cfg)
+    omap, _ = _mono_map(sol, cfg, optics)
+    return omap.fringe_order(), optics.grid, _centres_rc(sol, optics.grid)
 
 
 def solve_config(cfg: dict, *, cache_dir=None, use_cache: bool = True, progress: bool = True):
@@ -314,24 +340,13 @@ def solve_config(cfg: dict, *, cache_dir=None, use_cache: bool = True, progress:
         return mesh, exc.solutions, None, str(exc)
 
 
-def _write_map_figure(path, data, grid, title, label, cmap, mask_value=np.nan) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+def _write_map_figure(path, data, grid, title, label, cmap) -> None:
+    """:func:`analysis.analyze.map_figure` on the sheet's x, y (mm) of ``grid``."""
+    from .analyze import map_figure
 
     x0, y0 = grid.pixel_to_xy(np.array([0, grid.shape[0] - 1]), np.array([0, grid.shape[1] - 1]))
     extent = (x0[0] * 1e3, x0[1] * 1e3, y0[1] * 1e3, y0[0] * 1e3)
-    fig, ax = plt.subplots(figsize=(5.2, 4.4), dpi=120)
-    im = ax.imshow(data, extent=extent, origin="upper", cmap=cmap, interpolation="nearest")
-    if data.ndim == 2:
-        fig.colorbar(im, ax=ax, label=label)
-    ax.set_xlabel("x (mm)")
-    ax.set_ylabel("y (mm)")
-    ax.set_title(title)
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
+    map_figure(path, data, title, label, cmap, extent=extent, axis_labels=("x (mm)", "y (mm)"))
 
 
 def _render_state(
@@ -352,12 +367,10 @@ def _render_state(
         white_light_image,
         write_image,
     )
-    from optics.opticalmap import OpticalMap
 
     from .compare import line_profile
 
-    _, grid, camera, err = optics
-    law = _sheet_law(optics)
+    law, grid, camera, err = optics.law, optics.grid, optics.camera, optics.errors
     o = cfg["optics"]
     d = out / f"state_{k + 1:02d}"
     (d / "six_step").mkdir(parents=True, exist_ok=True)
@@ -367,10 +380,8 @@ def _render_state(
     times["vtu_s"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    q, simple, valid, samples = _integrate(
-        sol, cfg, optics, [law.wavelength_ref], progress=show_bars
-    )
-    if not valid.any():
+    omap, samples = _mono_map(sol, cfg, optics, progress=show_bars)
+    if not omap.mask.any():
         raise ConfigError(
             f"optics: the field of view (centre {o['center_mm']} mm, width "
             f"{o['field_of_view_mm']} mm) has no pixel over the sheet outside the contact zone"
@@ -380,15 +391,6 @@ def _render_state(
 
     t0 = time.perf_counter()
     rows, cols = grid.shape
-    omap = OpticalMap(
-        grid=grid,
-        wavelengths=np.array([law.wavelength_ref]),
-        q=q.reshape(rows, cols, 1, 4),
-        simple_order=np.where(valid, simple, np.nan).reshape(rows, cols),
-        mask=valid.reshape(rows, cols),
-        reflection=True,
-        law=law,
-    )
     order = omap.fringe_order()
     theta = omap.principal_angle()
     xy = grid.xy().reshape(rows, cols, 2)
@@ -401,16 +403,14 @@ def _render_state(
         x_m=xy[..., 0],
         y_m=xy[..., 1],
         pixel_size_m=grid.pixel_size,
-        indenter_rc=np.array(
-            [grid.xy_to_pixel(i.centre[0], i.centre[1]) for i in sol.indenters], float
-        ),
+        indenter_rc=_centres_rc(sol, grid),
         wavelength_m=law.wavelength_ref,
     )
     times["maps_s"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
     arrs = six_step_arrangements(**err)
-    q_img = q.reshape(rows, cols, 4)
+    q_img = omap.q[:, :, 0]
     for a in arrs:
         img = monochrome_image(q_img, a, camera, seed=o["seed"])
         write_image(d / "six_step" / f"{a.name}.png", img)

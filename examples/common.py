@@ -77,3 +77,25 @@ def write_json(path: Path, data: dict) -> None:
 def centre_rc(m: dict) -> tuple[float, float]:
     r, c = m["indenter_rc"][0]
     return float(r), float(c)
+
+
+def extent_mm(m: dict) -> tuple[float, float, float, float]:
+    """imshow extent (left, right, bottom, top) in mm of a predict ``maps.npz``."""
+    return (m["x_m"][0, 0] * 1e3, m["x_m"][0, -1] * 1e3, m["y_m"][-1, 0] * 1e3,
+            m["y_m"][0, 0] * 1e3)  # fmt: skip
+
+
+def contact_mask(summary: dict, m: dict, margin_px: float = 2.0) -> np.ndarray:
+    """Pixels over the sheet outside the first indenter's contact circle + a margin (the
+    centre an experimenter masks)."""
+    from analysis import exclude_circle
+
+    a_px = summary["indenters"][0]["contact_radius_mm"] * 1e-3 / float(m["pixel_size_m"])
+    return exclude_circle(np.isfinite(m["fringe_order"]), centre_rc(m), a_px + margin_px)
+
+
+def six_step_of(state: Path, mask: np.ndarray):
+    """The six-step result (analysis.six_step) of a predicted state's step images."""
+    from analysis import load_six_step, six_step
+
+    return six_step(load_six_step(six_images(state)), mask=mask)

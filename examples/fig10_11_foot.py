@@ -20,10 +20,19 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from common import COARSE, maps, out_dir, parse_args, predict, six_images, write_json  # noqa: E402
+from common import (  # noqa: E402
+    COARSE,
+    extent_mm,
+    maps,
+    out_dir,
+    parse_args,
+    predict,
+    six_step_of,
+    write_json,
+)
 from scipy.ndimage import binary_erosion  # noqa: E402
 
-from analysis import line_profile, load_six_step, six_step, unwrap_fringe_order  # noqa: E402
+from analysis import line_profile, unwrap_fringe_order  # noqa: E402
 from analysis.config import effective_config  # noqa: E402
 
 #: (x_mm, y_mm, diameter_mm, load_N): heel, two metatarsal heads, three toes (assumed
@@ -71,7 +80,7 @@ def main(argv=None) -> dict:
     m = maps(state)
     pred = m["fringe_order"]
     mask = binary_erosion(np.isfinite(pred), iterations=2)
-    r6 = six_step(load_six_step(six_images(state)), mask=mask)
+    r6 = six_step_of(state, mask)
     ring = np.zeros_like(mask)
     ring[:3], ring[-3:], ring[:, :3], ring[:, -3:] = True, True, True, True
     anchor = float(np.nanmedian(pred[ring & mask]))
@@ -95,7 +104,7 @@ def main(argv=None) -> dict:
         "dofs": summary["model"]["dofs"],
         "time_s": summary["times_s"]["total_s"],
     }
-    ext = (x[0], x[-1], m["y_m"][-1, 0] * 1e3, m["y_m"][0, 0] * 1e3)
+    ext = extent_mm(m)
     fig = plt.figure(figsize=(13, 8.5), dpi=100)
     a1 = fig.add_subplot(2, 2, 1)
     a1.imshow(iio.imread(state / "white_light.png"), extent=ext)

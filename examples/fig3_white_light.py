@@ -19,7 +19,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from common import config, maps, out_dir, parse_args, predict, write_json  # noqa: E402
+from common import config, extent_mm, maps, out_dir, parse_args, predict, write_json  # noqa: E402
 
 
 def centroid_mm(m: dict, r_max_mm: float) -> tuple[float, float]:
@@ -58,9 +58,7 @@ def main(argv=None) -> dict:
 
     fig, ax = plt.subplots(1, 2, figsize=(10.5, 5), dpi=110)
     for a, (name, (img, m)) in zip(ax, images.items(), strict=True):
-        ext = (m["x_m"][0, 0] * 1e3, m["x_m"][0, -1] * 1e3, m["y_m"][-1, 0] * 1e3,
-               m["y_m"][0, 0] * 1e3)  # fmt: skip
-        a.imshow(img, extent=ext)
+        a.imshow(img, extent=extent_mm(m))
         cx, cy = res[name]["centroid_mm"]
         a.plot([0], [0], "w+", ms=12, label="undeformed axis")
         a.plot([cx], [cy], "wx", ms=10, label="pattern centroid")

@@ -25,11 +25,20 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from common import centre_rc, config, maps, out_dir, parse_args, predict, write_json  # noqa: E402
+from common import (  # noqa: E402
+    centre_rc,
+    config,
+    contact_mask,
+    extent_mm,
+    maps,
+    out_dir,
+    parse_args,
+    predict,
+    write_json,
+)
 
 from analysis import (  # noqa: E402
     CalibrationTable,
-    exclude_circle,
     line_profile,
     load_image,
     search,
@@ -98,7 +107,7 @@ def main(argv=None) -> dict:
     rc = centre_rc(m)
     px = float(m["pixel_size_m"])
     a_mm = summary["indenters"][0]["contact_radius_mm"]
-    mask = exclude_circle(np.isfinite(pred), rc, a_mm * 1e-3 / px + 2)
+    mask = contact_mask(summary, m)
     table = disc_table(cfg)
     img = load_image(state / "white_light.png").data
     plain = search(img, table, mask=mask)
@@ -128,7 +137,7 @@ def main(argv=None) -> dict:
         }
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.6), dpi=110)
     shown = np.where(mask[..., None], img, 0.0)
-    ax[0].imshow(shown, extent=(x[0], x[-1], m["y_m"][-1, 0] * 1e3, m["y_m"][0, 0] * 1e3))
+    ax[0].imshow(shown, extent=extent_mm(m))
     ax[0].plot([x[0], x[-1]], [0, 0], "w--", lw=1)
     ax[0].text(x[0], 0, "a", color="w", va="bottom")
     ax[0].text(x[-1], 0, "b", color="w", va="bottom", ha="right")

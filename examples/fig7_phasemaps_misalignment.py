@@ -23,17 +23,18 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from common import (  # noqa: E402
-    centre_rc,
     config,
+    contact_mask,
+    extent_mm,
     maps,
     out_dir,
     parse_args,
     predict,
-    six_images,
-    write_json,  # noqa: E402
+    six_step_of,
+    write_json,
 )
 
-from analysis import exclude_circle, load_six_step, six_step, wrap  # noqa: E402
+from analysis import wrap  # noqa: E402
 
 ERRORS = {"optics.qwp_out_error_deg": 3.0, "optics.qwp_error_deg": 4.0}
 
@@ -53,10 +54,7 @@ def main(argv=None) -> dict:
         cfg = config(over, args.coarse)
         summary, state = predict(cfg, out / name, args)
         m = maps(state)
-        rc = centre_rc(m)
-        a_px = summary["indenters"][0]["contact_radius_mm"] * 1e-3 / float(m["pixel_size_m"])
-        mask = exclude_circle(np.isfinite(m["fringe_order"]), rc, a_px + 2)
-        r6 = six_step(load_six_step(six_images(state)), mask=mask)
+        r6 = six_step_of(state, contact_mask(summary, m))
         truth = 2 * np.pi * np.nan_to_num(m["fringe_order"])
         rev = r6.valid & (np.abs(wrap(r6.delta_eq3 - truth)) > np.pi / 2)
         res[name] = {
@@ -81,8 +79,7 @@ def main(argv=None) -> dict:
     }
     fig, ax = plt.subplots(2, 2, figsize=(10, 9), dpi=100)
     for j, (name, (r6, m, _)) in enumerate(panels.items()):
-        ext = (m["x_m"][0, 0] * 1e3, m["x_m"][0, -1] * 1e3, m["y_m"][-1, 0] * 1e3,
-               m["y_m"][0, 0] * 1e3)  # fmt: skip
+        ext = extent_mm(m)
         iso = np.where(r6.valid, np.degrees(r6.isoclinic_eq2), np.nan)
         d3 = np.where(r6.valid, r6.delta_eq3, np.nan)
         ax[0, j].imshow(iso, cmap="gray", extent=ext)

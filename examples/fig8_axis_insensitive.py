@@ -20,15 +20,17 @@ import numpy as np  # noqa: E402
 from common import (  # noqa: E402
     centre_rc,
     config,
+    contact_mask,
+    extent_mm,
     maps,
     out_dir,
     parse_args,
     predict,
-    six_images,
-    write_json,  # noqa: E402
+    six_step_of,
+    write_json,
 )
 
-from analysis import exclude_circle, line_profile, load_six_step, six_step  # noqa: E402
+from analysis import line_profile  # noqa: E402
 
 
 def folded(order):
@@ -43,9 +45,7 @@ def main(argv=None) -> dict:
     summary, state = predict(config({}, args.coarse), out / "vertical", args)
     m = maps(state)
     rc = centre_rc(m)
-    a_px = summary["indenters"][0]["contact_radius_mm"] * 1e-3 / float(m["pixel_size_m"])
-    mask = exclude_circle(np.isfinite(m["fringe_order"]), rc, a_px + 2)
-    r6 = six_step(load_six_step(six_images(state)), mask=mask)
+    r6 = six_step_of(state, contact_mask(summary, m))
     frac = np.where(r6.valid, r6.delta_axis_insensitive / (2 * np.pi), np.nan)
     pred = np.where(r6.valid, folded(m["fringe_order"]), np.nan)
     row = rc[0]
@@ -61,8 +61,7 @@ def main(argv=None) -> dict:
         "range": [float(np.nanmin(frac)), float(np.nanmax(frac))],
     }
     fig, ax = plt.subplots(1, 2, figsize=(11.5, 4.6), dpi=110)
-    ext = (m["x_m"][0, 0] * 1e3, m["x_m"][0, -1] * 1e3, m["y_m"][-1, 0] * 1e3,
-           m["y_m"][0, 0] * 1e3)  # fmt: skip
+    ext = extent_mm(m)
     im = ax[0].imshow(frac, cmap="gray", extent=ext, vmin=0, vmax=0.5)
     fig.colorbar(im, ax=ax[0], label="fractional fringe order")
     ax[0].plot([x[0], x[-1]], [0, 0], "r--", lw=1)

@@ -22,19 +22,18 @@ import numpy as np  # noqa: E402
 from common import (  # noqa: E402
     centre_rc,
     config,
+    contact_mask,
+    extent_mm,
     maps,
     out_dir,
     parse_args,
     predict,
-    six_images,
-    write_json,  # noqa: E402
+    six_step_of,
+    write_json,
 )
 
 from analysis import (  # noqa: E402
-    exclude_circle,
     line_profile,
-    load_six_step,
-    six_step,
     unwrap_fringe_order,
 )
 
@@ -47,8 +46,7 @@ def main(argv=None) -> dict:
     rc = centre_rc(m)
     px_mm = float(m["pixel_size_m"]) * 1e3
     a_mm = summary["indenters"][0]["contact_radius_mm"]
-    mask = exclude_circle(np.isfinite(m["fringe_order"]), rc, a_mm / px_mm + 2)
-    r6 = six_step(load_six_step(six_images(state)), mask=mask)
+    r6 = six_step_of(state, contact_mask(summary, m))
     pred = m["fringe_order"]
     border = np.concatenate([pred[:3].ravel(), pred[-3:].ravel(), pred[:, :3].ravel(),
                              pred[:, -3:].ravel()])  # fmt: skip
@@ -75,8 +73,7 @@ def main(argv=None) -> dict:
     p_pred = line_profile(pred, *cd, n=cols).values
     unrel = line_profile(np.where(fo.reliable, np.nan, fo.order), *cd, n=cols).values
     fig, ax = plt.subplots(1, 2, figsize=(11.5, 4.6), dpi=110)
-    ext = (m["x_m"][0, 0] * 1e3, m["x_m"][0, -1] * 1e3, m["y_m"][-1, 0] * 1e3,
-           m["y_m"][0, 0] * 1e3)  # fmt: skip
+    ext = extent_mm(m)
     im = ax[0].imshow(fo.order, cmap="viridis", extent=ext)
     fig.colorbar(im, ax=ax[0], label="fringe order")
     ax[0].contour(np.where(fo.reliable, 0.0, 1.0), levels=[0.5], colors="r", linewidths=0.8,

@@ -102,14 +102,11 @@ def integrate_samples(
     *,
     reflection: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Path quaternions (P, W, 4) and simple fringe order (P,) from ray samples."""
-    lam = check_wavelengths(wavelengths)
-    k = law.retardation_per_stress_length(lam)
-    q = integrate_path(samples.ds, samples.theta, samples.dz, k)
-    passes = 2.0 if reflection else 1.0
-    simple = passes * np.sum(samples.ds * samples.dz, axis=1) / law.f_sigma
-    if reflection:
-        q = qmul(qtranspose(q), q)  # U_refl = U^T U (DESIGN.md, unfolded frame)
+    """Path quaternions (P, W, 4) and simple fringe order (P,) from ray samples.
+
+    One layer of :func:`integrate_layers`.
+    """
+    q, simple, _ = integrate_layers([samples], [law], wavelengths, reflection=reflection)
     return q, simple
 
 
@@ -160,7 +157,7 @@ def integrate_layers(
         simple += passes * np.sum(s.ds * s.dz, axis=1) * k_ref / (2 * np.pi)
     simple = np.where(valid, simple, 0.0)
     if reflection:
-        q = qmul(qtranspose(q), q)
+        q = qmul(qtranspose(q), q)  # U_refl = U^T U (DESIGN.md, unfolded frame)
     return q, simple, valid
 
 

@@ -96,7 +96,7 @@ def _table(calibration, chart: dict | None) -> CalibrationTable:
     from optics import PSM4_ASSUMED, Camera, colour_chart, light_source
 
     chart = chart or {}
-    lam = np.linspace(400e-9, 700e-9, 31)
+    lam = PSM4_ASSUMED.wavenumber_grid(31)  # the grid predict renders white light on
     orders, rgb = colour_chart(
         PSM4_ASSUMED,
         light_source(chart.get("light", "LED"), lam),

@@ -177,6 +177,14 @@ SCHEMA: dict[str, Any] = {
         "center_mm": Key([0.0, 0.0], "field-of-view centre [x, y]", "mm", "point", -1e3, 1e3),
         "pixels": Key(256, "image size (pixels x pixels)", kind="int", lo=8, hi=4096),
         "samples_per_ray": Key(64, "slabs per ray through the sheet", kind="int", lo=4, hi=4096),
+        "lateral_step_mm": _f(
+            0.4,
+            "pitch of the ray lattice the stress is sampled on and interpolated from, halved "
+            "where its error check fails (0 = sample every pixel's ray)",
+            "mm",
+            0,
+            100,
+        ),
         "include_substrate": Key(
             False,
             "also integrate through the polycarbonate (light enters from the PC side)",
@@ -195,7 +203,11 @@ SCHEMA: dict[str, Any] = {
         ),
         "light": Key("LED", "white-light source", kind="str", choices=("LED", "A", "D65")),
         "white_light_wavelengths": Key(
-            31, "wavelengths 400-700 nm for white light", kind="int", lo=3, hi=301
+            31,
+            "wavelengths 400-700 nm for white light (evenly spaced in the sheet's k = 2 pi C / lam)",
+            kind="int",
+            lo=4,
+            hi=301,
         ),
         "camera": Key("CIE1931", "observer or colour-science camera name", kind="str"),
         "bit_depth": Key(8, "image bit depth", kind="int", choices=(8, 16)),

@@ -269,13 +269,13 @@ def _integrate(
     o = cfg["optics"]
     pc = optics.substrate_law is not None
     if samples is None:
-        samples = [
-            sample_rays(FEMStressField(sol), optics.grid, o["samples_per_ray"], progress=progress)
-        ]
+        step = o["lateral_step_mm"] * 1e-3 or None
+        kw = {"lateral_step": step, "progress": progress}
+        samples = [sample_rays(FEMStressField(sol), optics.grid, o["samples_per_ray"], **kw)]
         if pc:
             field = FEMStressField(sol, region="substrate")
             n_pc = o["substrate_samples_per_ray"]
-            samples.insert(0, sample_rays(field, optics.grid, n_pc, progress=progress))
+            samples.insert(0, sample_rays(field, optics.grid, n_pc, **kw))
     laws = [optics.substrate_law, optics.law] if pc else [optics.law]
     q, simple, valid = integrate_layers(samples, laws, wavelengths)
     return q, simple, valid, samples
@@ -418,7 +418,7 @@ def _render_state(
     progress("optics: six phase-stepped images")
 
     t0 = time.perf_counter()
-    lam = np.linspace(400e-9, 700e-9, o["white_light_wavelengths"])
+    lam = law.wavenumber_grid(o["white_light_wavelengths"])
     qw, _, _, _ = _integrate(sol, cfg, optics, lam, samples=samples)
     spec = light_source(o["light"], lam)
     rgb = white_light_image(

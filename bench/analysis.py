@@ -58,7 +58,7 @@ def main() -> None:
     err = fo.order - order
     rms_phase = float(np.sqrt(np.nanmean(err[fo.reliable] ** 2)))
 
-    lam = np.linspace(400e-9, 700e-9, 31)
+    lam = PSM4_ASSUMED.wavenumber_grid(31)
     o, rgb = colour_chart(PSM4_ASSUMED, light_source("LED", lam), Camera(), max_order=5.0,
                           n=a.rows)  # fmt: skip
     tab = CalibrationTable.from_chart(o, rgb)

@@ -62,7 +62,7 @@ def disc_table(cfg: dict, n: int = 241) -> CalibrationTable:
     D, t, n_centre = 0.04, cfg["sheet"]["thickness_mm"] * 1e-3, 4.5
     disc = DiametralDisc(P=n_centre * np.pi * D * law.f_sigma / 8, D=D, t=t)
     grid = PixelGrid((n, n), D / n)
-    lam = np.linspace(400e-9, 700e-9, o["white_light_wavelengths"])
+    lam = law.wavenumber_grid(o["white_light_wavelengths"])
     m = optical_map(disc, grid, law, lam, n_samples=2, reflection=False)
     cam = Camera(sensitivities=o["camera"], exposure=o["exposure"])
     img = normalise(white_light_image(np.nan_to_num(m.q), light_source(o["light"], lam), cam)).data

@@ -1,8 +1,9 @@
 """Light sources, cameras and image formation (monochrome and white light).
 
 White light (../shared/DESIGN.md): channel value
-I_c = sum S(lam) Q_c(lam) T(lam) / sum S(lam) Q_c(lam), with T the polariscope
-transmittance from the Jones matrix at each wavelength. Spectra, colour-matching
+I_c = sum S(lam) Q_c(lam) T(lam) w(lam) / sum S(lam) Q_c(lam) w(lam), with T the
+polariscope transmittance from the Jones matrix at each wavelength and w the width of
+the wavelength cell each sample stands for (:attr:`Spectrum.weights`). Spectra, colour-matching
 functions and camera sensitivities come from colour-science datasets.
 """
 
@@ -40,6 +41,18 @@ class Spectrum:
     wavelengths: np.ndarray
     power: np.ndarray
     name: str = ""
+
+    @property
+    def weights(self) -> np.ndarray:
+        """(W,) quadrature weights (m) for sums over wavelength: the width of the cell
+        each sample stands for (half-way to its neighbours; the end cells as wide as
+        their only neighbour gap). Equal on an even grid, so sums there are unchanged;
+        on a wavenumber grid (optics.stressoptic.wavenumber_grid) they grow with lam."""
+        lam = np.asarray(self.wavelengths, float)
+        if lam.size < 2:
+            return np.ones_like(lam)
+        gap = np.diff(lam)
+        return 0.5 * (np.concatenate([gap[:1], gap]) + np.concatenate([gap, gap[-1:]]))
 
 
 def light_source(name: str = "LED", wavelengths=None) -> Spectrum:
@@ -143,7 +156,7 @@ def _to_rgb_linear(channels: np.ndarray, spectrum: Spectrum, camera: Camera) -> 
     import colour
 
     q = camera.responses(spectrum.wavelengths)
-    white = (spectrum.power[:, None] * q).sum(0)
+    white = ((spectrum.power * spectrum.weights)[:, None] * q).sum(0)
     xyz = channels * white / white[1]  # XYZ with the source white at Y = 1
     xy_w = colour.XYZ_to_xy(white / white[1])
     return colour.XYZ_to_RGB(
@@ -171,8 +184,8 @@ def white_light_image(
     arrangement = arrangement or dark_field_circular()
     t = intensity(q, arrangement)  # (rows, cols, W)
     qc = camera.responses(spectrum.wavelengths)  # (W, 3)
-    wq = spectrum.power[:, None] * qc
-    ch = np.einsum("...w,wc->...c", t, wq) / wq.sum(0)
+    wq = (spectrum.power * spectrum.weights)[:, None] * qc
+    ch = (t.reshape(-1, t.shape[-1]) @ (wq / wq.sum(0))).reshape(t.shape[:-1] + (3,))
     rgb = _to_rgb_linear(ch, spectrum, camera)
     return rgb if linear else camera.encode(rgb, seed)
 

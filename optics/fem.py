@@ -98,6 +98,21 @@ class FEMStressField:
             flips.append((a, neg))
         return q, flips
 
+    def fold_xy(self, xy) -> tuple[np.ndarray, np.ndarray]:
+        """Pixel positions (P, 2) (m) folded onto the modelled part, and whether each was
+        mirrored an odd number of times (its secondary principal angle changes sign).
+
+        A pixel and its mirror images see the same stresses up to those signs, so
+        optics.grid.sample_rays integrates one ray for all of them. For a full model the
+        positions come back unchanged."""
+        xy = np.asarray(xy, float)
+        folded = xy.copy()
+        odd = np.zeros(len(xy), bool)
+        for a in self.sym_axes:
+            odd ^= folded[:, a] < 0
+            folded[:, a] = np.abs(folded[:, a])
+        return folded, odd
+
     def z_range(self, xy):
         """Bottom and top heights (m) of the layer under xy (P, 2), and validity.
 

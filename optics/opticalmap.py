@@ -139,25 +139,45 @@ def integrate_layers(
     if len(samples) != len(laws) or not samples:
         raise ValueError("give one StressOpticLaw per layer of samples (and at least one)")
     lam = check_wavelengths(wavelengths)
+    first = samples[0]
+    if any(
+        not (np.array_equal(s.index, first.index) and np.array_equal(s.mirror, first.mirror))
+        for s in samples[1:]
+    ):  # layers that fold the pixels differently meet pixel by pixel
+        samples = [s.per_pixel() for s in samples]
+        first = samples[0]
     ds = np.concatenate([s.ds for s in samples], axis=1)
     th = np.concatenate([s.theta for s in samples], axis=1)
     dz = np.concatenate([s.dz for s in samples], axis=1)
     valid = np.logical_and.reduce([s.valid for s in samples])
+    # a row is integrated when any pixel that uses it is valid in every layer
+    row_valid = np.zeros(len(ds), bool)
+    row_valid[first.index[valid]] = True
     k = np.concatenate(
         [np.repeat(law.retardation_per_stress_length(lam)[None, :], s.ds.shape[1], axis=0)
          for s, law in zip(samples, laws, strict=True)]
     )  # fmt: skip
-    ds = np.where(valid[:, None], ds, 0.0)
-    q = integrate_path(ds, th, dz, k)
+    r = np.flatnonzero(row_valid)
+    q_rows = integrate_path(ds[r], th[r], dz[r], k)
+    if reflection:
+        q_rows = qmul(qtranspose(q_rows), q_rows)  # U_refl = U^T U (DESIGN.md, unfolded frame)
     ref = laws[reference]
     passes = 2.0 if reflection else 1.0
-    simple = np.zeros(len(valid))
+    simple_rows = np.zeros(len(r))
     for s, law in zip(samples, laws, strict=True):
         k_ref = law.retardation_per_stress_length(np.array([ref.wavelength_ref]))[0]
-        simple += passes * np.sum(s.ds * s.dz, axis=1) * k_ref / (2 * np.pi)
-    simple = np.where(valid, simple, 0.0)
-    if reflection:
-        q = qmul(qtranspose(q), q)  # U_refl = U^T U (DESIGN.md, unfolded frame)
+        simple_rows += passes * np.sum(s.ds[r] * s.dz[r], axis=1) * k_ref / (2 * np.pi)
+    # back to pixels: a mirrored pixel's path is its row's conjugated by the mirror,
+    # which flips the x and y quaternion parts (theta -> -theta in every slab)
+    slot = np.full(len(ds), len(r))  # rows not integrated -> the identity appended below
+    slot[r] = np.arange(len(r))
+    pick = np.where(valid, slot[first.index], len(r))
+    identity = np.zeros((1, len(lam), 4))
+    identity[..., 0] = 1.0  # invalid pixels: no retardation
+    q = np.concatenate([q_rows, identity]).take(pick, axis=0)
+    flip = np.flatnonzero(valid & first.mirror)
+    q[flip, :, 1:3] *= -1.0
+    simple = np.append(simple_rows, 0.0)[pick]
     return q, simple, valid
 
 

@@ -16,7 +16,13 @@ from typing import Literal
 
 import numpy as np
 
-__all__ = ["StressOpticLaw", "PSM4_ASSUMED", "POLYCARBONATE_ASSUMED", "check_wavelengths"]
+__all__ = [
+    "StressOpticLaw",
+    "PSM4_ASSUMED",
+    "POLYCARBONATE_ASSUMED",
+    "check_wavelengths",
+    "wavenumber_grid",
+]
 
 VISIBLE_NM = (360.0, 830.0)
 
@@ -110,9 +116,56 @@ class StressOpticLaw:
             2 * np.pi * self.C_ref / self.wavelength_ref
         )
 
+    def wavenumber_grid(self, n: int, lo: float = 400e-9, hi: float = 700e-9) -> np.ndarray:
+        """``n`` wavelengths (m, ascending) in [lo, hi] at which k = 2 pi C / lam is
+        equally spaced; see :func:`wavenumber_grid`."""
+        return wavenumber_grid(self, n, lo, hi)
+
     def fringe_order(self, stress_difference, path_length):
         """Fringe order N = L ds / f_sigma at the reference wavelength."""
         return np.asarray(path_length) * np.asarray(stress_difference) / self.f_sigma
+
+
+def wavenumber_grid(
+    law: StressOpticLaw, n: int, lo: float = 400e-9, hi: float = 700e-9
+) -> np.ndarray:
+    """Wavelengths (m, ascending) in [lo, hi] where the law's k(lam) = 2 pi C(lam) / lam
+    is equally spaced.
+
+    The retardation of any ray is k(lam) times a stress integral, so on this grid it
+    steps by the same amount from one sample to the next: the colour oscillation of a
+    high-order fringe is sampled evenly (an even lam grid samples it 3x more coarsely
+    at 700 nm than at 400 nm), and :func:`optics.jones.integrate_path` can replace the
+    per-wavelength sine and cosine by a complex recurrence. k(lam) must be monotone on
+    [lo, hi] (it is for every positive dispersion coefficient); the grid is found by
+    bisection to machine precision. Weight samples with
+    :attr:`optics.camera.Spectrum.weights` (cell widths) when integrating over lam.
+    """
+    if int(n) < 1 or int(n) != n:
+        raise ValueError(f"n = {n!r} is not allowed; give a whole number of wavelengths >= 1")
+    lo_hi = check_wavelengths([lo, hi])
+    if not lo_hi[0] < lo_hi[1]:
+        raise ValueError(f"lo = {lo!r} m must be below hi = {hi!r} m")
+    n = int(n)
+    if n == 1:
+        return check_wavelengths(0.5 * (lo + hi))
+    if law.dispersion == "none":  # k proportional to 1/lam: closed form
+        return 1.0 / np.linspace(1.0 / lo_hi[0], 1.0 / lo_hi[1], n)
+    k_lo, k_hi = law.retardation_per_stress_length(lo_hi)
+    if not k_lo > k_hi:
+        raise ValueError(
+            f"k(lam) = 2 pi C / lam of {law!r} does not fall from {lo!r} to {hi!r} m; "
+            "a wavenumber grid needs a monotone law"
+        )
+    target = np.linspace(k_hi, k_lo, n)[::-1]  # k falls as lam rises
+    a = np.full(n, lo_hi[0])
+    b = np.full(n, lo_hi[1])
+    for _ in range(80):  # bisection: [a, b] halves each step, ends below 1 ulp of lam
+        m = 0.5 * (a + b)
+        above = law.retardation_per_stress_length(m) > target
+        a = np.where(above, m, a)
+        b = np.where(above, b, m)
+    return 0.5 * (a + b)
 
 
 #: PSM-4-class urethane sheet, ASSUMED: K = 0.004 (Vishay-class strain-optic coefficient,

@@ -32,7 +32,7 @@ from optics import (
 )
 
 LAW = PSM4_ASSUMED
-LAM = np.linspace(400e-9, 700e-9, 31)
+LAM = PSM4_ASSUMED.wavenumber_grid(31)  # as predict and the analyze chart
 
 
 # -- synthetic specimens ---------------------------------------------------------------

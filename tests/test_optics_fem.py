@@ -8,7 +8,7 @@ from conftest import small_spec
 from fea import Indenter, NeoHookean, solve
 from fea.solution import Solution
 from meshes import Sizing, build_mesh
-from optics import PSM4_ASSUMED, PixelGrid, optical_map
+from optics import PSM4_ASSUMED, OpticalMap, PixelGrid, integrate_layers, optical_map, sample_rays
 from optics.fem import FEMStressField
 
 LAW = PSM4_ASSUMED
@@ -82,6 +82,37 @@ def test_indentation_rays_converge_and_contact_is_masked(cache_dir):
     np.testing.assert_allclose(N64, N64[:, ::-1], atol=1e-9, equal_nan=True)
     np.testing.assert_allclose(N64, N64[::-1, :], atol=1e-9, equal_nan=True)
     assert 1.0 < np.nanmax(N64) < 10.0
+
+    # Mirror-image pixels share one ray (a quarter of the rays here): the same map as
+    # sampling every pixel through the unfolded field, Jones matrices included (the
+    # mirror flips the isoclinic)
+    class Unfolded:  # the field without fold_xy: one ray per pixel
+        z_range = staticmethod(field.z_range)
+        stress = staticmethod(field.stress)
+
+    shared = sample_rays(field, grid, 16)
+    assert shared.ds.shape[0] == 40 * 40 // 4
+    every = sample_rays(Unfolded(), grid, 16)
+    assert every.ds.shape[0] == 40 * 40
+    q1, s1, v1 = integrate_layers([shared], [LAW], [575e-9])
+    q2, s2, v2 = integrate_layers([every], [LAW], [575e-9])
+    assert np.array_equal(v1, v2)
+    np.testing.assert_allclose(q1, q2, atol=1e-12)
+    np.testing.assert_allclose(s1, s2, rtol=1e-12)
+
+    # The adaptive lateral lattice (1 mm, halved where its error check fails) against
+    # sampling every ray, on a finer image: within 0.01 fringe everywhere
+    fine = PixelGrid.from_field_of_view(10e-3, (80, 80))
+    direct = optical_map(field, fine, LAW, n_samples=32)
+    lat = sample_rays(field, fine, 32, lateral_step=1e-3)
+    q, simple, valid = integrate_layers([lat], [LAW], [LAW.wavelength_ref])
+    m = OpticalMap(
+        fine, np.array([LAW.wavelength_ref]), q.reshape(80, 80, 1, 4),
+        np.where(valid, simple, np.nan).reshape(80, 80), valid.reshape(80, 80), True, LAW,
+    )  # fmt: skip
+    assert np.array_equal(m.mask, direct.mask)
+    d = np.abs(m.fringe_order() - direct.fringe_order())[direct.mask]
+    assert d.max() < 0.01, d.max()
 
 
 def test_polycarbonate_layer_uses_its_own_stress_and_law(small_meshes):

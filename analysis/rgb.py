@@ -222,10 +222,10 @@ def search_refined(
         between neighbouring pixels plus the colour noise in orders; 0.25 follows
         ~0.2 fringe/pixel (0.15 already lost the diametral disc at 0.25 mm/px).
 
-    Pixels of the mask not connected to any seed stay NaN.
+    Pixels of the mask not connected to any seed stay NaN. The search grows from the
+    seeds best colour match first (quality-guided, as in phase unwrapping), so an
+    ambiguous pixel is solved last, from its clearest neighbours.
     """
-    from skimage.graph import MCP_Geometric
-
     img, m = _pixels(image, mask)
     if not window > 0:
         raise ValueError(f"window = {window!r} fringe is not allowed; must be > 0")
@@ -240,7 +240,6 @@ def search_refined(
     )
     step = tab.step
     k = int(np.ceil(window / step))
-    starts = []
     for (r, c), o in seeds:
         r, c = int(round(r)), int(round(c))
         if not (0 <= r < rows and 0 <= c < cols) or not m[r, c]:
@@ -250,50 +249,63 @@ def search_refined(
                 f"seed order {o!r} is outside the table range "
                 f"[{tab.orders[0]:.3g}, {tab.orders[-1]:.3g}]"
             )
-        starts.append((r, c))
-    cost = np.where(m, 1.0, np.inf)
-    dist, _ = MCP_Geometric(cost, fully_connected=True).find_costs(starts)
-    reach = (np.isfinite(dist) & m).ravel()
     # work on a one-pixel padded grid so that every pixel has 8 neighbours
     pc = cols + 2
+    inside = np.zeros((rows + 2, pc), bool)
+    inside[1:-1, 1:-1] = m
+    inside = inside.ravel()
     order = np.full((rows + 2) * pc, np.nan)
     error = np.full((rows + 2) * pc, np.nan)
-    flat = np.flatnonzero(reach)
-    pflat = (flat // cols + 1) * pc + flat % cols + 1
-    for (r, c), o in seeds:
-        order[(int(round(r)) + 1) * pc + int(round(c)) + 1] = float(o)
-    ring = np.floor(dist.ravel()[flat]).astype(np.int64)
-    by = np.argsort(ring, kind="stable")
-    pflat, ring = pflat[by], ring[by]
-    bounds = np.flatnonzero(np.diff(ring)) + 1
-    pix = img.reshape(-1, 3).astype(np.float32)
-    pix_of = np.empty((rows + 2) * pc, np.int64)
-    pix_of[pflat] = flat[by]
+    pix = np.zeros(((rows + 2) * pc, 3), np.float32)
+    pix.reshape(rows + 2, pc, 3)[1:-1, 1:-1] = img
     T = tab.rgb.astype(np.float32)
     Tpad = np.concatenate([np.repeat(T[:1], k, 0), T, np.repeat(T[-1:], k, 0)])
     Tw = np.lib.stride_tricks.sliding_window_view(Tpad, 2 * k + 1, axis=0)  # (n, 3, 2k+1)
     Tn = (Tw.astype(np.float32) ** 2).sum(axis=1)  # (n, 2k+1)
+    Tc = [np.ascontiguousarray(Tw[:, c, :]) for c in range(3)]  # per channel, (n, 2k+1)
     nb = np.array([-pc - 1, -pc, -pc + 1, -1, 1, pc - 1, pc, pc + 1])
-    for group in np.split(pflat, bounds):
-        todo = group[np.isnan(order[group])]
-        if len(todo) == 0:
-            continue
-        nval = order[todo[:, None] + nb]
+    seed_flat = []
+    for (r, c), o in seeds:
+        f = (int(round(r)) + 1) * pc + int(round(c)) + 1
+        order[f] = float(o)
+        error[f] = float(np.sqrt(((pix[f] - T) ** 2).sum(-1).min()))
+        seed_flat.append(f)
+    # Quality-guided growth: the frontier (unsolved pixels next to solved ones) is solved
+    # in windows around its solved neighbours, and only its better half by colour error
+    # is accepted in each wave; the rest wait for more solved neighbours. A pixel whose
+    # colour is ambiguous (near a dark fringe, clipped, noisy) is thus reached last, from
+    # the side where the order is clear, instead of passing a wrong step on round a
+    # ring as a front marching by distance would (one wrong pixel at 96 px gave an RMS
+    # of 0.3 fringe that way).
+    in_front = np.zeros_like(inside)
+
+    def grow(done: np.ndarray) -> np.ndarray:
+        cand = np.unique((done[:, None] + nb).ravel())
+        cand = cand[inside[cand] & np.isnan(order[cand]) & ~in_front[cand]]
+        in_front[cand] = True
+        return cand
+
+    front = grow(np.asarray(seed_flat, np.int64))
+    while front.size:
+        nval = order[front[:, None] + nb]
         cnt = np.isfinite(nval).sum(axis=1)
-        ref = np.where(cnt > 0, np.nansum(nval, axis=1) / np.maximum(cnt, 1), tab.orders[0])
+        ref = np.nansum(nval, axis=1) / np.maximum(cnt, 1)
         centre = np.clip(np.round((ref - tab.orders[0]) / step).astype(np.int64), 0, len(T) - 1)
-        p_ = pix[pix_of[todo]]
-        d2 = Tn[centre] - 2.0 * np.einsum("fc,fcw->fw", p_, Tw[centre])
-        best = np.argmin(d2, axis=1)
-        rows_best = np.clip(centre + best - k, 0, len(T) - 1)
-        order[todo] = tab.orders[rows_best]
-        e2 = ((p_ - T[rows_best]) ** 2).sum(axis=1)
-        error[todo] = np.sqrt(e2)
-    order = order.reshape(rows + 2, pc)[1:-1, 1:-1].ravel()
-    error = error.reshape(rows + 2, pc)[1:-1, 1:-1].ravel()
-    out = np.where(m.ravel() & reach, order, np.nan).reshape(m.shape)
-    err = np.where(m.ravel() & reach, error, np.nan).reshape(m.shape)
-    for (r, c), _o in seeds:
-        r, c = int(round(r)), int(round(c))
-        err[r, c] = float(np.sqrt(((img[r, c] - T) ** 2).sum(-1).min()))
+        p_ = pix[front]
+        dot = p_[:, 0, None] * Tc[0][centre]
+        dot += p_[:, 1, None] * Tc[1][centre]
+        dot += p_[:, 2, None] * Tc[2][centre]
+        d2 = Tn[centre] - 2.0 * dot
+        rows_best = np.clip(centre + np.argmin(d2, axis=1) - k, 0, len(T) - 1)
+        e = np.sqrt(((p_ - T[rows_best]) ** 2).sum(axis=1))
+        take = e <= np.median(e) if front.size > 8 else np.ones(front.size, bool)
+        done = front[take]
+        order[done] = tab.orders[rows_best[take]]
+        error[done] = e[take]
+        in_front[done] = False
+        front = np.concatenate([front[~take], grow(done)])
+    order = order.reshape(rows + 2, pc)[1:-1, 1:-1]
+    error = error.reshape(rows + 2, pc)[1:-1, 1:-1]
+    out = np.where(m, order, np.nan)
+    err = np.where(m, error, np.nan)
     return RGBResult(out, err, m)

@@ -17,6 +17,8 @@ pair, free of volumetric locking as nu -> 0.5 (checked in tests/test_fea.py).
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -72,6 +74,74 @@ def body_state(
         Also compute the element tangent matrices.
     """
     c = len(cells)
+    blocks = _blocks(c, groups)
+    if len(blocks) == 1:
+        return _body_block(u, cells, grads, groups, tangent, None)
+    # the element kernels are numpy batched products that release the GIL: cell blocks
+    # run on the cores in threads, each writing its slice of one tangent array
+    Ke = np.zeros((c, 10, 3, 10, 3)) if tangent else None
+
+    def run(b):
+        lo, hi = b
+        sub = ReferenceGradients(grads.dNdX[lo:hi], grads.dV[lo:hi], grads.N)
+        sub_groups = [(idx[(idx >= lo) & (idx < hi)] - lo, mat) for idx, mat in groups]
+        return _body_block(u, cells[lo:hi], sub, sub_groups, tangent, None if Ke is None else Ke[lo:hi])
+
+    parts = list(_executor().map(run, blocks))
+    min_J = min(p.min_J for p in parts)
+    F = np.concatenate([p.F for p in parts])
+    if min_J <= 0:
+        return BodyState(np.inf, np.zeros_like(u), None, F, np.zeros(c), min_J)
+    force = parts[0].force
+    for p in parts[1:]:
+        force += p.force
+    return BodyState(
+        float(sum(p.energy for p in parts)),
+        force,
+        None if Ke is None else Ke.reshape(c, 30, 30),
+        F,
+        np.concatenate([p.Jbar for p in parts]),
+        min_J,
+    )
+
+
+#: cells per block: ~1000 keeps a block's temporaries in cache (measured 2.4x faster
+#: than one block on 7.4k cells with 2 threads); blocks run on the cores in threads
+_BLOCK = 1000
+_POOL = None
+
+
+def _cores() -> int:
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+def _blocks(c: int, groups) -> list[tuple[int, int]]:
+    """Cell ranges of about _BLOCK cells; when every material group is a contiguous
+    range (fea.solver sorts the cells by region), no range straddles two groups, so each
+    block is one material and runs on views (no gathers)."""
+    cuts = [0, c]
+    if all(len(i) == 0 or i[-1] - i[0] + 1 == len(i) for i, _ in groups):
+        cuts += [int(i[0]) for i, _ in groups if len(i)]
+    cuts = np.unique(cuts)
+    out = []
+    for lo, hi in zip(cuts[:-1], cuts[1:], strict=True):
+        n = max(1, round((hi - lo) / _BLOCK))
+        edges = np.linspace(lo, hi, n + 1).astype(int)
+        out += list(zip(edges[:-1], edges[1:], strict=True))
+    return out
+
+
+def _executor() -> ThreadPoolExecutor:
+    global _POOL
+    if _POOL is None:
+        _POOL = ThreadPoolExecutor(max_workers=_cores(), thread_name_prefix="fea-assembly")
+    return _POOL
+
+
+def _body_block(u, cells, grads, groups, tangent, Ke_out) -> BodyState:
+    """:func:`body_state` on a block of cells; the tangent goes into ``Ke_out``
+    ((c, 10, 3, 10, 3), zero) when given."""
+    c = len(cells)
     ue = u[cells]  # (c, 10, 3)
     F = np.eye(3) + ue.swapaxes(1, 2)[:, None] @ grads.dNdX  # F_iJ = d_iJ + u_ai dN_aJ
     J = np.linalg.det(F)
@@ -88,9 +158,13 @@ def body_state(
     P = np.empty_like(F)
     dU = np.empty(c)
     ddU = np.empty(c)
-    Ke = np.zeros((c, 10, 3, 10, 3)) if tangent else None
+    Ke = (Ke_out if Ke_out is not None else np.zeros((c, 10, 3, 10, 3))) if tangent else None
     wdN = grads.dNdX * dV[..., None, None]
     for idx, mat in groups:
+        if len(idx) == 0:
+            continue
+        if len(idx) == c:  # the block is one material: views instead of copies
+            idx = slice(None)
         Fi, Gi, Ji = F[idx], G[idx], J[idx]
         U, dUi, ddUi = mat.volumetric(Jbar[idx])
         dU[idx], ddU[idx] = dUi, ddUi
@@ -114,7 +188,7 @@ def body_state(
     force = np.zeros_like(u)
     _scatter_add(force, cells, fe)
     if tangent:
-        Ke = Ke.reshape(c, 30, 30)
+        Ke = Ke.reshape(c, 30, 30)  # a view: Ke_out is filled in place
         gf = g.reshape(c, 30)
         Ke += (ddU / Ve)[:, None, None] * gf[:, :, None] * gf[:, None, :]
     return BodyState(energy, force, Ke, F, Jbar, min_J)
@@ -205,8 +279,9 @@ def _neo_hookean_stiffness(mat, F, G, J, pJ, dNdX, wq, Ke, idx):
                   + (1/3 mu a I1 - pJ) g_bi g_ak ],
 
     which a batched matrix product evaluates several times faster than the 4th-order
-    tensor contraction. ``wq`` (c, q) are the volume weights (m^3). Adds into ``Ke[idx]``
-    ((c, 10, 3, 10, 3)), which must be zero there; returns (W, P).
+    tensor contraction. ``wq`` (c, q) are the volume weights (m^3). Writes ``Ke[idx]``
+    ((c, 10, 3, 10, 3)); with ``idx`` a full slice the product is formed in place.
+    Returns (W, P).
     """
     I1 = np.einsum("...ij,...ij->...", F, F)
     a = J ** (-2.0 / 3.0)
@@ -218,9 +293,6 @@ def _neo_hookean_stiffness(mat, F, G, J, pJ, dNdX, wq, Ke, idx):
     f = dNdX @ F.swapaxes(-1, -2)  # (c, q, 10, 3): f_ai = F_iJ dN_aJ
     g = dNdX @ G.swapaxes(-1, -2)
     D = ((dNdX * (wq * mua)[..., None, None]) @ dNdX.swapaxes(-1, -2)).sum(axis=1)  # (c,10,10)
-    K = np.zeros((c, 10, 3, 10, 3))
-    for i in range(3):
-        K[:, :, i, :, i] = D
     c_fg = (wq * (-2.0 / 3.0) * mua)[..., None]
     c_gg = (wq * ((2.0 / 9.0) * mua * I1 + pJ))[..., None]
     c_sw = (wq * ((1.0 / 3.0) * mua * I1 - pJ))[..., None]
@@ -228,9 +300,15 @@ def _neo_hookean_stiffness(mat, F, G, J, pJ, dNdX, wq, Ke, idx):
     gl = g.reshape(c, -1, 30)
     left = np.concatenate([fl, gl], axis=1)  # (c, 2q, 30)
     right = np.concatenate([c_fg * gl, c_fg * fl + c_gg * gl], axis=1)
-    K += np.matmul(left.transpose(0, 2, 1), right).reshape(c, 10, 3, 10, 3)
+    whole = isinstance(idx, slice)
+    K = np.matmul(
+        left.transpose(0, 2, 1), right, out=Ke.reshape(c, 30, 30) if whole else None
+    ).reshape(c, 10, 3, 10, 3)
+    for i in range(3):
+        K[:, :, i, :, i] += D
     # swap term: Y[(a,k),(b,i)] = sum_q c_sw g_ak g_bi, added as K[a,i,b,k]
     Y = np.matmul(gl.transpose(0, 2, 1), c_sw * gl).reshape(c, 10, 3, 10, 3)
     K += Y.transpose(0, 1, 4, 3, 2)
-    Ke[idx] = K
+    if not whole:
+        Ke[idx] = K
     return W, P

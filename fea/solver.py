@@ -70,6 +70,9 @@ class SolveStats:
     time_total: float = 0.0
     newton_iterations: int = 0
     iterations_per_state: list = field(default_factory=list)
+    #: per Newton iteration: (wall time, factorization time) in s, from the linear
+    #: solve through the line search (whose first trial assembles the next tangent)
+    iteration_times: list = field(default_factory=list)
     cutbacks: int = 0
     al_updates: int = 0
 
@@ -121,8 +124,15 @@ class _Model:
         n = mesh.n_points
         m = len(indenters)
         self.n, self.m = n, m
-        self.grads = reference_gradients(mesh.points, mesh.cells)
+        # cells sorted by region: every material is one contiguous range, so the element
+        # kernels run on views (fea.assembly); Solution arrays are put back in mesh order
+        self.order = np.argsort(mesh.regions, kind="stable")
+        self.inverse = np.argsort(self.order)
+        self.cells = mesh.cells[self.order]
+        self.grads = reference_gradients(mesh.points, self.cells)
         self.groups = []
+        self.mesh_groups = []
+        sorted_regions = mesh.regions[self.order]
         for region in np.unique(mesh.regions):
             if int(region) not in materials:
                 raise ValueError(
@@ -135,7 +145,8 @@ class _Model:
                     f"materials[{int(region)}] = {mat!r} is not a fea.Material "
                     "(NeoHookean or MooneyRivlin)"
                 )
-            self.groups.append((np.flatnonzero(mesh.regions == region), mat))
+            self.groups.append((np.flatnonzero(sorted_regions == region), mat))
+            self.mesh_groups.append((np.flatnonzero(mesh.regions == region), mat))
         self.sheet = materials[0]
 
         # fixed DOFs: bottom all components, symmetry planes their normal component
@@ -213,7 +224,7 @@ class _Model:
         self.eps_n = np.zeros(m)
         self.pattern: Pattern | None = None
         self.pattern_id = 0
-        self.elem_dofs = self._node_dofs(mesh.cells)
+        self.elem_dofs = self._node_dofs(self.cells)
         self._elem_scatter = None
 
     # -- numbering -------------------------------------------------------------------
@@ -277,7 +288,7 @@ class _State:
 def _evaluate(model: _Model, st: _State, f_ind: np.ndarray, *, tangent: bool, stats: SolveStats):
     """Energy, reduced residual, reduced tangent and per-indenter contact results."""
     t0 = time.perf_counter()
-    body = body_state(st.u, model.mesh.cells, model.grads, model.groups, tangent=tangent)
+    body = body_state(st.u, model.cells, model.grads, model.groups, tangent=tangent)
     t1 = time.perf_counter()
     stats.time_assembly += t1 - t0
     if body.min_J <= 0:
@@ -662,6 +673,7 @@ def _newton(model, st, f_ind, fscale, lin, settings, contact, stats, iter_log):
             ):
                 iter_log.append({"iteration": it, "residual_N": rnorm, "energy_norm_J": 0.0})
                 return True, "", results
+        t_it, f_it = time.perf_counter(), lin.time_factorize
         dx = lin.solve(K, -r, symmetric=model.symmetric, pattern_id=model.pattern_id)
         stats.newton_iterations += 1
         if not np.all(np.isfinite(dx)):
@@ -695,6 +707,7 @@ def _newton(model, st, f_ind, fscale, lin, settings, contact, stats, iter_log):
             st.u, st.c = base_u, base_c
             return False, "the line search found no decreasing, admissible step", None
         prev = accepted if alpha == 1.0 else _evaluate(model, st, f_ind, tangent=True, stats=stats)
+        stats.iteration_times.append((time.perf_counter() - t_it, lin.time_factorize - f_it))
     return False, f"Newton did not converge in {settings.max_iterations} iterations", None
 
 
@@ -713,12 +726,13 @@ def _make_solution(model, st, s, iter_log, stats) -> Solution:
     energy, r, _, _, body, R = out
     results = st.results  # the converged contact state (before the last multiplier copy)
     # Cauchy stress: sigma = J^-1 P_iso F^T + U'(Jbar) I (mean dilatation pressure)
-    F = body.F
+    F = body.F[model.inverse]  # back to mesh cell order
+    jbar = body.Jbar[model.inverse]
     J = np.linalg.det(F)
     sigma = np.empty_like(F)
-    for idx, mat in model.groups:
+    for idx, mat in model.mesh_groups:
         _, P, _ = mat.isochoric(F[idx], tangent=False)
-        _, dU, _ = mat.volumetric(body.Jbar[idx])
+        _, dU, _ = mat.volumetric(jbar[idx])
         sigma[idx] = np.einsum("cqiJ,cqkJ->cqik", P, F[idx]) / J[idx][..., None, None]
         sigma[idx] += dU[:, None, None, None] * np.eye(3)
     bottom = np.unique(model.mesh.facet_nodes("bottom"))
@@ -755,7 +769,7 @@ def _make_solution(model, st, s, iter_log, stats) -> Solution:
         mesh=model.mesh,
         displacement=st.u.copy(),
         stress_qp=sigma,
-        jbar=body.Jbar.copy(),
+        jbar=jbar,
         indenters=tuple(states),
         base_reaction=base_reaction,
         model_fraction=tuple(float(v) for v in model.frac),

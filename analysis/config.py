@@ -204,7 +204,7 @@ SCHEMA: dict[str, Any] = {
         "light": Key("LED", "white-light source", kind="str", choices=("LED", "A", "D65")),
         "white_light_wavelengths": Key(
             31,
-            "wavelengths 400-700 nm for white light (evenly spaced in the sheet's k = 2 pi C / lam)",
+            "wavelengths 400-700 nm for white light (even steps of the sheet's 2 pi C / lam)",
             kind="int",
             lo=4,
             hi=301,

@@ -85,7 +85,9 @@ def body_state(
         lo, hi = b
         sub = ReferenceGradients(grads.dNdX[lo:hi], grads.dV[lo:hi], grads.N)
         sub_groups = [(idx[(idx >= lo) & (idx < hi)] - lo, mat) for idx, mat in groups]
-        return _body_block(u, cells[lo:hi], sub, sub_groups, tangent, None if Ke is None else Ke[lo:hi])
+        return _body_block(
+            u, cells[lo:hi], sub, sub_groups, tangent, None if Ke is None else Ke[lo:hi]
+        )
 
     parts = list(_executor().map(run, blocks))
     min_J = min(p.min_J for p in parts)

@@ -43,6 +43,28 @@ _W = TRI_QUADRATURE[1]
 _NEXT = np.hstack([_N, -np.ones((len(_N), 1))])
 
 
+def _quadratic_basis(rs: np.ndarray) -> np.ndarray:
+    r, s = rs[:, 0], rs[:, 1]
+    return np.stack([np.ones_like(r), r, s, r * r, r * s, s * s], axis=1)
+
+
+def _sub_centroids(n: int) -> np.ndarray:
+    """Centroids of the n^2 equal sub-triangles of the parametric triangle."""
+    up = [((3 * i + 1) / (3 * n), (3 * j + 1) / (3 * n)) for i in range(n) for j in range(n - i)]
+    down = [
+        ((3 * i + 2) / (3 * n), (3 * j + 2) / (3 * n)) for i in range(n) for j in range(n - 1 - i)
+    ]
+    return np.array(up + down)
+
+
+#: least-squares quadratic through the 7 quadrature points: coefficients = _FIT @ values
+_FIT = np.linalg.pinv(_quadratic_basis(TRI_QUADRATURE[0]))
+_SUB = _sub_centroids(8)
+_SUB_BASIS = _quadratic_basis(_SUB)
+_SUB_DN = tri6_shape(_SUB)[1]
+_SUB_AREA = 0.5 / len(_SUB)  # parametric area of each sub-triangle
+
+
 @dataclass(frozen=True)
 class ContactFace:
     """The contact facets with their reference-area quadrature weights.
@@ -81,6 +103,26 @@ class ContactFace:
         """(f, q) current area weights (m^2)."""
         t = np.einsum("fai,qar->fqri", x[self.nodes[faces]], _dN)
         return np.linalg.norm(np.cross(t[:, :, 0], t[:, :, 1]), axis=-1) * _W[None, :]
+
+    def projected_contact_area(self, x: np.ndarray, faces: np.ndarray, f: np.ndarray) -> float:
+        """Area (m^2), projected on the x-y plane, where the contact indicator is positive,
+        resolved inside the facets.
+
+        ``f`` (faces, q) is a signed indicator at the quadrature points, continuous across
+        the contact edge: the pressure where the point is in contact and ``-eps_N g`` (the
+        penalty times the open gap) where it is not, i.e. the augmented-Lagrangian trial
+        pressure. Per facet it is fitted by a least-squares quadratic in the facet's
+        parametric coordinates through its 7 points and its sign is read at the centroids
+        of 64 sub-triangles, so the contact edge is placed to 1/8 of a facet instead of
+        at the facets' (or the quadrature points') boundaries.
+        """
+        if len(faces) == 0:
+            return 0.0
+        coef = np.asarray(f, float) @ _FIT.T  # (faces, 6) quadratic coefficients
+        val = coef @ _SUB_BASIS.T  # (faces, 64)
+        t = np.einsum("fai,sar->fsri", x[self.nodes[faces]], _SUB_DN)
+        dens = np.abs(np.cross(t[:, :, 0], t[:, :, 1])[..., 2])  # projected Jacobian
+        return float((dens * (val > 0)).sum() * _SUB_AREA)
 
 
 @dataclass(frozen=True)

@@ -749,8 +749,9 @@ def _make_solution(model, st, s, iter_log, stats) -> Solution:
                 force[a] = 0.0
         cur = model.face.current_area(x, faces)
         ref = model.face.weights[faces]
-        proj = model.face.projected_area(x, faces)
-        area = float(proj[act].sum()) / model.frac[j]
+        # contact edge inside the facets: the sign of the trial pressure p - eps_N g
+        indicator = np.where(act, res.p, -model.eps_n[j] * res.gap)
+        area = model.face.projected_contact_area(x, faces, indicator) / model.frac[j]
         pts = model.face.points(x, faces)
         pen = float(max(0.0, -res.gap[act].min())) if np.any(act) else 0.0
         states.append(

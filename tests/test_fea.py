@@ -378,3 +378,29 @@ def test_unreachable_load_keeps_converged_states(quarter):
         solve(quarter, [Indenter(normal_force=(1.0, 400.0))], settings=settings)
     assert len(err.value.solutions) == 1
     assert err.value.solutions[0].indenters[0].force[2] == pytest.approx(-1.0, rel=1e-9)
+
+
+def test_contact_area_is_resolved_inside_the_facets(small_meshes):
+    """An indicator f = R0^2 - r^2 (a quadratic, fitted exactly on straight facets) is
+    positive on a quarter disc of radius R0: the sub-facet area is pi R0^2 / 4 within
+    1 %, for edges that cut the facets anywhere (R0 swept over a facet size), where
+    counting the quadrature points' areas is off by up to several per cent."""
+    from fea.contact import ContactFace
+
+    mesh = small_meshes["quarter"]
+    x = mesh.points
+    face = ContactFace.from_points(x, mesh.facet_nodes("contact"))
+    faces = np.arange(len(face.nodes))
+    xq = face.points(x, faces)
+    r2 = xq[..., 0] ** 2 + xq[..., 1] ** 2
+    proj = face.projected_area(x, faces)
+    worst_sub, worst_pts = 0.0, 0.0
+    for R0 in np.linspace(1.5e-3, 2.5e-3, 7):
+        exact = np.pi * R0**2 / 4
+        sub = face.projected_contact_area(x, faces, R0**2 - r2)
+        pts = proj[r2 < R0**2].sum()
+        worst_sub = max(worst_sub, abs(sub / exact - 1))
+        worst_pts = max(worst_pts, abs(pts / exact - 1))
+    print(f"largest area error: sub-facet {worst_sub:.4f}, quadrature points {worst_pts:.4f}")
+    assert worst_sub < 0.01
+    assert worst_sub < worst_pts

@@ -130,7 +130,15 @@ SCHEMA: dict[str, Any] = {
             kind="str",
             choices=("auto", "full", "half", "quarter"),
         ),
-        "h_contact_mm": _f(0.6, "edge length under each indenter", "mm", 0, 50, True),
+        "h_contact_mm": _f(
+            0.6,
+            "edge length under each indenter (0.6 converges the depth; 0.4 for the fringe "
+            "order within 0.5 mm of the contact edge, bench/convergence.py)",
+            "mm",
+            0,
+            50,
+            True,
+        ),
         "refine_radius_mm": _f(
             2.0, "radius of the refined zone about each axis", "mm", 0, 500, True
         ),

@@ -40,6 +40,9 @@ def test_fig6_rgb_tracks_the_prediction_to_some_order(tmp_path, cache_dir):
     assert res["plain"]["order_within_0.1"] >= 1.0
     assert res["refined"]["order_within_0.1"] >= res["plain"]["order_within_0.1"]
     assert res["refined"]["rms_fringe"] < min(0.1, res["plain"]["rms_fringe"])
+    noisy = res["with_camera_noise"]
+    assert noisy["camera"]["full_well_e"] > 0
+    assert noisy["refined"]["rms_fringe"] < min(0.1, noisy["plain"]["rms_fringe"])
     assert (tmp_path / "fig6_rgb.png").is_file()
 
 

@@ -32,7 +32,7 @@ from common import (  # noqa: E402
 )
 from scipy.ndimage import binary_erosion  # noqa: E402
 
-from analysis import line_profile, unwrap_fringe_order  # noqa: E402
+from analysis import exclude_circle, line_profile, unwrap_fringe_order  # noqa: E402
 from analysis.config import effective_config  # noqa: E402
 
 #: (x_mm, y_mm, diameter_mm, load_N): heel, two metatarsal heads, three toes (assumed
@@ -79,7 +79,15 @@ def main(argv=None) -> dict:
     summary, state = predict(cfg, out / "foot", args)
     m = maps(state)
     pred = m["fringe_order"]
+    # Outside every contact circle by half an element of the mesh under the indenters:
+    # there the FE field turns over at the unresolved contact edge, and the order's local
+    # maximum folds the six-step phase the wrong way on some meshes (0.07 fringe RMS on
+    # 1 of 7 fresh coarse meshes without the margin)
     mask = binary_erosion(np.isfinite(pred), iterations=2)
+    margin_px = 0.5 * cfg["mesh"]["h_contact_mm"] * 1e-3 / float(m["pixel_size_m"])
+    for ind, (r, c) in zip(summary["indenters"], m["indenter_rc"], strict=True):
+        a_px = ind["contact_radius_mm"] * 1e-3 / float(m["pixel_size_m"])
+        mask = exclude_circle(mask, (r, c), a_px + margin_px)
     r6 = six_step_of(state, mask)
     ring = np.zeros_like(mask)
     ring[:3], ring[-3:], ring[:, :3], ring[:, -3:] = True, True, True, True

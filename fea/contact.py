@@ -61,7 +61,7 @@ def _sub_centroids(n: int) -> np.ndarray:
 _FIT = np.linalg.pinv(_quadratic_basis(TRI_QUADRATURE[0]))
 _SUB = _sub_centroids(8)
 _SUB_BASIS = _quadratic_basis(_SUB)
-_SUB_DN = tri6_shape(_SUB)[1]
+_SUB_N, _SUB_DN = tri6_shape(_SUB)
 _SUB_AREA = 0.5 / len(_SUB)  # parametric area of each sub-triangle
 
 
@@ -118,11 +118,47 @@ class ContactFace:
         """
         if len(faces) == 0:
             return 0.0
-        coef = np.asarray(f, float) @ _FIT.T  # (faces, 6) quadratic coefficients
-        val = coef @ _SUB_BASIS.T  # (faces, 64)
+        val = self._sub_indicator(f)
         t = np.einsum("fai,sar->fsri", x[self.nodes[faces]], _SUB_DN)
         dens = np.abs(np.cross(t[:, :, 0], t[:, :, 1])[..., 2])  # projected Jacobian
         return float((dens * (val > 0)).sum() * _SUB_AREA)
+
+    def contact_hull_area(
+        self, x: np.ndarray, faces: np.ndarray, f: np.ndarray, mirror_axes=()
+    ) -> float:
+        """Area (m^2), projected on x-y, of the convex hull of the sub-facet samples where
+        the indicator ``f`` (see :meth:`projected_contact_area`) is positive.
+
+        ``mirror_axes`` lists the symmetry planes x = 0 (0) and y = 0 (1) the indenter sits
+        on: the samples are mirrored across them first, so the hull (and the area
+        returned) is that of the whole patch, not of the modelled part.
+
+        A sphere on a flat sheet touches a convex patch; on coarse facets a few points
+        inside it sit a hair off the sphere and carry no pressure, which punches holes
+        into the plain area (a 0.6 mm mesh gave a radius 11 % small that way). The hull
+        bridges them. 0 when fewer than three samples are in contact.
+        """
+        from scipy.spatial import ConvexHull, QhullError
+
+        if len(faces) == 0:
+            return 0.0
+        val = self._sub_indicator(f)
+        pts = np.einsum("sa,fai->fsi", _SUB_N, x[self.nodes[faces], :2])[val > 0]
+        for a in mirror_axes:
+            flipped = pts.copy()
+            flipped[:, a] *= -1.0
+            pts = np.vstack([pts, flipped])
+        if len(pts) < 3:
+            return 0.0
+        try:
+            return float(ConvexHull(pts).volume)  # in 2-D, "volume" is the area
+        except QhullError:  # all samples on a line
+            return 0.0
+
+    @staticmethod
+    def _sub_indicator(f: np.ndarray) -> np.ndarray:
+        """(faces, 64) the indicator's per-facet quadratic fit at the sub-triangles."""
+        return (np.asarray(f, float) @ _FIT.T) @ _SUB_BASIS.T
 
 
 @dataclass(frozen=True)

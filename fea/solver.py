@@ -749,9 +749,16 @@ def _make_solution(model, st, s, iter_log, stats) -> Solution:
                 force[a] = 0.0
         cur = model.face.current_area(x, faces)
         ref = model.face.weights[faces]
-        # contact edge inside the facets: the sign of the trial pressure p - eps_N g
+        # contact edge inside the facets: the sign of the trial pressure p - eps_N g,
+        # and the convex hull of that patch (bridges pressure-free points inside it);
         indicator = np.where(act, res.p, -model.eps_n[j] * res.gap)
-        area = model.face.projected_contact_area(x, faces, indicator) / model.frac[j]
+        # the hull's samples sit a fraction of a sub-triangle inside the edge, the plain
+        # area misses the holes: the larger of the two
+        on_planes = [a for a in model.sym_axes if abs(model.c0[j, a]) < 1e-12]
+        area = max(
+            model.face.projected_contact_area(x, faces, indicator) / model.frac[j],
+            model.face.contact_hull_area(x, faces, indicator, on_planes),
+        )
         pts = model.face.points(x, faces)
         pen = float(max(0.0, -res.gap[act].min())) if np.any(act) else 0.0
         states.append(

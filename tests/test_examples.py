@@ -72,7 +72,11 @@ def test_fig9_unwrapping_flags_the_centre(tmp_path, cache_dir):
 def test_fig10_11_foot_like_load(tmp_path, cache_dir):
     res = _run("fig10_11_foot", tmp_path, cache_dir)
     assert len(res["indenters"]) == 2 and res["symmetry"] == "half"
-    assert res["rms_fringe_reliable"] < 0.05 and res["reliable_fraction"] > 0.9
+    # On fresh 1 mm meshes: 0.006-0.038 fringe with the example's contact-edge margin
+    # (0.006-0.067 without it). What is left is a few pixels folded the wrong way where
+    # the order peaks near N = 2 at the unresolved contact edge; a region unwrapped to
+    # the wrong fringe gives 0.2 and more.
+    assert res["rms_fringe_reliable"] < 0.08 and res["reliable_fraction"] > 0.9
 
 
 def test_calibration_estimates_an_uncalibrated_load(tmp_path, cache_dir):

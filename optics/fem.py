@@ -105,12 +105,10 @@ class FEMStressField:
         A pixel and its mirror images see the same stresses up to those signs, so
         optics.grid.sample_rays integrates one ray for all of them. For a full model the
         positions come back unchanged."""
-        xy = np.asarray(xy, float)
-        folded = xy.copy()
-        odd = np.zeros(len(xy), bool)
-        for a in self.sym_axes:
-            odd ^= folded[:, a] < 0
-            folded[:, a] = np.abs(folded[:, a])
+        folded, flips = self._fold(np.asarray(xy, float))
+        odd = np.zeros(len(folded), bool)
+        for _, neg in flips:
+            odd ^= neg
         return folded, odd
 
     def z_range(self, xy):

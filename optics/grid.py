@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .jones import principal_from_components
+
 __all__ = ["PixelGrid", "RaySamples", "sample_rays"]
 
 
@@ -308,9 +310,10 @@ def sample_rays(
     if d.size:
         a[d], b[d] = _sample_ab(field, rows_xy[d], z0[d], z1[d], s, chunk, progress, "rays")
     dz = np.where(ok, (z1 - z0) / n_samples, 0.0)
+    ds, theta = principal_from_components(a, b)
     return RaySamples(
-        ds=np.hypot(a, b),
-        theta=0.5 * np.arctan2(b, a),
+        ds=ds,
+        theta=theta,
         dz=np.repeat(dz[:, None], n_samples, axis=1),
         valid=valid,
         index=index,

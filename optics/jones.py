@@ -18,13 +18,11 @@ theta = (atan2(x, z) + gamma) / 2.
 
 from __future__ import annotations
 
-import os
-from concurrent.futures import ThreadPoolExecutor
-
 import numpy as np
 
 __all__ = [
     "secondary_principal",
+    "principal_from_components",
     "retarder",
     "rotator",
     "qmul",
@@ -42,8 +40,13 @@ def secondary_principal(sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     ds = sqrt((sxx - syy)^2 + 4 sxy^2),  tan 2 theta = 2 sxy / (sxx - syy)
     (DESIGN.md). Returns ds (...) in Pa and theta (...) in rad, in (-pi/2, pi/2].
     """
-    a = sigma[..., 0, 0] - sigma[..., 1, 1]
-    b = 2.0 * sigma[..., 0, 1]
+    return principal_from_components(sigma[..., 0, 0] - sigma[..., 1, 1], 2.0 * sigma[..., 0, 1])
+
+
+def principal_from_components(a, b) -> tuple[np.ndarray, np.ndarray]:
+    """ds = hypot(a, b) (Pa) and theta = atan2(b, a) / 2 (rad) from a = sigma_xx - sigma_yy
+    and b = 2 sigma_xy, the two stress combinations the secondary principal values are
+    linear in (so they can be interpolated before this step)."""
     return np.hypot(a, b), 0.5 * np.arctan2(b, a)
 
 
@@ -181,10 +184,15 @@ def integrate_path(
 
     # numpy's elementwise loops release the GIL: blocks run on the cores in threads
     starts = range(0, P, chunk)
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    if len(starts) > 1 and (cores or 1) > 1:
-        with ThreadPoolExecutor(max_workers=min(len(starts), cores)) as ex:
-            list(ex.map(block, starts))
+    pool = None
+    if len(starts) > 1:
+        # imported here: the meshes package costs 0.5 s to import, which small (one
+        # block) and analytic-field uses of the optics need not pay
+        from meshes.parallel import thread_pool, usable_cores
+
+        pool = thread_pool() if usable_cores() > 1 else None
+    if pool is not None:
+        list(pool.map(block, starts))
     else:
         for start in starts:
             block(start)

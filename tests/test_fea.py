@@ -24,7 +24,7 @@ from fea import (
 from fea.assembly import Pattern, body_state
 from fea.contact import sphere_contact
 from fea.element import reference_gradients, tet10_shape
-from meshes import Layers, MeshSpec, Sizing, build_mesh, mirror
+from meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh, mirror
 
 SHEET = NeoHookean.from_E_nu(4e6, 0.49)
 
@@ -417,3 +417,54 @@ def test_contact_area_is_resolved_inside_the_facets(small_meshes):
     # the area on these 1.5 mm facets); the solver takes the larger of the two areas
     assert 0.97 < hull / exact <= 1.0, hull / exact
     assert face.contact_hull_area(x, faces, -np.ones_like(f), (0, 1)) == 0.0
+
+
+def test_indenter_out_of_contact_is_held_by_a_tangent_only_spring(cache_dir):
+    """An indenter off the sheet has no contact stiffness, so its free z makes the tangent
+    singular and the Newton step threw it away (energy norms of 1e11 J on the foot
+    example). The open-indenter spring (tangent only) gives a step that moves it down by
+    about its missing depth; the residual is untouched, so loads are still met exactly.
+    Then sequential loading: B carries nothing in state 1 and 2 N in state 2."""
+    from fea.linsolve import LinearSolver
+    from fea.problem import ContactSettings, SolverSettings
+    from fea.solver import SolveStats, _depth_guess, _evaluate, _Model, _State, _targets
+
+    sites = (IndenterSite(-3e-3, 0.0, 1.75e-3), IndenterSite(3e-3, 0.0, 1.75e-3))
+    sizing = Sizing(h_contact=1.2e-3, refine_radius=1.5e-3, h_far=6e-3, h_sheet=3e-3, growth=0.5)
+    mesh = build_mesh(small_spec("half", indenters=sites, sizing=sizing), cache_dir=cache_dir)
+    a = Indenter(x=-3e-3, radius=1.75e-3, normal_force=(2.0, 2.0))
+    b = Indenter(x=3e-3, radius=1.75e-3, normal_force=(0.0, 2.0))
+
+    # both 0.05 mm above the sheet under their 2 N (half model: 1 N each)
+    model = _Model(mesh, (a, b), {0: SHEET, 1: NeoHookean.from_E_nu(2.4e9, 0.37)},
+                   ContactSettings(), SolverSettings())  # fmt: skip
+    c = model.c0.copy()
+    c[:, 2] += 5e-5
+    st = _State(np.zeros((model.n, 3)), c, [], [], [])
+    model.set_candidates(model.candidates_near(mesh.points, c))
+    nq = model.face.n_qp
+    st.lam = [np.zeros((len(f), nq)) for f in model.cand]
+    st.anchor = [np.zeros((len(f), nq, 3)) for f in model.cand]
+    st.active = [np.zeros((len(f), nq), dtype=bool) for f in model.cand]
+    f_ind, _ = _targets(model, 2.0)
+    _, r, K, results, *_ = _evaluate(model, st, f_ind, tangent=True, stats=SolveStats())
+    assert not any(np.any(res.p > 0) for res in results)
+    lin = LinearSolver("scipy")
+    dx = lin.solve(K, -r, symmetric=model.symmetric, pattern_id=model.pattern_id)
+    dz = dx[[model.ind_free[j][-1] for j in range(2)]]
+    k = np.array([model.open_spring(j, f_ind[j], c[j])[2][-1] for j in range(2)])
+    assert np.allclose(dz, f_ind[:, 2] / k, rtol=1e-9)
+    # 2 N needs about 0.29 mm here (bonded layer); the step goes 2/3 of the way down
+    d = _depth_guess(2.0, 1.75e-3, SHEET.E, 3e-3)
+    assert np.allclose(dz, -d / 1.5, rtol=0.1), (dz, d)
+    assert abs(float(dx @ r)) < 1e-3
+
+    sols, stats = solve(mesh, [a, b])
+    worst = max(row["energy_norm_J"] for s in sols for row in s.log)
+    print(f"{stats.newton_iterations} Newton iterations, largest energy norm {worst:.3g} J")
+    assert worst < 1.0
+    s1, s2 = sols
+    assert s1.indenters[1].force[2] == pytest.approx(0.0, abs=1e-6)
+    assert abs(s1.indenters[1].depth) < 1e-6
+    assert s2.indenters[1].force[2] == pytest.approx(-2.0, rel=1e-9)
+    assert s2.indenters[1].depth == pytest.approx(s2.indenters[0].depth, rel=0.05)

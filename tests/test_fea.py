@@ -242,12 +242,18 @@ def test_stress_recovery_and_vtu(quarter_run, tmp_path):
 
 
 def test_nearly_incompressible_limit_does_not_lock(quarter):
-    """nu = 0.499 gives within 3 % of nu = 0.49, with the sheet volume change below 0.5 %."""
+    """nu = 0.499 gives within 3 % of nu = 0.49, with the sheet volume change below 0.5 %.
+
+    The stiffening from 0.49 to 0.499 is 0.4-0.8 % of the depth, the size of the
+    penetration the 1 % tolerance leaves (0.2-0.9 % here), so the depths compared are
+    those of the sheet surface: indenter depth minus the remaining penetration (the raw
+    depths came out in the wrong order on 1 of 8 fresh meshes)."""
     depth = {}
     for nu in (0.49, 0.499):
         mats = {0: NeoHookean.from_E_nu(4e6, nu), 1: SUBSTRATE}
         sols, _ = solve(quarter, [Indenter(normal_force=(2.0,))], materials=mats)
-        depth[nu] = sols[-1].indenters[0].depth
+        ind = sols[-1].indenters[0]
+        depth[nu] = ind.depth - ind.max_penetration
         if nu == 0.499:
             assert abs(sols[-1].sheet_volume_change()) < 0.005
     assert depth[0.499] == pytest.approx(depth[0.49], rel=0.03)

@@ -78,7 +78,10 @@ class FEMStressField:
 
         if rid == 0:
             self._top = surface("contact")
-            self._bottom = surface("interface") if "interface" in mesh.facets else None
+            # a sheet on a rigid base (substrate thickness 0) has an empty interface set:
+            # its bottom is the fixed z = 0 face
+            iface = mesh.facets.get("interface")
+            self._bottom = surface("interface" if iface is not None and len(iface) else "bottom")
         else:
             self._top = surface("interface")
             self._bottom = surface("bottom")
@@ -119,10 +122,7 @@ class FEMStressField:
         xy = np.asarray(xy, float)
         q, _ = self._fold(np.column_stack([xy, np.zeros(len(xy))]))
         z1 = np.ma.filled(self._top(q[:, 0], q[:, 1]), np.nan)
-        if self._bottom is None:
-            z0 = np.zeros(len(xy))
-        else:
-            z0 = np.ma.filled(self._bottom(q[:, 0], q[:, 1]), np.nan)
+        z0 = np.ma.filled(self._bottom(q[:, 0], q[:, 1]), np.nan)
         valid = np.isfinite(z0) & np.isfinite(z1) & (z1 > z0)
         for c, a in self._contact:
             valid &= np.hypot(xy[:, 0] - c[0], xy[:, 1] - c[1]) > a

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
-from conftest import small_spec
+import pytest
+from conftest import SMALL_LAYERS, small_spec
 
 from fea import Indenter, NeoHookean, solve
 from fea.solution import Solution
@@ -28,10 +31,18 @@ def _homogeneous(mesh, Fh, sigma):
     )
 
 
-def test_uniform_deformed_slab_gives_exact_order(small_meshes):
+@pytest.mark.parametrize("base", ["polycarbonate", "rigid"])
+def test_uniform_deformed_slab_gives_exact_order(small_meshes, cache_dir, base):
     """Homogeneous stretch: rays span the deformed thickness 1.04 t and the order is
-    2 (1.04 t) |s_xx - s_yy| / f_sigma everywhere, over the whole unfolded sheet."""
-    mesh = small_meshes["quarter"]
+    2 (1.04 t) |s_xx - s_yy| / f_sigma everywhere, over the whole unfolded sheet. On a
+    rigid base (substrate thickness 0, no interface facets) the rays start on the fixed
+    bottom face."""
+    if base == "rigid":
+        layers = replace(SMALL_LAYERS, substrate_thickness=0.0)
+        mesh = build_mesh(small_spec("quarter", layers=layers), cache_dir=cache_dir)
+        assert len(mesh.facets["interface"]) == 0
+    else:
+        mesh = small_meshes["quarter"]
     Fh = np.diag([1.05, 0.97, 1.04])
     mat = NeoHookean.from_E_nu(4e6, 0.49)
     b = Fh @ Fh.T

@@ -547,7 +547,9 @@ def run_predict(
     )
 
     render = (
-        range(len(sols)) if cfg["optics"]["render"] == "all" else range(len(sols) - 1, len(sols))
+        range(len(sols))
+        if cfg["optics"]["render"] == "all"
+        else range(max(len(sols) - 1, 0), len(sols))  # nothing when no state converged
     )
     rendered = []
     for k in render:

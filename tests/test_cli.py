@@ -234,6 +234,21 @@ def test_predict_failure_keeps_converged_states(tmp_path, cache_dir, capsys):
     assert Path(out / "config.toml").exists()
 
 
+def test_predict_failure_at_the_first_state_is_reported_not_a_crash(tmp_path, cache_dir, capsys):
+    """No converged state at all: exit 1 with the solver's message and a summary saying so
+    (this used to index the empty list of states and raise IndexError)."""
+    cfg = tmp_path / "fail1.toml"
+    cfg.write_text(TINY + "[solver]\nmax_iterations = 2\nmax_cutbacks = 0\n")
+    out = tmp_path / "out"
+    code = main(["predict", str(cfg), "--out", str(out), "--cache-dir", str(cache_dir), "--quiet"])
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "could not reach load state 1" in err and "Traceback" not in err
+    s = json.loads((out / "summary.json").read_text())
+    assert s["status"] == "failed" and s["states"] == [] and s["rendered"] == []
+    assert s["max_fringe_order"] is None
+
+
 @pytest.fixture(scope="module")
 def tiny_images(tiny_run):
     """The tiny solution rendered at 96 x 96 pixels (0.104 mm/px) from the solve cache."""

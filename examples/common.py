@@ -35,12 +35,15 @@ COARSE = {
 }
 
 
-def parse_args(description: str, argv=None) -> argparse.Namespace:
+def parse_args(description: str, argv=None, extra=None) -> argparse.Namespace:
+    """The examples' common options; ``extra(parser)`` adds an example's own."""
     p = argparse.ArgumentParser(description=description)
     p.add_argument("--coarse", action="store_true", help="the small test block (fast)")
     p.add_argument("--out", default=None, help="output folder (default examples-out/<name>)")
     p.add_argument("--cache-dir", default=None, help="mesh and solution cache root")
     p.add_argument("--quiet", action="store_true")
+    if extra is not None:
+        extra(p)
     return p.parse_args(argv)
 
 

@@ -72,6 +72,7 @@ def test_fig9_unwrapping_flags_the_centre(tmp_path, cache_dir):
 def test_fig10_11_foot_like_load(tmp_path, cache_dir):
     res = _run("fig10_11_foot", tmp_path, cache_dir)
     assert len(res["indenters"]) == 2 and res["symmetry"] == "half"
+    assert res["substrate_thickness_mm"] == 0.0  # the rigid base of the default setting
     # On fresh 1 mm meshes: 0.006-0.038 fringe with the example's contact-edge margin
     # (0.006-0.067 without it). What is left is a few pixels folded the wrong way where
     # the order peaks near N = 2 at the unresolved contact edge; a region unwrapped to

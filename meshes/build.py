@@ -44,6 +44,15 @@ FTETWILD_SIZE_FACTOR = 0.65
 #: Bumped whenever the meshing algorithm changes what it produces (part of the cache key).
 MESHER_VERSION = "1"
 
+#: Cap on fTetWild's optimisation passes (its default is 80). A pass ends the
+#: optimisation once the worst AMIPS energy is below 10; the test blocks need 0-19 passes,
+#: the reference and foot meshes 0-2. On rare runs (2 of 44 repeats of an 8 x 8 mm
+#: quarter block) the worst energy stays above 10, and from pass ~13 fTetWild refines to
+#: escape: 8k vertices grew to 820k by pass 28 and the call ran 5-8 minutes (seen in CI).
+#: Stopping at 20 keeps such a mesh near 14k vertices; the quality check after it still
+#: rejects inverted cells.
+FTETWILD_MAX_PASSES = 20
+
 #: fTetWild envelope relative to the bounding-box diagonal (its default). Tighter
 #: envelopes cost 10-20x the time (measured 3 s -> 65 s for a quarter block at 2e-4).
 EPSILON_REL = 1e-3
@@ -100,6 +109,7 @@ def _tetrahedralise(
             epsilon=epsilon,
             vtk_ordering=True,
             num_threads=num_threads,
+            num_opt_iter=FTETWILD_MAX_PASSES,
             bg_vertices=bg_pts * _MM,
             bg_tets=bg_tets,
             bg_values=h * _MM,

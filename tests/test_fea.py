@@ -428,7 +428,11 @@ def test_contact_area_is_resolved_inside_the_facets(small_meshes):
     # facets): the convex hull of the mirrored patch bridges them, the plain area does not
     R0 = 2.2e-3
     f = R0**2 - r2
-    holes = (r2 < (0.8 * R0) ** 2) & (np.arange(len(faces)) % 3 == 0)[:, None]
+    # whole facets well inside the edge: a facet holding both a hole and the edge would
+    # not be a quadratic any more, and its fit can turn positive outside the disc (hull
+    # 1.6 % above the disc on one CI mesh)
+    inside = (r2 < (0.8 * R0) ** 2).all(axis=1)
+    holes = (inside & (np.arange(len(faces)) % 3 == 0))[:, None]
     f = np.where(holes, -abs(f), f)
     exact = np.pi * R0**2 / 4
     assert face.projected_contact_area(x, faces, f) < 0.97 * exact

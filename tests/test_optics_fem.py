@@ -75,8 +75,9 @@ def test_unfolding_flips_the_mirrored_shear_components(small_meshes):
 
 
 def test_indentation_rays_converge_and_contact_is_masked(cache_dir):
-    """8 N on a coarse quarter model: 64 vs 128 samples per ray differ by < 0.01 fringe;
-    the contact zone is masked; the map is symmetric under the unfolding."""
+    """8 N on a coarse quarter model: 64 vs 128 samples per ray differ by < 0.01 fringe
+    up to the characteristic order's branch; the contact zone is masked; the map is
+    symmetric under the unfolding."""
     sizing = Sizing(h_contact=1.2e-3, refine_radius=1.5e-3, h_far=6e-3, h_sheet=3e-3, growth=0.5)
     mesh = build_mesh(small_spec("quarter", sizing=sizing), cache_dir=cache_dir)
     sols, _ = solve(mesh, [Indenter(normal_force=(3.0, 8.0))])
@@ -85,7 +86,15 @@ def test_indentation_rays_converge_and_contact_is_masked(cache_dir):
     m64 = optical_map(field, grid, LAW, n_samples=64)
     m128 = optical_map(field, grid, LAW, n_samples=128)
     N64, N128 = m64.fringe_order(), m128.fringe_order()
-    assert np.nanmax(np.abs(N64 - N128)) < 0.01
+    # The characteristic order is +-Delta*/(2 pi) plus whole fringes, on the branch nearest
+    # the simple order. Where it sits near a multiple of 1/2 and the axes rotate along the
+    # ray, the two samplings may take mirror branches: one CI mesh gave 2.461 and 2.539
+    # (2.5 -+ 0.039) at one pixel, and 32 / 64 vs 128 / 256 / 512 samples split the same
+    # way there. They must agree up to that choice, at a few pixels only.
+    d = np.abs(N64 - N128)
+    mirrored = np.abs(N64 + N128 - np.round(N64 + N128))
+    assert np.nanmax(np.minimum(d, mirrored)) < 0.01
+    assert np.sum(d > 0.01) <= 0.02 * np.isfinite(d).sum()
     a = sols[-1].indenters[0].contact_radius
     xy = grid.xy().reshape(40, 40, 2)
     r = np.hypot(xy[..., 0], xy[..., 1])

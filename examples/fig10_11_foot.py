@@ -79,7 +79,7 @@ def foot_config(coarse: bool, polycarbonate: bool = False) -> dict:
                            "white_light_wavelengths": 16}  # fmt: skip
     else:
         given["sheet"] = {"width_mm": 60.0, "length_mm": 40.0}
-        # on the rigid base 0.8 mm under the heads gives ~82k DOF and about 2 minutes (with
+        # on the rigid base 0.8 mm under the heads gives 82-96k DOF and 2-3 minutes (with
         # the polycarbonate it gave 256k, so that model used 1.2 mm: 132k DOF, 9 minutes);
         # 1.2 mm on the rigid base: 56k DOF, 78 s, but the 3.5 mm toes' contact edge falls
         # inside one element and their profiles come out lopsided

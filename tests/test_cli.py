@@ -216,18 +216,26 @@ def test_predict_rerender_uses_the_cached_solution(tiny_run):
     assert np.abs(i1.astype(int) - i2.astype(int)).max() > 5  # the plate error shows
 
 
-def test_predict_failure_keeps_converged_states(tmp_path, cache_dir, capsys):
+def _predict_failing(toml: str, tmp_path, cache_dir, capsys) -> tuple[Path, str, dict]:
+    """Run ``predict`` on a config that must fail: exit 1 and no traceback. Returns the
+    output folder, stderr and the summary."""
     cfg = tmp_path / "fail.toml"
-    cfg.write_text(
-        TINY.replace("load_N = [8.0]", "load_N = [1.0, 400.0]")
-        + "[solver]\nmax_iterations = 20\nmax_cutbacks = 2\n"
-    )
+    cfg.write_text(toml)
     out = tmp_path / "out"
     code = main(["predict", str(cfg), "--out", str(out), "--cache-dir", str(cache_dir), "--quiet"])
     assert code == 1
     err = capsys.readouterr().err
-    assert "could not reach load state 2" in err and "Traceback" not in err
-    s = json.loads((out / "summary.json").read_text())
+    assert "Traceback" not in err
+    return out, err, json.loads((out / "summary.json").read_text())
+
+
+def test_predict_failure_keeps_converged_states(tmp_path, cache_dir, capsys):
+    out, err, s = _predict_failing(
+        TINY.replace("load_N = [8.0]", "load_N = [1.0, 400.0]")
+        + "[solver]\nmax_iterations = 20\nmax_cutbacks = 2\n",
+        tmp_path, cache_dir, capsys,
+    )  # fmt: skip
+    assert "could not reach load state 2" in err
     assert s["status"] == "failed" and len(s["states"]) == 1
     assert s["indenters"][0]["force_N"][2] == pytest.approx(-1.0, rel=1e-9)
     assert (out / "state_01" / "solution.vtu").exists()
@@ -237,14 +245,10 @@ def test_predict_failure_keeps_converged_states(tmp_path, cache_dir, capsys):
 def test_predict_failure_at_the_first_state_is_reported_not_a_crash(tmp_path, cache_dir, capsys):
     """No converged state at all: exit 1 with the solver's message and a summary saying so
     (this used to index the empty list of states and raise IndexError)."""
-    cfg = tmp_path / "fail1.toml"
-    cfg.write_text(TINY + "[solver]\nmax_iterations = 2\nmax_cutbacks = 0\n")
-    out = tmp_path / "out"
-    code = main(["predict", str(cfg), "--out", str(out), "--cache-dir", str(cache_dir), "--quiet"])
-    assert code == 1
-    err = capsys.readouterr().err
-    assert "could not reach load state 1" in err and "Traceback" not in err
-    s = json.loads((out / "summary.json").read_text())
+    _, err, s = _predict_failing(
+        TINY + "[solver]\nmax_iterations = 2\nmax_cutbacks = 0\n", tmp_path, cache_dir, capsys
+    )
+    assert "could not reach load state 1" in err
     assert s["status"] == "failed" and s["states"] == [] and s["rendered"] == []
     assert s["max_fringe_order"] is None
 

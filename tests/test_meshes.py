@@ -274,8 +274,8 @@ def test_meshing_leaves_the_working_directory_clean(tmp_path, monkeypatch):
     """fTetWild writes a debug STL into the cwd; the mesher must keep it out of there.
 
     The test block of the other tests: this test used an 8 x 8 mm block on 2 mm of
-    polycarbonate, and 3 of 3 fTetWild stalls seen in CI and local runs (5-8 minutes
-    instead of 3-13 s) were on that block; 25 repeats of it here ran 2.7-13 s."""
+    polycarbonate, where fTetWild stalled (5-8 minutes instead of 2-16 s) on 2 of 44
+    repeats; see meshes.build.FTETWILD_MAX_PASSES."""
     import pytetwild
 
     from meshes.build import FTETWILD_MAX_PASSES

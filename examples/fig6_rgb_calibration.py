@@ -112,8 +112,8 @@ CAMERA_NOISE = {"full_well_e": 1.0e4, "read_noise_e": 5.0}
 def main(argv=None) -> dict:
     args = parse_args(__doc__.splitlines()[0], argv)
     out = out_dir(args, "fig6")
-    res = run_case(config({}, args.coarse), out / "vertical", args)
-    noisy_cfg = config({f"optics.{k}": v for k, v in CAMERA_NOISE.items()}, args.coarse)
+    res = run_case(config({}, args.coarse, edge=True), out / "vertical", args)
+    noisy_cfg = config({f"optics.{k}": v for k, v in CAMERA_NOISE.items()}, args.coarse, edge=True)
     noisy = run_case(noisy_cfg, out / "vertical_camera_noise", args)
     res["with_camera_noise"] = {
         "camera": CAMERA_NOISE,

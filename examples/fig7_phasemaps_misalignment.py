@@ -51,7 +51,7 @@ def main(argv=None) -> dict:
     out = out_dir(args, "fig7")
     res, panels = {}, {}
     for name, over in (("perfect", {}), ("misaligned", ERRORS)):
-        cfg = config(over, args.coarse)
+        cfg = config(over, args.coarse, edge=True)
         summary, state = predict(cfg, out / name, args)
         m = maps(state)
         r6 = six_step_of(state, contact_mask(summary, m))

@@ -42,7 +42,7 @@ def folded(order):
 def main(argv=None) -> dict:
     args = parse_args(__doc__.splitlines()[0], argv)
     out = out_dir(args, "fig8")
-    summary, state = predict(config({}, args.coarse), out / "vertical", args)
+    summary, state = predict(config({}, args.coarse, edge=True), out / "vertical", args)
     m = maps(state)
     rc = centre_rc(m)
     r6 = six_step_of(state, contact_mask(summary, m))

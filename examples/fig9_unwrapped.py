@@ -41,7 +41,7 @@ from analysis import (  # noqa: E402
 def main(argv=None) -> dict:
     args = parse_args(__doc__.splitlines()[0], argv)
     out = out_dir(args, "fig9")
-    summary, state = predict(config({}, args.coarse), out / "vertical", args)
+    summary, state = predict(config({}, args.coarse, edge=True), out / "vertical", args)
     m = maps(state)
     rc = centre_rc(m)
     px_mm = float(m["pixel_size_m"]) * 1e3
@@ -56,11 +56,21 @@ def main(argv=None) -> dict:
     near = r6.valid & (r <= a_mm + 1.0)
     far = r6.valid & ~near
     err = fo.order - pred
+    off = fo.reliable & (np.abs(err) > 0.1)
+    mid = 0.5 * (fo.order + pred)
     res = {
         "anchor_order": anchor,
         "info": fo.info,
         "rms_fringe_reliable": float(np.sqrt(np.nanmean(err[fo.reliable] ** 2))),
         "max_abs_error_fringe": float(np.nanmax(np.abs(err[r6.valid]))),
+        "max_abs_error_reliable_fringe": float(np.nanmax(np.abs(err[fo.reliable]))),
+        "reliable_pixels_off_by_0.1": int(off.sum()),
+        # of which the reading and the prediction are mirror images about a whole or half
+        # order (k + delta against k - delta: the characteristic order's two branches where
+        # the axes turn through the thickness; not a fringe-count error)
+        "off_by_0.1_mirror_images": int(
+            (off & (np.abs(mid - np.round(2 * mid) / 2) < 0.025)).sum()
+        ),
         "unreliable_near_contact": int((near & ~fo.reliable).sum()),
         "pixels_near_contact": int(near.sum()),
         "unreliable_elsewhere": int((far & ~fo.reliable).sum()),

@@ -61,12 +61,18 @@ def test_fig8_axis_insensitive_is_folded(tmp_path, cache_dir):
     assert res["range"][1] <= 0.5 + 1e-9 and res["rms_fringe"] < 0.02
 
 
-def test_fig9_unwrapping_flags_the_centre(tmp_path, cache_dir):
+def test_fig9_unwrapping_matches_the_prediction_where_reliable(tmp_path, cache_dir):
     res = _run("fig9_unwrapped", tmp_path, cache_dir)
-    assert res["rms_fringe_reliable"] < 0.05
-    near = res["unreliable_near_contact"] / res["pixels_near_contact"]
-    far = res["unreliable_elsewhere"] / res["pixels_elsewhere"]
-    assert near > 5 * far
+    # 13 fresh meshes (0.5 mm contact zone): RMS 0.0023-0.0064, worst reliable pixel
+    # 0.05-0.17 (mirror branches k +- delta at the contact edge, see examples/common.py
+    # COARSE_EDGE); a band unwrapped with the wrong sign or to the wrong fringe is off by
+    # 0.3-1.1 and fails both. The near-contact flags are not asserted: on 1 mesh of 13
+    # the unwrapping near the contact was clean and nothing was flagged anywhere.
+    assert res["rms_fringe_reliable"] < 0.02
+    assert res["max_abs_error_reliable_fringe"] < 0.3
+    # flags stay local: at most 0.2 % of the far pixels were flagged on those meshes
+    assert res["unreliable_elsewhere"] < 0.01 * res["pixels_elsewhere"]
+    assert res["info"]["regions_without_anchor"] == 0
 
 
 def test_fig10_11_foot_like_load(tmp_path, cache_dir):

@@ -25,7 +25,7 @@ import scipy.sparse as sp
 from meshes.parallel import thread_pool
 
 from .element import ReferenceGradients
-from .materials import Material, NeoHookean
+from .materials import Material, NeoHookean, det_minus_one, deviatoric_piola_factor
 
 __all__ = ["BodyState", "body_state", "Pattern"]
 
@@ -133,16 +133,21 @@ def _body_block(u, cells, grads, groups, tangent, Ke_out) -> BodyState:
     ((c, 10, 3, 10, 3), zero) when given."""
     c = len(cells)
     ue = u[cells]  # (c, 10, 3)
-    F = np.eye(3) + ue.swapaxes(1, 2)[:, None] @ grads.dNdX  # F_iJ = d_iJ + u_ai dN_aJ
-    J = np.linalg.det(F)
+    H = ue.swapaxes(1, 2)[:, None] @ grads.dNdX  # H_iJ = u_ai dN_aJ
+    F = np.eye(3) + H
+    # J - 1, Jbar - 1 and the stresses are formed from H, never as differences of numbers
+    # near 1: that round-off (modulus * 1e-16) left a residual floor above the force
+    # tolerance with a 1 TPa substrate
+    dJ = det_minus_one(H)
+    J = 1.0 + dJ
     min_J = float(J.min())
     if min_J <= 0:
         return BodyState(np.inf, np.zeros_like(u), None, F, np.zeros(c), min_J)
     G = np.linalg.inv(F).swapaxes(-1, -2)
     dV = grads.dV
     Ve = dV.sum(axis=1)
-    ve = (J * dV).sum(axis=1)
-    Jbar = ve / Ve
+    dJbar = (dJ * dV).sum(axis=1) / Ve
+    Jbar = 1.0 + dJbar
 
     energy = 0.0
     P = np.empty_like(F)
@@ -155,14 +160,16 @@ def _body_block(u, cells, grads, groups, tangent, Ke_out) -> BodyState:
             continue
         if len(idx) == c:  # the block is one material: views instead of copies
             idx = slice(None)
-        Fi, Gi, Ji = F[idx], G[idx], J[idx]
-        U, dUi, ddUi = mat.volumetric(Jbar[idx])
+        Fi, Gi, Ji, Hi = F[idx], G[idx], J[idx], H[idx]
+        U, dUi, ddUi = mat.volumetric(Jbar[idx], dJbar[idx])
         dU[idx], ddU[idx] = dUi, ddUi
         pJ = dUi[:, None] * Ji  # (c, q): mean-dilatation pressure times J
         if tangent and isinstance(mat, NeoHookean):
-            W, Pi = _neo_hookean_stiffness(mat, Fi, Gi, Ji, pJ, grads.dNdX[idx], dV[idx], Ke, idx)
+            W, Pi = _neo_hookean_stiffness(
+                mat, Fi, Gi, Ji, pJ, grads.dNdX[idx], dV[idx], Ke, idx, H=Hi
+            )
         else:
-            W, Pi, Ai = mat.isochoric(Fi, tangent=tangent)
+            W, Pi, Ai = mat.isochoric(Fi, tangent=tangent, H=Hi)
             if tangent:
                 # geometric part of the volume: d(J G_iJ)/dF_kL = J (G_iJ G_kL - G_iL G_kJ)
                 At = Ai + pJ[..., None, None, None, None] * (
@@ -257,7 +264,7 @@ class Pattern:
         return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
 
 
-def _neo_hookean_stiffness(mat, F, G, J, pJ, dNdX, wq, Ke, idx):
+def _neo_hookean_stiffness(mat, F, G, J, pJ, dNdX, wq, Ke, idx, H):
     """Neo-Hookean + mean-dilatation geometric tangent as sums of outer products.
 
     With f_a = F dN_a, g_a = G dN_a (G = F^-T), a = J^(-2/3), I1 = tr C, the tangent
@@ -271,13 +278,13 @@ def _neo_hookean_stiffness(mat, F, G, J, pJ, dNdX, wq, Ke, idx):
     which a batched matrix product evaluates several times faster than the 4th-order
     tensor contraction. ``wq`` (c, q) are the volume weights (m^3). Writes ``Ke[idx]``
     ((c, 10, 3, 10, 3)); with ``idx`` a full slice the product is formed in place.
-    Returns (W, P).
+    ``H`` (c, q, 3, 3) is F - I as formed from the displacements. Returns (W, P).
     """
     I1 = np.einsum("...ij,...ij->...", F, F)
     a = J ** (-2.0 / 3.0)
     mu = mat.mu
     W = 0.5 * mu * (a * I1 - 3.0)
-    P = (mu * a)[..., None, None] * (F - (I1 / 3.0)[..., None, None] * G)
+    P = (mu * a)[..., None, None] * deviatoric_piola_factor(H, G)
     c = len(F)
     mua = mu * a
     f = dNdX @ F.swapaxes(-1, -2)  # (c, q, 10, 3): f_ai = F_iJ dN_aJ

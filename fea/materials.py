@@ -67,13 +67,20 @@ class Material:
         """Small-strain Poisson's ratio."""
         return (3 * self.K - 2 * self.mu) / (2 * (3 * self.K + self.mu))
 
-    def volumetric(self, J: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """U(J) = K/2 (J - 1)^2 and its first two derivatives (Pa)."""
-        d = J - 1.0
+    def volumetric(
+        self, J: np.ndarray, dJ: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """U(J) = K/2 (J - 1)^2 and its first two derivatives (Pa).
+
+        ``dJ`` = J - 1 computed without cancellation (:func:`det_minus_one`); J - 1 formed
+        from J near 1 loses the digits of a small dilatation, a pressure error of about
+        K * 1e-16 that a 1 TPa plate makes larger than the solver's force tolerance.
+        """
+        d = J - 1.0 if dJ is None else dJ
         return 0.5 * self.K * d * d, self.K * d, np.full_like(J, self.K)
 
     def isochoric(
-        self, F: np.ndarray, *, tangent: bool = True
+        self, F: np.ndarray, *, tangent: bool = True, H: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """Isochoric energy, first Piola-Kirchhoff stress and tangent.
 
@@ -81,6 +88,9 @@ class Material:
         ----------
         F : (..., 3, 3) float array
             Deformation gradient.
+        H : (..., 3, 3) float array, optional
+            The displacement gradient F - I as computed from the displacements; the
+            stress is then formed without the cancellation of F - I1/3 F^-T near F = I.
         tangent : bool
             Compute A; when False it is None (residual-only evaluations, e.g. line search
             and stress recovery, cost ~1/3).
@@ -104,6 +114,43 @@ def _invariant_parts(F: np.ndarray):
     return J, G, I1
 
 
+def det_minus_one(H: np.ndarray) -> np.ndarray:
+    """det(I + H) - 1 without cancellation: tr H + (tr(H)^2 - tr(H H)) / 2 + det H,
+    written out in the components (faster than ``np.linalg.det`` on 3 x 3 batches).
+
+    Parameters
+    ----------
+    H : (..., 3, 3) float array, the displacement gradient F - I.
+    """
+    h00, h01, h02 = H[..., 0, 0], H[..., 0, 1], H[..., 0, 2]
+    h10, h11, h12 = H[..., 1, 0], H[..., 1, 1], H[..., 1, 2]
+    h20, h21, h22 = H[..., 2, 0], H[..., 2, 1], H[..., 2, 2]
+    m0 = h11 * h22 - h12 * h21  # cofactors of the first row
+    m1 = h10 * h22 - h12 * h20
+    m2 = h10 * h21 - h11 * h20
+    second = h00 * h11 + h11 * h22 + h00 * h22 - h01 * h10 - h12 * h21 - h02 * h20
+    return (h00 + h11 + h22) + second + (h00 * m0 - h01 * m1 + h02 * m2)
+
+
+def deviatoric_piola_factor(H: np.ndarray, G: np.ndarray) -> np.ndarray:
+    """F - (I1 / 3) F^-T for F = I + H, formed from terms of order |H|.
+
+    With I - F^-T = F^-T H^T and I1 - 3 = 2 tr H + H : H,
+
+        F - I1/3 G = H + G H^T - (2 tr H + H : H) / 3 G,
+
+    so a strain of 1e-10 keeps its digits instead of leaving mu * 1e-16 of round-off
+    (seen as a residual floor with a 1 TPa substrate).
+
+    Parameters
+    ----------
+    H : (..., 3, 3) float array, F - I.
+    G : (..., 3, 3) float array, F^-T.
+    """
+    c = (2.0 * np.einsum("...ii->...", H) + np.einsum("...ij,...ij->...", H, H)) / 3.0
+    return H + G @ H.swapaxes(-1, -2) - c[..., None, None] * G
+
+
 @dataclass(frozen=True)
 class NeoHookean(Material):
     """Compressible / nearly incompressible neo-Hookean solid.
@@ -121,12 +168,13 @@ class NeoHookean(Material):
         _check_nu(nu)
         return cls(mu=E / (2 * (1 + nu)), K=E / (3 * (1 - 2 * nu)))
 
-    def isochoric(self, F, *, tangent: bool = True):
+    def isochoric(self, F, *, tangent: bool = True, H=None):
         J, G, I1 = _invariant_parts(F)
         a = J ** (-2.0 / 3.0)
         mu = self.mu
         W = 0.5 * mu * (a * I1 - 3.0)
-        P = mu * a[..., None, None] * (F - (I1 / 3.0)[..., None, None] * G)
+        dev = F - (I1 / 3.0)[..., None, None] * G if H is None else deviatoric_piola_factor(H, G)
+        P = mu * a[..., None, None] * dev
         if not tangent:
             return W, P, None
         # dP_iJ/dF_kL = mu a [ d_ik d_JL - 2/3 (G_kL F_iJ + F_kL G_iJ)
@@ -171,7 +219,7 @@ class MooneyRivlin(Material):
     def to_dict(self) -> dict:
         return {"model": "MooneyRivlin", "c10": self.c10, "c01": self.c01, "K": self.K}
 
-    def isochoric(self, F, *, tangent: bool = True):
+    def isochoric(self, F, *, tangent: bool = True, H=None):
         J, G, I1 = _invariant_parts(F)
         C = np.einsum("...kI,...kJ->...IJ", F, F)
         FC = F @ C
@@ -180,7 +228,10 @@ class MooneyRivlin(Material):
         b = a * a
         ex = (..., None, None)
         W = self.c10 * (a * I1 - 3.0) + self.c01 * (b * I2 - 3.0)
-        P1 = self.c10 * 2.0 * a[ex] * (F - (I1 / 3.0)[ex] * G)
+        # with H the c10 term is free of cancellation; the c01 term still forms I1 F - F C
+        # and I2 G from F (round-off about c01 * 1e-16 Pa)
+        dev = F - (I1 / 3.0)[ex] * G if H is None else deviatoric_piola_factor(H, G)
+        P1 = self.c10 * 2.0 * a[ex] * dev
         # d(I2)/dF = 2 (I1 F - F C); d(b)/dF = -4/3 b G
         dI2 = 2.0 * (I1[ex] * F - FC)
         P2 = self.c01 * b[ex] * (dI2 - (4.0 / 3.0) * I2[ex] * G)

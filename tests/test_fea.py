@@ -199,6 +199,44 @@ def test_patch_test_homogeneous_finite_deformation(quarter):
     np.testing.assert_allclose(cauchy, np.broadcast_to(sigma, cauchy.shape), atol=1e-6 * SHEET.mu)
 
 
+@pytest.mark.parametrize("E", [2.3e9, 1e12])
+def test_tiny_strains_keep_their_digits_in_stiff_materials(quarter, E):
+    """A uniform strain of 1e-10 in a 1 TPa solid: the interior nodes carry no force.
+
+    Stresses formed as F - I1/3 F^-T and K (J - 1) from F near I lose the strain's
+    digits: a round-off of about modulus * 1e-16, a residual floor of 3e-8 N that kept a
+    1 TPa substrate from meeting the 1e-8 force tolerance on the reference case. Formed
+    from H = F - I (fea.materials.det_minus_one, deviatoric_piola_factor) the interior
+    forces stay at 3e-15 of the boundary ones; from F they were 1.2e-6 of them here.
+    """
+    from fea.materials import det_minus_one
+
+    mesh = quarter
+    stiff = NeoHookean.from_E_nu(E, 0.37)
+    groups = [(np.arange(mesh.n_cells), stiff)]
+    grads = reference_gradients(mesh.points, mesh.cells)
+    Hh = 1e-10 * np.array([[1.0, 0.3, -0.2], [0.1, -0.4, 0.25], [0.05, 0.2, 0.6]])
+    st = body_state(mesh.points @ Hh.T, mesh.cells, grads, groups)
+    boundary = np.zeros(mesh.n_points, dtype=bool)
+    for name in mesh.facets:
+        if name != "interface":
+            boundary[np.unique(mesh.facet_nodes(name))] = True
+    scale = np.abs(st.force).max()
+    assert np.abs(st.force[~boundary]).max() < 1e-12 * scale
+    # the kernels against the small-strain answer, to the strain's own order
+    W, P, _ = stiff.isochoric(np.eye(3) + Hh, H=Hh)
+    lin = stiff.mu * (Hh + Hh.T - 2.0 / 3.0 * np.trace(Hh) * np.eye(3))
+    np.testing.assert_allclose(P, lin, rtol=0, atol=1e-8 * np.abs(lin).max())
+    assert det_minus_one(Hh) == pytest.approx(np.trace(Hh), rel=1e-9)
+    # and the same stress as the F-based formula at finite strain
+    Hf = 0.2 * np.random.default_rng(3).standard_normal((5, 3, 3))
+    np.testing.assert_allclose(
+        stiff.isochoric(np.eye(3) + Hf, H=Hf)[1], stiff.isochoric(np.eye(3) + Hf)[1],
+        rtol=1e-12, atol=1e-12 * E,
+    )  # fmt: skip
+    assert det_minus_one(Hf) == pytest.approx(np.linalg.det(np.eye(3) + Hf) - 1.0, rel=1e-12)
+
+
 # -- solver ------------------------------------------------------------------------------
 
 

@@ -63,14 +63,18 @@ def test_fig8_axis_insensitive_is_folded(tmp_path, cache_dir):
 
 def test_fig9_unwrapping_matches_the_prediction_where_reliable(tmp_path, cache_dir):
     res = _run("fig9_unwrapped", tmp_path, cache_dir)
-    # 13 fresh meshes (0.5 mm contact zone): RMS 0.0023-0.0064, worst reliable pixel
-    # 0.05-0.17 (mirror branches k +- delta at the contact edge, see examples/common.py
-    # COARSE_EDGE); a band unwrapped with the wrong sign or to the wrong fringe is off by
-    # 0.3-1.1 and fails both. The near-contact flags are not asserted: on 1 mesh of 13
-    # the unwrapping near the contact was clean and nothing was flagged anywhere.
+    # 30 fresh meshes (0.5 mm contact zone): RMS 0.0018-0.012; 0-24 reliable pixels off
+    # by more than 0.1 (worst 0.05-0.36), every one a mirror image k -+ delta of the
+    # prediction at the contact edge, where the characteristic order has two branches
+    # that no measurement tells apart (examples/common.py COARSE_EDGE). A fringe-count
+    # error is not a mirror image, and a band unwrapped with the wrong sign is hundreds of
+    # pixels with RMS 0.09 (seen on 1 mm meshes). The near-contact flags are not asserted:
+    # on one of these meshes the unwrapping near the contact was clean, nothing flagged.
     assert res["rms_fringe_reliable"] < 0.02
-    assert res["max_abs_error_reliable_fringe"] < 0.3
-    # flags stay local: at most 0.2 % of the far pixels were flagged on those meshes
+    off = res["reliable_pixels_off_by_0.1"]
+    assert res["off_by_0.1_mirror_images"] == off
+    assert off < 0.01 * res["info"]["reliable_pixels"]
+    # flags stay local: at most 0.26 % of the far pixels were flagged on those meshes
     assert res["unreliable_elsewhere"] < 0.01 * res["pixels_elsewhere"]
     assert res["info"]["regions_without_anchor"] == 0
 

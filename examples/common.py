@@ -54,16 +54,16 @@ def out_dir(args, name: str) -> Path:
 
 
 #: The coarse setting of the examples that compare fringe orders pixel by pixel up to the
-#: contact edge (figs. 6-9): 0.5 mm elements in the contact zone. With the 1 mm of
-#: :data:`COARSE`, about one element spans the 1.15 mm contact radius; the stress under the
-#: contact edge is then far from axisymmetric, its secondary principal axes turn through
-#: the thickness, and within 1 mm of the contact the characteristic order differs from
-#: the simple order by up to 0.09-0.24 fringe (0.07-0.14 at 0.5 mm). Near whole and half
-#: orders it is two-valued (N = k +- delta, which no phase-shifting measurement tells
-#: apart), so six-step and prediction disagreed by such mirror images: worst reliable
-#: pixel 0.06-1.07 fringe on 8 fresh 1 mm meshes, whole bands on two of them; 0.05-0.36
-#: on 30 fresh meshes at 0.5 mm, at most 24 pixels (0.3 %) off by more than 0.1 (fig9
-#: 14-24 s cold).
+#: contact edge (figs. 6-9 and the coarse foot): 0.5 mm elements in the contact zone.
+#: With the 1 mm of :data:`COARSE`, about one element spans the 1.15 mm contact radius;
+#: the stress under the contact edge is then far from axisymmetric, its secondary
+#: principal axes turn through the thickness, and within 1 mm of the contact the
+#: characteristic order differs from the simple order by up to 0.09-0.24 fringe
+#: (0.07-0.14 at 0.5 mm). Near whole and half orders it is two-valued (N = k +- delta,
+#: which no phase-shifting measurement tells apart), so six-step and prediction disagreed
+#: by such mirror images: worst reliable pixel 0.06-1.07 fringe on 8 fresh 1 mm meshes,
+#: whole bands on two of them; 0.05-0.36 on 30 fresh meshes at 0.5 mm, at most 24 pixels
+#: (0.3 %) off by more than 0.1 (fig9 14-24 s cold).
 COARSE_EDGE = {"mesh.h_contact_mm": 0.5}
 
 

@@ -83,11 +83,12 @@ def test_fig10_11_foot_like_load(tmp_path, cache_dir):
     res = _run("fig10_11_foot", tmp_path, cache_dir)
     assert len(res["indenters"]) == 2 and res["symmetry"] == "half"
     assert res["substrate_thickness_mm"] == 0.0  # the rigid base of the default setting
-    # On fresh 1 mm meshes: 0.006-0.038 fringe with the example's contact-edge margin
-    # (0.006-0.067 without it). What is left is a few pixels folded the wrong way where
-    # the order peaks near N = 2 at the unresolved contact edge; a region unwrapped to
-    # the wrong fringe gives 0.2 and more.
-    assert res["rms_fringe_reliable"] < 0.08 and res["reliable_fraction"] > 0.9
+    # 0.5 mm contact zone (COARSE_EDGE), 6 fresh meshes: RMS 0.0018-0.0044, 99.0-99.4 %
+    # reliable, 18-34 s. With the 1 mm of before it was 0.006-0.067, and 0.254 on one CI
+    # mesh: the band between orders 1 and 2 round the 3.5 mm head, whose 0.88 mm contact
+    # radius was one element, came out mirrored about 1 (the characteristic order's two
+    # branches, see test_fig9 above). Such a band gives 0.2 and more.
+    assert res["rms_fringe_reliable"] < 0.05 and res["reliable_fraction"] > 0.9
 
 
 def test_calibration_estimates_an_uncalibrated_load(tmp_path, cache_dir):

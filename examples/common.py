@@ -67,13 +67,18 @@ def out_dir(args, name: str) -> Path:
 COARSE_EDGE = {"mesh.h_contact_mm": 0.5}
 
 
+def coarse_overrides(edge: bool = False) -> dict:
+    """:data:`COARSE`, with the contact zone of :data:`COARSE_EDGE` when ``edge``."""
+    return {**COARSE, **(COARSE_EDGE if edge else {})}
+
+
 def config(overrides: dict, coarse: bool, base: str = "reference", edge: bool = False) -> dict:
     """The effective config: a built-in case, the coarse block if asked, then overrides.
 
     ``edge`` refines the coarse block's contact zone (:data:`COARSE_EDGE`); it has no
     effect at the default setting.
     """
-    coarse_keys = {**COARSE, **(COARSE_EDGE if edge else {})} if coarse else {}
+    coarse_keys = coarse_overrides(edge) if coarse else {}
     return apply_overrides(load_config(base), {**coarse_keys, **overrides})
 
 

@@ -31,8 +31,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from common import (  # noqa: E402
-    COARSE,
-    COARSE_EDGE,
+    coarse_overrides,
     extent_mm,
     maps,
     out_dir,
@@ -77,8 +76,11 @@ def foot_config(coarse: bool, polycarbonate: bool = False) -> dict:
         given["sheet"] = {"width_mm": 20.0, "length_mm": 12.0}
         # the contact zone at 0.5 mm, as figs. 6-9 (COARSE_EDGE): on 1 mm, about one
         # element spans the 0.9 mm contact radius of the 3.5 mm head
-        mesh = {**COARSE, **COARSE_EDGE}
-        given["mesh"] = {k.split(".")[1]: v for k, v in mesh.items() if k.startswith("mesh.")}
+        given["mesh"] = {
+            k.split(".")[1]: v
+            for k, v in coarse_overrides(edge=True).items()
+            if k.startswith("mesh.")
+        }
         given["optics"] = {"field_of_view_mm": 18.0, "pixels": 144, "samples_per_ray": 24,
                            "white_light_wavelengths": 16}  # fmt: skip
     else:

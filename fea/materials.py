@@ -173,8 +173,7 @@ class NeoHookean(Material):
         a = J ** (-2.0 / 3.0)
         mu = self.mu
         W = 0.5 * mu * (a * I1 - 3.0)
-        dev = F - (I1 / 3.0)[..., None, None] * G if H is None else deviatoric_piola_factor(H, G)
-        P = mu * a[..., None, None] * dev
+        P = mu * a[..., None, None] * deviatoric_piola_factor(F - np.eye(3) if H is None else H, G)
         if not tangent:
             return W, P, None
         # dP_iJ/dF_kL = mu a [ d_ik d_JL - 2/3 (G_kL F_iJ + F_kL G_iJ)
@@ -230,8 +229,7 @@ class MooneyRivlin(Material):
         W = self.c10 * (a * I1 - 3.0) + self.c01 * (b * I2 - 3.0)
         # with H the c10 term is free of cancellation; the c01 term still forms I1 F - F C
         # and I2 G from F (round-off about c01 * 1e-16 Pa)
-        dev = F - (I1 / 3.0)[ex] * G if H is None else deviatoric_piola_factor(H, G)
-        P1 = self.c10 * 2.0 * a[ex] * dev
+        P1 = self.c10 * 2.0 * a[ex] * deviatoric_piola_factor(F - np.eye(3) if H is None else H, G)
         # d(I2)/dF = 2 (I1 F - F C); d(b)/dF = -4/3 b G
         dI2 = 2.0 * (I1[ex] * F - FC)
         P2 = self.c01 * b[ex] * (dI2 - (4.0 / 3.0) * I2[ex] * G)

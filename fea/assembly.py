@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from meshes.parallel import thread_pool
+from parallel import thread_pool
 
 from .element import ReferenceGradients
 from .materials import Material, NeoHookean, det_minus_one, deviatoric_piola_factor
@@ -203,7 +203,7 @@ class Pattern:
     """Fixed sparsity pattern of the reduced system with precomputed scatter positions.
 
     The reduced system keeps only free DOFs. With ``symmetric=True`` only the upper
-    triangle is stored (what pardiso's symmetric types expect, ../shared/DEPENDENCIES.md).
+    triangle is stored (what PARDISO's symmetric matrix types expect).
 
     Parameters
     ----------

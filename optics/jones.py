@@ -1,6 +1,7 @@
 r"""Jones calculus for the photoelastic path, in SU(2) (unit quaternion) form.
 
-Slab k (../shared/DESIGN.md): J_k = R(-theta) diag(e^{-i d/2}, e^{+i d/2}) R(theta)
+Slab k (``docs/theory.md``, "Jones integration"):
+J_k = R(-theta) diag(e^{-i d/2}, e^{+i d/2}) R(theta)
 with R(a) = [[cos a, sin a], [-sin a, cos a]]. With the Pauli matrices s1, s2, s3,
 
     J_k = cos(d/2) I - i sin(d/2) (sin 2theta s1 + cos 2theta s3),
@@ -20,6 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from parallel import thread_pool, usable_cores
+
 __all__ = [
     "secondary_principal",
     "principal_from_components",
@@ -38,7 +41,7 @@ def secondary_principal(sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Secondary principal stress difference and angle for rays along z.
 
     ds = sqrt((sxx - syy)^2 + 4 sxy^2),  tan 2 theta = 2 sxy / (sxx - syy)
-    (DESIGN.md). Returns ds (...) in Pa and theta (...) in rad, in (-pi/2, pi/2].
+    (``docs/theory.md``). Returns ds (...) in Pa and theta (...) in rad, in (-pi/2, pi/2].
     """
     return principal_from_components(sigma[..., 0, 0] - sigma[..., 1, 1], 2.0 * sigma[..., 0, 1])
 
@@ -186,10 +189,6 @@ def integrate_path(
     starts = range(0, P, chunk)
     pool = None
     if len(starts) > 1:
-        # imported here: the meshes package costs 0.5 s to import, which small (one
-        # block) and analytic-field uses of the optics need not pay
-        from meshes.parallel import thread_pool, usable_cores
-
         pool = thread_pool() if usable_cores() > 1 else None
     if pool is not None:
         list(pool.map(block, starts))

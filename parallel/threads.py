@@ -8,10 +8,9 @@ from __future__ import annotations
 
 import os
 from concurrent.futures import ThreadPoolExecutor
+from functools import cache
 
 __all__ = ["usable_cores", "thread_pool"]
-
-_POOL: ThreadPoolExecutor | None = None
 
 
 def usable_cores() -> int:
@@ -21,9 +20,7 @@ def usable_cores() -> int:
     return os.cpu_count() or 1
 
 
+@cache
 def thread_pool() -> ThreadPoolExecutor:
     """The process-wide pool, one worker per usable core (created on first use)."""
-    global _POOL
-    if _POOL is None:
-        _POOL = ThreadPoolExecutor(max_workers=usable_cores(), thread_name_prefix="fringekit")
-    return _POOL
+    return ThreadPoolExecutor(max_workers=usable_cores(), thread_name_prefix="fringekit")

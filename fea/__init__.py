@@ -1,11 +1,14 @@
 """fea stage: hyperelastic large-deformation FEM with rigid spherical indenters.
 
 Quadratic tets with mean dilatation (fea.assembly), neo-Hookean and Mooney-Rivlin solids
-(fea.materials), augmented-Lagrangian sphere contact with Coulomb friction or full stick
-(fea.contact), force- or displacement-controlled load paths solved by Newton continuation
-(fea.solver), one :class:`Solution` per load state (fea.solution).
+and their Cauchy stress (fea.materials), augmented-Lagrangian sphere contact with Coulomb
+friction or full stick (fea.contact), the discrete problem (fea.model), Newton with line
+search (fea.newton), load stepping with cut-back (fea.solver), stress and contact
+recovery (fea.recovery), one :class:`Solution` per load state (fea.solution), and the
+closed-form checks (fea.analytic).
 """
 
+from .analytic import depth_guess, dimitriadis_force, hertz_force
 from .contact import FRICTION_STICK
 from .linsolve import LinearSolver, available_backends
 from .materials import (
@@ -18,7 +21,7 @@ from .materials import (
 )
 from .problem import ContactSettings, Indenter, SolverSettings
 from .solution import IndenterState, Solution, write_solution_vtu
-from .solver import SolverError, SolveStats, dimitriadis_force, hertz_force, solve
+from .solver import SolverError, SolveStats, solve
 
 __all__ = [
     "FRICTION_STICK",
@@ -39,6 +42,7 @@ __all__ = [
     "SolverError",
     "SolveStats",
     "solve",
+    "depth_guess",
     "dimitriadis_force",
     "hertz_force",
 ]

@@ -5,7 +5,7 @@ once per sparsity pattern and every Newton iteration only refactorises (phase 22
 solves (phase 33). Symmetric matrices use ``mtype = -2`` (real symmetric indefinite: the
 contact term and the mean-dilatation pressure can make the tangent indefinite) with the
 upper triangle; unsymmetric ones (Coulomb slip) ``mtype = 11`` with the full matrix
-(../shared/DEPENDENCIES.md, "Sparse solvers").
+(Intel oneMKL PARDISO reference, "pardiso mtype").
 """
 
 from __future__ import annotations

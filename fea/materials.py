@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = [
+    "cauchy_stress",
     "Material",
     "NeoHookean",
     "MooneyRivlin",
@@ -302,3 +303,28 @@ def material_from_dict(d: dict) -> Material:
             f"mooney-rivlin material parameters {sorted(d)} are not allowed; give c10, c01 and K"
         )
     return MooneyRivlin(float(d["c10"]), float(d["c01"]), float(d["K"]))
+
+
+def cauchy_stress(material: Material, F: np.ndarray, jbar: np.ndarray) -> np.ndarray:
+    """Cauchy stress of the mean-dilatation element: sigma = J^-1 P_iso F^T + U'(Jbar) I.
+
+    The isochoric first Piola-Kirchhoff stress pushed forward with the point's own
+    J = det F, plus the element's constant pressure U'(Jbar) (Simo, Taylor & Pister,
+    Comput. Methods Appl. Mech. Eng. 51, 1985: the three-field Hu-Washizu element with
+    piecewise-constant pressure and dilatation).
+
+    Parameters
+    ----------
+    material : Material
+    F : (c, q, 3, 3) deformation gradients at the quadrature points
+    jbar : (c,) mean dilatation of each cell
+
+    Returns
+    -------
+    sigma : (c, q, 3, 3) Cauchy stress (Pa)
+    """
+    J = np.linalg.det(F)
+    _, P, _ = material.isochoric(F, tangent=False)
+    _, dU, _ = material.volumetric(jbar)
+    sigma = np.einsum("cqiJ,cqkJ->cqik", P, F) / J[..., None, None]
+    return sigma + dU[:, None, None, None] * np.eye(3)

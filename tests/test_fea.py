@@ -492,9 +492,12 @@ def test_indenter_out_of_contact_is_held_by_a_tangent_only_spring(cache_dir):
     example). The open-indenter spring (tangent only) gives a step that moves it down by
     about its missing depth; the residual is untouched, so loads are still met exactly.
     Then sequential loading: B carries nothing in state 1 and 2 N in state 2."""
+    from fea.analytic import depth_guess
     from fea.linsolve import LinearSolver
+    from fea.model import Model, State
+    from fea.newton import evaluate
     from fea.problem import ContactSettings, SolverSettings
-    from fea.solver import SolveStats, _depth_guess, _evaluate, _Model, _State, _targets
+    from fea.stats import SolveStats
 
     sites = (IndenterSite(-3e-3, 0.0, 1.75e-3), IndenterSite(3e-3, 0.0, 1.75e-3))
     sizing = Sizing(h_contact=1.2e-3, refine_radius=1.5e-3, h_far=6e-3, h_sheet=3e-3, growth=0.5)
@@ -503,18 +506,18 @@ def test_indenter_out_of_contact_is_held_by_a_tangent_only_spring(cache_dir):
     b = Indenter(x=3e-3, radius=1.75e-3, normal_force=(0.0, 2.0))
 
     # both 0.05 mm above the sheet under their 2 N (half model: 1 N each)
-    model = _Model(mesh, (a, b), {0: SHEET, 1: NeoHookean.from_E_nu(2.4e9, 0.37)},
+    model = Model(mesh, (a, b), {0: SHEET, 1: NeoHookean.from_E_nu(2.4e9, 0.37)},
                    ContactSettings(), SolverSettings())  # fmt: skip
     c = model.c0.copy()
     c[:, 2] += 5e-5
-    st = _State(np.zeros((model.n, 3)), c, [], [], [])
+    st = State(np.zeros((model.n, 3)), c, [], [], [])
     model.set_candidates(model.candidates_near(mesh.points, c))
     nq = model.face.n_qp
     st.lam = [np.zeros((len(f), nq)) for f in model.cand]
     st.anchor = [np.zeros((len(f), nq, 3)) for f in model.cand]
     st.active = [np.zeros((len(f), nq), dtype=bool) for f in model.cand]
-    f_ind, _ = _targets(model, 2.0)
-    _, r, K, results, *_ = _evaluate(model, st, f_ind, tangent=True, stats=SolveStats())
+    f_ind, _ = model.targets(2.0)
+    _, r, K, results, *_ = evaluate(model, st, f_ind, tangent=True, stats=SolveStats())
     assert not any(np.any(res.p > 0) for res in results)
     lin = LinearSolver("scipy")
     dx = lin.solve(K, -r, symmetric=model.symmetric, pattern_id=model.pattern_id)
@@ -522,7 +525,7 @@ def test_indenter_out_of_contact_is_held_by_a_tangent_only_spring(cache_dir):
     k = np.array([model.open_spring(j, f_ind[j], c[j])[2][-1] for j in range(2)])
     assert np.allclose(dz, f_ind[:, 2] / k, rtol=1e-9)
     # 2 N needs about 0.29 mm here (bonded layer); the step goes 2/3 of the way down
-    d = _depth_guess(2.0, 1.75e-3, SHEET.E, 3e-3)
+    d = depth_guess(2.0, 1.75e-3, SHEET.E, 3e-3)
     assert np.allclose(dz, -d / 1.5, rtol=0.1), (dz, d)
     assert abs(float(dx @ r)) < 1e-3
 

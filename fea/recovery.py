@@ -1,0 +1,82 @@
+"""A converged iterate -> a :class:`fea.Solution`: stresses, reactions and contact results.
+
+Runs once per converged load state: the Cauchy stress at every quadrature point
+(:func:`fea.materials.cauchy_stress`), the base reaction, and per indenter its force
+(whole indenter, the symmetry share undone), depth, contact radius, penetration and the
+contact pressure at the points in contact.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .materials import cauchy_stress
+from .model import Model, State
+from .newton import evaluate
+from .solution import IndenterState, Solution
+from .stats import SolveStats
+
+__all__ = ["make_solution"]
+
+
+def _indenter_state(model: Model, st: State, j: int, x: np.ndarray) -> IndenterState:
+    """Force, depth, contact radius and pressure of indenter ``j`` at ``st``."""
+    ind = model.indenters[j]
+    res = st.results[j]  # the converged contact state (before the last multiplier copy)
+    faces = model.cand[j]
+    act = res.p > 0
+    force = res.force[:, 6].sum(axis=0) / model.frac[j]
+    for a in model.sym_axes:
+        if abs(model.c0[j, a]) < 1e-12:
+            force[a] = 0.0
+    cur = model.face.current_area(x, faces)
+    ref = model.face.weights[faces]
+    # contact edge inside the facets: the sign of the trial pressure p - eps_N g,
+    # and the convex hull of that patch (bridges pressure-free points inside it);
+    indicator = np.where(act, res.p, -model.eps_n[j] * res.gap)
+    # the hull's samples sit a fraction of a sub-triangle inside the edge, the plain
+    # area misses the holes: the larger of the two
+    on_planes = [a for a in model.sym_axes if abs(model.c0[j, a]) < 1e-12]
+    area = max(
+        model.face.projected_contact_area(x, faces, indicator) / model.frac[j],
+        model.face.contact_hull_area(x, faces, indicator, on_planes),
+    )
+    pts = model.face.points(x, faces)
+    pen = float(max(0.0, -res.gap[act].min())) if np.any(act) else 0.0
+    return IndenterState(
+        centre=st.c[j].copy(),
+        radius=ind.radius,
+        depth=float(model.c0[j, 2] - st.c[j, 2]),
+        force=force,
+        contact_radius=math.sqrt(area / math.pi),
+        max_penetration=pen,
+        points=pts[act],
+        pressure=(res.p * ref / np.where(cur > 0, cur, 1.0))[act],
+    )
+
+
+def make_solution(model: Model, st: State, s: float, iter_log: list, stats: SolveStats) -> Solution:
+    """The :class:`Solution` of converged state ``st`` at load-path position ``s``."""
+    f_ind, _ = model.targets(s)
+    _, _, _, _, body, _ = evaluate(model, st, f_ind, tangent=False, stats=stats)
+    F = body.F[model.inverse]  # back to mesh cell order
+    jbar = body.Jbar[model.inverse]
+    sigma = np.empty_like(F)
+    for idx, mat in model.mesh_groups:
+        sigma[idx] = cauchy_stress(mat, F[idx], jbar[idx])
+    bottom = np.unique(model.mesh.facet_nodes("bottom"))
+    base_reaction = body.force[bottom].sum(axis=0)  # support force on the body
+    x = model.mesh.points + st.u
+    return Solution(
+        mesh=model.mesh,
+        displacement=st.u.copy(),
+        stress_qp=sigma,
+        jbar=jbar,
+        indenters=tuple(_indenter_state(model, st, j, x) for j in range(model.m)),
+        base_reaction=base_reaction,
+        model_fraction=tuple(float(v) for v in model.frac),
+        load_factor=float(s),
+        log=list(iter_log),
+    )

@@ -1,0 +1,35 @@
+"""What a solve cost: time per stage and iteration counts."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+__all__ = ["SolveStats"]
+
+
+@dataclass
+class SolveStats:
+    """Where the time went (s) and how many iterations it took.
+
+    Filled in while a solve runs (the one mutable record of the fea stage).
+    """
+
+    dofs: int = 0
+    backend: str = ""
+    time_setup: float = 0.0
+    time_assembly: float = 0.0
+    time_contact: float = 0.0
+    time_analysis: float = 0.0
+    time_factorize: float = 0.0
+    time_solve: float = 0.0
+    time_total: float = 0.0
+    newton_iterations: int = 0
+    iterations_per_state: list = field(default_factory=list)
+    #: per Newton iteration: (wall time, factorization time) in s, from the linear
+    #: solve through the line search (whose first trial assembles the next tangent)
+    iteration_times: list = field(default_factory=list)
+    cutbacks: int = 0
+    al_updates: int = 0
+
+    def as_dict(self) -> dict:
+        return dict(self.__dict__)

@@ -1,25 +1,43 @@
-"""Stage 4 of the pipeline: fringe images -> fringe order, isoclinic and stress maps.
+"""Image analysis: fringe images -> fringe order, isoclinic and stress maps.
 
 Works on image arrays and files only; it does not know whether an image came from a
-camera or from :mod:`optics`.
+camera or from :mod:`optics`, and imports none of the other stages (a contract checked
+in CI). Reading images, masks, six-step phase shifting and unwrapping, RGB calibration
+tables and searches, line profiles, registration of two maps, and the feature and fit
+functions of load-to-fringe calibration.
 """
 
-from .compare import Comparison, Profile, compare_maps, comparison_figure, line_profile
+from .calibrate import (
+    RADII_MM,
+    calibrate_from_maps,
+    estimate_load,
+    fringe_features,
+    load_calibration,
+    radial_profile,
+    save_calibration,
+)
+from .compare import Comparison, Profile, compare_maps, line_profile
 from .images import SIX_STEP_ORDER, Frame, load_image, load_six_step, normalise
 from .masks import check_mask, circle_mask, exclude_circle, polygon_mask
 from .phase import (
-    FringeOrderMap,
     Resolution,
     SixStep,
     principal_stress_difference,
     resolve_ambiguity,
     six_step,
-    unwrap_fringe_order,
     wrap,
 )
 from .rgb import CalibrationTable, RGBResult, search, search_refined
+from .unwrap import FringeOrderMap, unwrap_fringe_order
 
 __all__ = [
+    "RADII_MM",
+    "calibrate_from_maps",
+    "estimate_load",
+    "fringe_features",
+    "load_calibration",
+    "radial_profile",
+    "save_calibration",
     "SIX_STEP_ORDER",
     "CalibrationTable",
     "Comparison",
@@ -32,7 +50,6 @@ __all__ = [
     "check_mask",
     "circle_mask",
     "compare_maps",
-    "comparison_figure",
     "exclude_circle",
     "line_profile",
     "load_image",

@@ -1,4 +1,4 @@
-"""Load-to-fringe calibration, inverse load estimates, and the fringe value from a disc.
+"""Load-to-fringe calibration and inverse load estimates from fringe-order maps.
 
 Features of a fringe-order map about an indenter axis (:func:`fringe_features`):
 
@@ -20,9 +20,8 @@ features are correlated, so the combined uncertainty is reported as the smallest
 per-feature one, not the weighted-mean formula). Where the load path carries shear,
 ``shear_x = c0 + c1 centroid_x`` (and y) are fitted linearly.
 
-:func:`fringe_value_from_disc` fits the fringe value f_sigma of a diametral disc at a known
-load to a measured fringe-order map in transmission (Frocht's closed form,
-:class:`optics.DiametralDisc`).
+The fringe value from a diametral disc, which needs the disc's stress field, is fitted by
+the application layer (:func:`fringekit.disc.fringe_value_from_disc`).
 """
 
 from __future__ import annotations
@@ -40,7 +39,7 @@ __all__ = [
     "estimate_load",
     "save_calibration",
     "load_calibration",
-    "fringe_value_from_disc",
+    "radial_profile",
 ]
 
 #: Radii (mm) at which the order is sampled; beyond the 8 N contact radius (1.2 mm).
@@ -48,8 +47,20 @@ RADII_MM = (1.5, 2.0, 3.0, 4.0, 6.0)
 CAL_VERSION = 1
 
 
-def _radial_profile(order, pixel_size, centre_rc):
-    """Azimuthal mean of the order in 1-pixel annuli: (r_mm, mean), NaN where no pixel."""
+def radial_profile(order, pixel_size, centre_rc):
+    """Azimuthal mean of the order in 1-pixel annuli.
+
+    Parameters
+    ----------
+    order : (rows, cols) fringe order, NaN where unknown
+    pixel_size : float (m)
+    centre_rc : (row, col) the axis in pixels
+
+    Returns
+    -------
+    r_mm : (k,) annulus radii (mm)
+    mean : (k,) azimuthal mean order, NaN where no pixel
+    """
     rows, cols = order.shape
     r, c = np.mgrid[:rows, :cols]
     dist = np.hypot(r - centre_rc[0], c - centre_rc[1])
@@ -90,7 +101,7 @@ def fringe_features(
         raise ValueError(f"fringe order map shape {order.shape} is not allowed; need (rows, cols)")
     if not (pixel_size > 0 and np.isfinite(pixel_size)):
         raise ValueError(f"pixel_size = {pixel_size!r} m is not allowed; must be > 0")
-    r_mm, prof = _radial_profile(order, pixel_size, centre_rc)
+    r_mm, prof = radial_profile(order, pixel_size, centre_rc)
     ok = np.isfinite(prof)
     out: dict[str, float] = {}
     for rr in radii_mm:
@@ -281,55 +292,3 @@ def load_calibration(path: str | os.PathLike) -> dict:
     if not isinstance(cal, dict) or cal.get("version") != CAL_VERSION or "normal_fits" not in cal:
         raise ValueError(f"{path}: not a fringekit calibration file (version {CAL_VERSION})")
     return cal
-
-
-def fringe_value_from_disc(
-    order: np.ndarray,
-    pixel_size: float,
-    centre_rc: tuple[float, float],
-    *,
-    load_N: float,
-    diameter: float,
-    thickness: float,
-    r_max: float = 0.45,
-) -> dict:
-    """Fringe value f_sigma (N/m per fringe) of a diametral disc at a known load.
-
-    Least squares over the pixels within ``r_max`` D of the centre (away from the load
-    points) of N = t (sigma1 - sigma2)(x, y) / f_sigma (transmission, Frocht's field);
-    the load axis is the image's vertical. Also returns the centre-only estimate
-    8 P / (pi D N_centre) (DESIGN.md).
-    """
-    from optics import DiametralDisc
-
-    order = np.asarray(order, float)
-    for name, v in (("load_N", load_N), ("diameter", diameter), ("thickness", thickness),
-                    ("pixel_size", pixel_size)):  # fmt: skip
-        if not (np.isfinite(v) and v > 0):
-            raise ValueError(f"{name} = {v!r} is not allowed; must be > 0")
-    rows, cols = order.shape
-    r, c = np.mgrid[:rows, :cols]
-    xy = np.stack([(c - centre_rc[1]) * pixel_size, -(r - centre_rc[0]) * pixel_size], -1)
-    disc = DiametralDisc(P=load_N, D=diameter, t=thickness)
-    inside = np.hypot(xy[..., 0], xy[..., 1]) <= r_max * diameter
-    use = inside & np.isfinite(order)
-    if use.sum() < 10:
-        raise ValueError(
-            "fewer than 10 measured pixels inside the disc: check the centre, pixel size "
-            "and diameter"
-        )
-    S = thickness * disc.stress_difference(xy[use])  # N/m: N = S / f_sigma
-    Nm = order[use]
-    inv_f = float((S * Nm).sum() / (S * S).sum())
-    f = 1.0 / inv_f
-    resid = Nm - S * inv_f
-    rc, cc = int(round(centre_rc[0])), int(round(centre_rc[1]))
-    n_c = order[rc, cc] if 0 <= rc < rows and 0 <= cc < cols else np.nan
-    return {
-        "f_sigma_N_per_m": f,
-        "rms_residual_fringe": float(np.sqrt(np.mean(resid**2))),
-        "pixels": int(use.sum()),
-        "f_sigma_centre_N_per_m": float(8 * load_N / (np.pi * diameter * n_c))
-        if np.isfinite(n_c) and n_c > 0
-        else None,
-    }

@@ -6,10 +6,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Profile", "line_profile", "Comparison", "compare_maps", "comparison_figure"]
+__all__ = ["Profile", "line_profile", "Comparison", "compare_maps"]
 
 
-@dataclass
+@dataclass(frozen=True)
 class Profile:
     """Values along a straight line (the seed paper's a-b and c-d lines).
 
@@ -53,7 +53,7 @@ def line_profile(image, start, end, *, pixel_size: float | None = None, n=None) 
     return Profile(dist, vals, tuple(p0), tuple(p1))
 
 
-@dataclass
+@dataclass(frozen=True)
 class Comparison:
     """A predicted fringe-order map registered onto a measured one.
 
@@ -168,46 +168,3 @@ def compare_maps(
         rotation_deg=float(rotation_deg),
         info={**info, "pixels": int(m.sum())},
     )
-
-
-def comparison_figure(comp: Comparison, path, *, line=None, title: str = "") -> None:
-    """PNG: measured, predicted, residual maps and an overlaid profile along ``line``.
-
-    ``line`` is ((row, col), (row, col)); default: the horizontal line through the
-    registered centre.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    if line is None:
-        r = comp.centre_measured[0]
-        line = ((r, 0.0), (r, comp.measured.shape[1] - 1.0))
-    fig, ax = plt.subplots(1, 4, figsize=(16, 4))
-    vmax = np.nanmax([np.nanmax(comp.measured), np.nanmax(comp.predicted)])
-    for a, data, name in (
-        (ax[0], comp.measured, "measured N"),
-        (ax[1], comp.predicted, "predicted N"),
-    ):
-        im = a.imshow(data, vmin=0, vmax=vmax, cmap="viridis")
-        a.set_title(name)
-        fig.colorbar(im, ax=a, shrink=0.8)
-    lim = np.nanmax(np.abs(comp.residual)) or 1.0
-    im = ax[2].imshow(comp.residual, cmap="RdBu_r", vmin=-lim, vmax=lim)
-    ax[2].set_title(f"residual (RMS {comp.rms:.3f}, p95 {comp.p95:.3f})")
-    fig.colorbar(im, ax=ax[2], shrink=0.8)
-    for a in ax[:3]:
-        a.plot([line[0][1], line[1][1]], [line[0][0], line[1][0]], "w--", lw=1)
-    pm = line_profile(comp.measured, *line)
-    pp = line_profile(comp.predicted, *line)
-    ax[3].plot(pm.distance, pm.values, label="measured")
-    ax[3].plot(pp.distance, pp.values, label="predicted")
-    ax[3].set_xlabel("distance along line (px)")
-    ax[3].set_ylabel("fringe order")
-    ax[3].legend()
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)

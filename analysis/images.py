@@ -14,7 +14,7 @@ import numpy as np
 
 __all__ = ["Frame", "load_image", "load_six_step", "normalise", "SIX_STEP_ORDER"]
 
-#: The arrangement of a six-step set (../shared/DESIGN.md table, Ramesh 2000): image k is
+#: The arrangement of a six-step set (the table of ``docs/theory.md``, Ramesh 2000): image k is
 #: taken with quarter-wave plates (xi, eta) and analyser beta of row k, polariser at pi/2.
 SIX_STEP_ORDER = (
     "1: xi=3pi/4 eta=pi/4 beta=pi/2  I ~ 1 + cos d",

@@ -1,6 +1,6 @@
 """Six-step phase shifting: isoclinic, isochromatic, the pi/2 ambiguity, unwrapping.
 
-Conventions (../shared/DESIGN.md "Six-step phase shifting"; Ramesh, *Digital
+Conventions (``docs/theory.md``, "Six-step phase shifting"; Ramesh, *Digital
 Photoelasticity*, Springer 2000, sec. 6; seed paper eqs. 2-4). With a = i5 - i3,
 b = i4 - i6, c = i1 - i2 the ideal intensities give
 
@@ -18,18 +18,15 @@ directions. A maximum spanning tree over these neighbour relations (the most rel
 first) fixes the sign of sin d up to one global sign per connected region; relations that
 contradict the result are counted and their pixels reported unreliable. The global sign is
 fixed after unwrapping by the physics: the isochromatic fringe order is a magnitude, never
-below its zero-order anchor. The signed wrapped phase is unwrapped with
-``skimage.restoration.unwrap_phase`` (Herraez et al., Appl. Opt. 41, 2002) on a masked
-array and shifted, per connected region, by the integer that matches the anchor (zero order
-in the far field, or an RGB fringe-order map).
+below its zero-order anchor. The signed wrapped phase is then unwrapped
+(:mod:`analysis.unwrap`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components, dijkstra, minimum_spanning_tree
 
@@ -39,10 +36,8 @@ from .masks import check_mask
 __all__ = [
     "SixStep",
     "Resolution",
-    "FringeOrderMap",
     "six_step",
     "resolve_ambiguity",
-    "unwrap_fringe_order",
     "principal_stress_difference",
     "wrap",
 ]
@@ -55,7 +50,7 @@ def wrap(phase):
     return (np.asarray(phase) + np.pi) % TWO_PI - np.pi
 
 
-@dataclass
+@dataclass(frozen=True)
 class SixStep:
     """Per-pixel results of the six-step formulas (all (rows, cols)).
 
@@ -140,7 +135,7 @@ def six_step(images, *, mask=None, min_modulation: float = 0.1) -> SixStep:
     return SixStep(theta, theta2, delta_eq3, delta_ai, modulation, consistency, valid)
 
 
-@dataclass
+@dataclass(frozen=True)
 class Resolution:
     """The isoclinic ambiguity resolved (all maps (rows, cols)).
 
@@ -148,7 +143,7 @@ class Resolution:
     ----------
     sign : int8 — +1 / -1: the sign of sin d relative to the pixel's group; 0 = not valid
     group : int — connected group of valid pixels (-1 = none); each group has its own
-        global sign, fixed in :func:`unwrap_fringe_order`
+        global sign, fixed in :func:`analysis.unwrap_fringe_order`
     phase : rad in [-pi, pi) — signed wrapped isochromatic phase sign * d_folded
     isoclinic : rad in [-pi/2, pi/2) — the principal direction consistent with ``phase``
     conflicts : int — neighbour pairs whose measured relation contradicts the signs
@@ -260,159 +255,11 @@ def resolve_ambiguity(result: SixStep, *, conflict_weight: float = 0.05) -> Reso
     )
 
 
-@dataclass
-class FringeOrderMap:
-    """Total isochromatic fringe order from phase shifting.
-
-    Attributes
-    ----------
-    order : (rows, cols) — NaN where not valid
-    reliable : (rows, cols) bool — valid, resolved, and no phase step above pi/2 between
-        neighbouring pixels (fringes resolved by the pixel pitch)
-    isoclinic : (rows, cols) rad — principal direction consistent with ``order``
-    offset : int — integer added to the unwrapped phase / 2 pi to meet the anchor, in the
-        largest connected region (each region has its own)
-    flipped_groups : int — groups of bands whose global sign was reversed
-    info : dict — counts for reports
-    """
-
-    order: np.ndarray
-    reliable: np.ndarray
-    isoclinic: np.ndarray
-    offset: int
-    flipped_groups: int
-    info: dict = field(default_factory=dict)
-
-
-def _default_anchor(valid: np.ndarray) -> np.ndarray:
-    """The valid pixels within 5 % of the image size from its border (the far field)."""
-    rows, cols = valid.shape
-    m = max(1, int(round(0.05 * min(rows, cols))))
-    ring = np.ones_like(valid)
-    ring[m:-m, m:-m] = False
-    return valid & ring
-
-
-def _unwrap(phase: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    from skimage.restoration import unwrap_phase
-
-    out = unwrap_phase(np.ma.masked_array(phase, mask=~valid))
-    return np.ma.filled(out, np.nan)
-
-
-def unwrap_fringe_order(
-    result: SixStep,
-    resolution: Resolution | None = None,
-    *,
-    anchor_mask=None,
-    anchor_order: float = 0.0,
-    reference_order=None,
-) -> FringeOrderMap:
-    """Unwrap the resolved isochromatic phase into a total fringe order map.
-
-    Parameters
-    ----------
-    result : SixStep
-    resolution : Resolution, optional — computed with defaults when omitted
-    anchor_mask : (rows, cols) bool, optional
-        Pixels of known order ``anchor_order`` (default: the valid pixels within 5 % of
-        the image border, the far field, at order 0).
-    anchor_order : float
-    reference_order : (rows, cols), optional
-        A fringe-order map (e.g. from RGB calibration); when given, the integer offset is
-        the median of (reference - unwrapped) rounded, over pixels where both are finite,
-        and ``anchor_mask`` is not used.
-    """
-    res = resolution or resolve_ambiguity(result)
-    valid = result.valid
-    if reference_order is None:
-        anchor = (
-            _default_anchor(valid)
-            if anchor_mask is None
-            else check_mask(anchor_mask, valid.shape, "anchor_mask") & valid
-        )
-        if not anchor.any():
-            raise ValueError(
-                "anchor_mask has no valid pixel: give anchor_mask (pixels of known order) "
-                "or reference_order"
-            )
-    else:
-        ref = np.asarray(reference_order, float)
-        if ref.shape != valid.shape:
-            raise ValueError(
-                f"reference_order shape {ref.shape} does not match the images {valid.shape}"
-            )
-        anchor = valid & np.isfinite(ref)
-        if not anchor.any():
-            raise ValueError("reference_order is NaN on every valid pixel")
-    phase = res.phase.copy()
-    unw = _unwrap(phase, valid) / TWO_PI
-    # unwrap_phase treats disconnected regions independently, and each group of pixels
-    # (= a connected region) carries its own global sign: both are fixed per group from
-    # its own anchor pixels. A group without anchor pixels is reported unreliable.
-    lab = np.where(valid, res.group + 1, 0)
-    n_lab = int(lab.max())
-    ids = np.arange(1, n_lab + 1)
-    target = np.full(valid.shape, anchor_order) if reference_order is None else ref
-    has_anchor = np.zeros(n_lab + 1, bool)
-    has_anchor[np.unique(lab[anchor])] = True
-    has_anchor[0] = False
-
-    def group_median(values, where):
-        out = np.zeros(n_lab + 1)
-        if n_lab:
-            out[1:] = ndimage.median(values, np.where(where, lab, 0), ids)
-        return np.nan_to_num(out)
-
-    # the isochromatic order is a magnitude: each group takes the sign that puts its
-    # pixels above its anchor
-    level = group_median(unw, anchor)
-    rel = group_median(unw - level[lab], valid)
-    flip = (rel < 0) & has_anchor
-    flip_pixels = valid & flip[lab]
-    flipped = int(flip.sum())
-    if flipped:
-        phase[flip_pixels] = wrap(-phase[flip_pixels])
-        unw = _unwrap(phase, valid) / TWO_PI
-    shift = np.round(group_median(target - unw, anchor))
-    present, counts = np.unique(lab[valid], return_counts=True)
-    offset = int(shift[present[np.argmax(counts)]]) if present.size else 0
-    order = np.where(valid, unw + shift[lab], np.nan)
-    iso = res.isoclinic.copy()
-    iso[flip_pixels] = (iso[flip_pixels] + np.pi) % np.pi - np.pi / 2
-    # pixels whose neighbours differ by more than a quarter fringe are not resolved by the
-    # pixel pitch; unwrapping there is a guess
-    steep = np.zeros_like(valid)
-    for ax in (0, 1):
-        jump = np.abs(np.diff(np.where(valid, unw, 0.0), axis=ax)) > 0.25
-        both = np.logical_and(
-            np.take(valid, range(valid.shape[ax] - 1), axis=ax),
-            np.take(valid, range(1, valid.shape[ax]), axis=ax),
-        )
-        jump &= both
-        pad = [(0, 0), (0, 0)]
-        pad[ax] = (0, 1)
-        steep |= np.pad(jump, pad)
-        pad[ax] = (1, 0)
-        steep |= np.pad(jump, pad)
-    reliable = valid & ~res.unreliable & ~steep & has_anchor[lab]
-    info = {
-        "valid_pixels": int(valid.sum()),
-        "reliable_pixels": int(reliable.sum()),
-        "conflicts": res.conflicts,
-        "flipped_groups": flipped,
-        "offset": offset,
-        "regions": int(present.size),
-        "regions_without_anchor": int((~has_anchor[present]).sum()),
-    }
-    return FringeOrderMap(order, reliable, iso, offset, flipped, info)
-
-
 def principal_stress_difference(order, f_sigma: float, thickness: float, *, reflection=True):
     """sigma1 - sigma2 (Pa) = N f_sigma / L, L = 2 t in reflection, t in transmission.
 
-    Seed paper eq. 4 (DESIGN.md "Stress-optic law"). ``f_sigma`` in N/m (Pa m) per fringe,
-    ``thickness`` in m.
+    Seed paper eq. 4 (``docs/theory.md``, "The stress-optic law"). ``f_sigma`` in N/m
+    (Pa m) per fringe, ``thickness`` in m.
     """
     if not f_sigma > 0:
         raise ValueError(f"f_sigma = {f_sigma!r} N/m is not allowed; must be > 0")

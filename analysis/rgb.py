@@ -162,7 +162,7 @@ class CalibrationTable:
                 w.writerow([f"{o:.6f}", f"{c[0]:.6f}", f"{c[1]:.6f}", f"{c[2]:.6f}"])
 
 
-@dataclass
+@dataclass(frozen=True)
 class RGBResult:
     """Fringe order from colour.
 
@@ -197,6 +197,31 @@ def search(image, table: CalibrationTable, *, mask=None) -> RGBResult:
     order[m] = table.orders[idx]
     error[m] = dist
     return RGBResult(order, error, m)
+
+
+def _check_seeds(seeds, tab: CalibrationTable, m: np.ndarray, window: float) -> None:
+    """Every seed inside the image and the mask, its order inside the table range."""
+    rows, cols = m.shape
+    for (r, c), o in seeds:
+        r, c = int(round(r)), int(round(c))
+        if not (0 <= r < rows and 0 <= c < cols) or not m[r, c]:
+            raise ValueError(f"seed pixel {(r, c)} is outside the image or the mask")
+        if not tab.orders[0] - window <= o <= tab.orders[-1] + window:
+            raise ValueError(
+                f"seed order {o!r} is outside the table range "
+                f"[{tab.orders[0]:.3g}, {tab.orders[-1]:.3g}]"
+            )
+
+
+def _windows(tab: CalibrationTable, k: int):
+    """The table's colours (n, 3), and for every row the squared norms (n, 2k+1) and the
+    per-channel colours [(n, 2k+1)] x 3 of the rows within +-k of it (edge-padded)."""
+    T = tab.rgb.astype(np.float32)
+    Tpad = np.concatenate([np.repeat(T[:1], k, 0), T, np.repeat(T[-1:], k, 0)])
+    Tw = np.lib.stride_tricks.sliding_window_view(Tpad, 2 * k + 1, axis=0)  # (n, 3, 2k+1)
+    Tn = (Tw.astype(np.float32) ** 2).sum(axis=1)  # (n, 2k+1)
+    Tc = [np.ascontiguousarray(Tw[:, c, :]) for c in range(3)]  # per channel, (n, 2k+1)
+    return T, Tn, Tc
 
 
 def search_refined(
@@ -240,15 +265,7 @@ def search_refined(
     )
     step = tab.step
     k = int(np.ceil(window / step))
-    for (r, c), o in seeds:
-        r, c = int(round(r)), int(round(c))
-        if not (0 <= r < rows and 0 <= c < cols) or not m[r, c]:
-            raise ValueError(f"seed pixel {(r, c)} is outside the image or the mask")
-        if not tab.orders[0] - window <= o <= tab.orders[-1] + window:
-            raise ValueError(
-                f"seed order {o!r} is outside the table range "
-                f"[{tab.orders[0]:.3g}, {tab.orders[-1]:.3g}]"
-            )
+    _check_seeds(seeds, tab, m, window)
     # work on a one-pixel padded grid so that every pixel has 8 neighbours
     pc = cols + 2
     inside = np.zeros((rows + 2, pc), bool)
@@ -258,11 +275,7 @@ def search_refined(
     error = np.full((rows + 2) * pc, np.nan)
     pix = np.zeros(((rows + 2) * pc, 3), np.float32)
     pix.reshape(rows + 2, pc, 3)[1:-1, 1:-1] = img
-    T = tab.rgb.astype(np.float32)
-    Tpad = np.concatenate([np.repeat(T[:1], k, 0), T, np.repeat(T[-1:], k, 0)])
-    Tw = np.lib.stride_tricks.sliding_window_view(Tpad, 2 * k + 1, axis=0)  # (n, 3, 2k+1)
-    Tn = (Tw.astype(np.float32) ** 2).sum(axis=1)  # (n, 2k+1)
-    Tc = [np.ascontiguousarray(Tw[:, c, :]) for c in range(3)]  # per channel, (n, 2k+1)
+    T, Tn, Tc = _windows(tab, k)
     nb = np.array([-pc - 1, -pc, -pc + 1, -1, 1, pc - 1, pc, pc + 1])
     seed_flat = []
     for (r, c), o in seeds:

@@ -22,8 +22,9 @@ sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).pa
 
 import numpy as np  # noqa: E402
 
-from analysis.phase import six_step, unwrap_fringe_order  # noqa: E402
+from analysis.phase import six_step  # noqa: E402
 from analysis.rgb import CalibrationTable, search, search_refined  # noqa: E402
+from analysis.unwrap import unwrap_fringe_order  # noqa: E402
 from optics import PSM4_ASSUMED, Camera, colour_chart, light_source  # noqa: E402
 
 

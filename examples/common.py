@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.config import apply_overrides, load_config
-from analysis.predict import run_predict
+from fringekit.config import apply_overrides, load_config
+from fringekit.pipeline import run_predict
 
 #: Overrides that turn the reference case into the coarse test block.
 COARSE = {

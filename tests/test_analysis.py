@@ -5,17 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from analysis.compare import compare_maps, comparison_figure, line_profile
+from analysis.compare import compare_maps, line_profile
 from analysis.images import load_image, load_six_step, normalise
 from analysis.masks import circle_mask, exclude_circle, polygon_mask
-from analysis.phase import (
-    principal_stress_difference,
-    resolve_ambiguity,
-    six_step,
-    unwrap_fringe_order,
-    wrap,
-)
+from analysis.phase import principal_stress_difference, resolve_ambiguity, six_step, wrap
 from analysis.rgb import CalibrationTable, search, search_refined
+from analysis.unwrap import unwrap_fringe_order
+from fringekit.figures import comparison_figure
 from optics import (
     PSM4_ASSUMED,
     Boussinesq,

@@ -7,15 +7,15 @@ import json
 import numpy as np
 import pytest
 
-from analysis.calibrate import (
+from analysis import (
     calibrate_from_maps,
     estimate_load,
     fringe_features,
-    fringe_value_from_disc,
     load_calibration,
     save_calibration,
 )
-from analysis.cli import main
+from fringekit.cli import main
+from fringekit.disc import fringe_value_from_disc
 from optics import PSM4_ASSUMED, DiametralDisc, PixelGrid, optical_map
 
 

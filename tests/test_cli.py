@@ -9,15 +9,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis.cli import main
-from analysis.config import (
+from fringekit.cli import main
+from fringekit.config import (
     BUILTIN_CASES,
     ConfigError,
     effective_config,
     load_config,
     to_toml,
 )
-from analysis.predict import build_inputs, choose_symmetry
+from fringekit.inputs import build_inputs, choose_symmetry
 
 # The small block of conftest.py (12 x 12 mm, 3 mm sheet on 4 mm PC, coarse sizes), a
 # 32 x 32 image and few samples: the whole pipeline in well under a minute.
@@ -51,7 +51,8 @@ def test_defaults_are_the_reference_case():
     assert cfg["sheet"]["E_MPa"] == 4.0 and cfg["sheet"]["nu"] == 0.49
     assert len(cfg["indenter"]) == 1
     assert cfg["indenter"][0]["diameter_mm"] == 3.5 and cfg["indenter"][0]["load_N"] == [8.0]
-    spec, inds, mats, contact, _ = build_inputs(cfg)
+    inp = build_inputs(cfg)
+    spec, inds, mats, contact = inp.spec, inp.indenters, inp.materials, inp.contact
     assert spec.symmetry == "quarter"
     assert spec.layers.sheet_thickness == pytest.approx(3e-3)
     assert inds[0].radius == pytest.approx(1.75e-3) and inds[0].normal_force == (8.0,)
@@ -60,7 +61,8 @@ def test_defaults_are_the_reference_case():
 
 def test_shear_case_is_a_stuck_half_model():
     cfg = load_config("shear")
-    spec, inds, _, contact, _ = build_inputs(cfg)
+    inp = build_inputs(cfg)
+    spec, inds, contact = inp.spec, inp.indenters, inp.contact
     assert spec.symmetry == "half" and math.isinf(contact.friction)
     assert inds[0].shear_force == ((0.0, 0.0), (8.0, 0.0))
 
@@ -122,7 +124,8 @@ def test_symmetry_choice_follows_positions_and_loads():
         _sym([{"load_N": [8.0], "shear_N": [4.0, 0.0]}], symmetry="quarter")
     # the model keeps y >= 0 (and x >= 0): only the indenter at y = +5 mm is solved
     cfg = effective_config({"indenter": [{"y_mm": 5.0}, {"y_mm": -5.0}]})
-    spec, inds, *_ = build_inputs(cfg)
+    inp = build_inputs(cfg)
+    spec, inds = inp.spec, inp.indenters
     assert spec.symmetry == "quarter" and [i.y for i in inds] == [5e-3]
 
 
@@ -378,7 +381,7 @@ def test_sweep_killed_then_resumed_matches_an_uninterrupted_run(tiny_run, cache_
         '"indenter.load_N" = [[4.0], [8.0]]\n"optics.wavelength_nm" = [575.0, 600.0]\n'
     )
     out = root / "sweep_a"
-    cmd = [sys.executable, "-m", "analysis.cli", "sweep", str(root / "sweep.toml"),
+    cmd = [sys.executable, "-m", "fringekit.cli", "sweep", str(root / "sweep.toml"),
            "--out", str(out), "--workers", "1", "--cache-dir", str(cache_dir),
            "--quiet"]  # fmt: skip
     proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.DEVNULL,
@@ -429,7 +432,7 @@ def test_mesh_command(tmp_path, cache_dir, capsys):
     s = json.loads((tmp_path / "m" / "mesh_summary.json").read_text())
     assert s["quality"]["n_cells"] > 0 and (tmp_path / "m" / "mesh.vtu").stat().st_size > 0
     assert main(["mesh", "--thickness-mm", "-1", "--out", str(tmp_path / "n")]) == 2
-    assert "sheet_thickness = -0.001" in capsys.readouterr().err
+    assert "sheet.thickness_mm = -1.0" in capsys.readouterr().err
 
 
 def test_predict_with_the_polycarbonate_in_the_light_path(tiny_run, capsys):

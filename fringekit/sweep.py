@@ -38,6 +38,7 @@ import time
 from pathlib import Path
 
 from .config import ConfigError, apply_overrides, load_config, tomllib
+from .figures import sweep_plots
 
 __all__ = ["load_sweep", "expand_cases", "run_sweep", "collect_results"]
 
@@ -103,7 +104,7 @@ def expand_cases(base: dict, overrides: list[dict]) -> list[dict]:
 
 def _run_case(case: dict, out_root: str, cache_dir: str | None) -> dict:
     """Run one case into ``cases/<id>.part`` and rename it when done (runs on a worker)."""
-    from .predict import PredictError, run_predict
+    from .pipeline import PredictError, run_predict
 
     final = Path(out_root) / "cases" / case["id"]
     part = final.with_name(final.name + ".part")
@@ -245,45 +246,5 @@ def collect_results(sweep: dict, out: str | os.PathLike) -> list[dict]:
         w.writerows(rows)
     os.replace(tmp, out / "results.csv")
     (out / "results.json").write_text(json.dumps(rows, indent=2, default=float))
-    _plots(rows, keys, out / "plots")
+    sweep_plots(rows, keys, out / "plots")
     return rows
-
-
-def _plots(rows: list[dict], keys: list[str], folder: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    ok = [r for r in rows if r["status"] == "ok"]
-    if not ok:
-        return
-    folder.mkdir(parents=True, exist_ok=True)
-    for key in keys:
-        xs = []
-        for r in ok:
-            v = r[key]
-            v = json.loads(v) if isinstance(v, str) and v.startswith("[") else v
-            v = v[-1] if isinstance(v, list) else v  # a load path: its last (largest) state
-            xs.append(v)
-        if not all(isinstance(x, (int, float)) for x in xs):
-            continue
-        fig, ax = plt.subplots(1, 3, figsize=(13, 3.6), dpi=100)
-        others = [k for k in keys if k != key]
-        groups: dict = {}
-        for x, r in zip(xs, ok, strict=True):
-            groups.setdefault(tuple(r[k] for k in others), []).append((x, r))
-        for label, pts in groups.items():
-            pts.sort(key=lambda p: p[0])
-            lab = ", ".join(f"{k}={v}" for k, v in zip(others, label, strict=True)) or None
-            for a, m in zip(ax, ("max_fringe_order", "depth_mm", "contact_radius_mm"), strict=True):
-                a.plot([p[0] for p in pts], [p[1][m] for p in pts], "o-", label=lab)
-                a.set_ylabel(m)
-        for a in ax:
-            a.set_xlabel(key)
-            a.grid(alpha=0.3)
-        if len(groups) > 1:
-            ax[0].legend(fontsize=7)
-        fig.tight_layout()
-        fig.savefig(folder / f"{re.sub(r'[^A-Za-z0-9_.-]', '_', key)}.png")
-        plt.close(fig)

@@ -1,7 +1,7 @@
 """``fringekit analyze`` and ``fringekit compare``: image files -> maps, profiles, figures.
 
 ``run_analyze`` reads a six-step set (phase) or one colour image (RGB), builds the masks,
-runs :mod:`analysis.phase` or :mod:`analysis.rgb`, and writes to an output folder:
+runs the six-step or RGB methods of :mod:`analysis`, and writes to an output folder:
 
 - ``maps.npz`` - ``fringe_order`` (NaN where unknown), ``reliable`` (bool), and for the
   phase method ``isoclinic_rad``, ``delta_eq3_rad``, ``delta_axis_insensitive_rad``,
@@ -25,48 +25,29 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+import colour
 import numpy as np
 
-from .compare import compare_maps, comparison_figure, line_profile
-from .images import load_image, load_six_step
-from .masks import circle_mask, exclude_circle
-from .phase import principal_stress_difference, resolve_ambiguity, six_step, unwrap_fringe_order
-from .rgb import CalibrationTable, search, search_refined
+from analysis import (
+    CalibrationTable,
+    circle_mask,
+    compare_maps,
+    exclude_circle,
+    line_profile,
+    load_image,
+    load_six_step,
+    principal_stress_difference,
+    resolve_ambiguity,
+    search,
+    search_refined,
+    six_step,
+    unwrap_fringe_order,
+)
+from optics import PSM4_ASSUMED, Camera, colour_chart, light_source
 
-__all__ = ["run_analyze", "run_compare", "find_maps", "map_figure", "OrderMap", "read_order_map"]
+from .figures import comparison_figure, map_figure, profile_figure
 
-
-def map_figure(
-    path,
-    data,
-    title: str,
-    label: str,
-    cmap="turbo",
-    *,
-    extent=None,
-    axis_labels=("column (px)", "row (px)"),
-    vmin=None,
-    vmax=None,
-) -> None:
-    """PNG of a (rows, cols) map with a colour bar, or of an RGB image (no colour bar).
-
-    ``extent`` (left, right, bottom, top) in the axis units; None plots in pixels.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(5.2, 4.4), dpi=120)
-    im = ax.imshow(data, cmap=cmap, extent=extent, vmin=vmin, vmax=vmax, interpolation="nearest")
-    if np.ndim(data) == 2:
-        fig.colorbar(im, ax=ax, label=label)
-    ax.set_xlabel(axis_labels[0])
-    ax.set_ylabel(axis_labels[1])
-    ax.set_title(title)
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
+__all__ = ["run_analyze", "run_compare", "find_maps", "OrderMap", "read_order_map"]
 
 
 def _figure(path, data, title, label, cmap="turbo", pixel_size=0.0, vmin=None, vmax=None):
@@ -93,8 +74,6 @@ def _mask(shape, roi_circle, exclude) -> np.ndarray:
 def _table(calibration, chart: dict | None) -> CalibrationTable:
     if calibration is not None:
         return CalibrationTable.from_csv(calibration)
-    from optics import PSM4_ASSUMED, Camera, colour_chart, light_source
-
     chart = chart or {}
     lam = PSM4_ASSUMED.wavenumber_grid(31)  # the grid predict renders white light on
     orders, rgb = colour_chart(
@@ -104,14 +83,91 @@ def _table(calibration, chart: dict | None) -> CalibrationTable:
         max_order=chart.get("max_order", 4.0),
         n=2001,
     )
-    import colour
-
     # the chart is linear RGB at exposure 1; images carry the camera's exposure and, for
     # the CIE observer (fringekit's PNGs, most cameras' JPEGs), the sRGB encoding
     rgb = np.clip(rgb * chart.get("exposure", 0.9), 0, 1)
     if chart.get("camera", "CIE1931") == "CIE1931":
         rgb = np.clip(colour.cctf_encoding(rgb, function="sRGB"), 0, 1)
     return CalibrationTable.from_chart(orders, rgb, "synthetic colour chart (optics)")
+
+
+def _analyse_phase(paths, dark, mask_args, min_modulation, anchor_order):
+    """Six-step images -> (order, reliable, extra maps, summary part, mask)."""
+    frames = load_six_step(paths[0] if len(paths) == 1 else paths, dark=dark)
+    mask = _mask(frames[0].shape, *mask_args)
+    res = six_step(frames, mask=mask, min_modulation=min_modulation)
+    resolution = resolve_ambiguity(res)
+    fo = unwrap_fringe_order(res, resolution, anchor_order=anchor_order)
+    maps = {
+        "isoclinic_rad": fo.isoclinic,
+        "delta_eq3_rad": np.where(res.valid, res.delta_eq3, np.nan),
+        "delta_axis_insensitive_rad": np.where(res.valid, res.delta_axis_insensitive, np.nan),
+        "modulation": res.modulation,
+    }
+    part = {"phase": {"info": fo.info, "offset": fo.offset, "anchor_order": anchor_order}}
+    return fo.order, fo.reliable, maps, part, mask
+
+
+def _analyse_rgb(paths, dark, mask_args, calibration, chart, seeds, window):
+    """One colour image -> (order, reliable, extra maps, summary part, mask)."""
+    if len(paths) != 1:
+        raise ValueError(f"the rgb method takes one colour image, got {len(paths)}")
+    frame = load_image(paths[0], dark=dark)
+    if frame.data.ndim != 3:
+        raise ValueError(f"{paths[0]}: a grey image; the rgb method needs colour")
+    # one channel at full scale still constrains the order (vivid fringe colours leave
+    # the sRGB gamut and clip, in the chart exactly as in the image); a pixel with
+    # every channel at full scale does not
+    mask = _mask(frame.shape, *mask_args) & ~np.all(frame.data >= 1.0, axis=-1)
+    table = _table(calibration, chart)
+    if seeds:
+        seed_list = [((r, c), o) for r, c, o in seeds]
+        rr = search_refined(frame.data, table, seed_list, mask=mask, window=window)
+    else:
+        rr = search(frame.data, table, mask=mask)
+    reliable = np.isfinite(rr.order) & (rr.error < 0.1)
+    part = {
+        "rgb": {
+            "table": table.source,
+            "rows": len(table),
+            "orders": [float(table.orders[0]), float(table.orders[-1])],
+            "refined": bool(seeds),
+        }
+    }
+    return rr.order, reliable, {"colour_error": rr.error}, part, mask
+
+
+def _write_figures(out: Path, method: str, maps: dict, pixel_size: float) -> None:
+    """One PNG per map of ``maps`` (fringe order, the method's maps, stress)."""
+    _figure(out / "fringe_order.png", maps["fringe_order"], f"fringe order ({method})",
+            "fringe order", pixel_size=pixel_size)  # fmt: skip
+    if method == "phase":
+        _figure(out / "isoclinic.png", np.degrees(maps["isoclinic_rad"]), "isoclinic",
+                "deg", "twilight", pixel_size)  # fmt: skip
+        _figure(out / "phasemap_eq3.png", maps["delta_eq3_rad"], "isochromatic phase (eq. 3)",
+                "rad", "gray", pixel_size, 0, 2 * np.pi)  # fmt: skip
+        _figure(out / "phasemap_axis_insensitive.png", maps["delta_axis_insensitive_rad"],
+                "axis-insensitive phase (eq. 4)", "rad", "gray", pixel_size, 0, np.pi)  # fmt: skip
+        _figure(out / "modulation.png", maps["modulation"], "modulation", "", "viridis",
+                pixel_size, 0, 1)  # fmt: skip
+    else:
+        _figure(out / "colour_error.png", maps["colour_error"], "colour distance to table", "",
+                "magma", pixel_size)  # fmt: skip
+    if "stress_difference_Pa" in maps:
+        _figure(out / "stress_difference.png", maps["stress_difference_Pa"] * 1e-6,
+                "principal stress difference", "MPa", "viridis", pixel_size)  # fmt: skip
+
+
+def _write_profile(out: Path, order, line, pixel_size: float) -> None:
+    """``profile.csv`` and ``profile.png`` along ``line`` (r0, c0, r1, c1) px."""
+    prof = line_profile(order, line[:2], line[2:], pixel_size=pixel_size or None)
+    unit = "mm" if pixel_size else "px"
+    dist = prof.distance * (1e3 if pixel_size else 1.0)
+    np.savetxt(out / "profile.csv", np.column_stack([dist, prof.values]), delimiter=",",
+               header=f"distance_{unit},fringe_order", comments="")  # fmt: skip
+    title = f"profile ({line[0]:.0f}, {line[1]:.0f}) -> ({line[2]:.0f}, {line[3]:.0f})"
+    profile_figure(out / "profile.png", dist, prof.values,
+                   xlabel=f"distance along the line ({unit})", title=title)  # fmt: skip
 
 
 def run_analyze(
@@ -168,49 +224,16 @@ def run_analyze(
     if (f_sigma is None) != (thickness is None):
         raise ValueError("give both the fringe value and the thickness for stress, or neither")
     out = Path(out)
-    maps: dict[str, np.ndarray] = {}
-    summary: dict = {"method": method, "images": paths}
+    mask_args = (roi_circle, exclude)
     if method == "phase":
-        frames = load_six_step(paths[0] if len(paths) == 1 else paths, dark=dark)
-        shape = frames[0].shape
-        mask = _mask(shape, roi_circle, exclude)
-        res = six_step(frames, mask=mask, min_modulation=min_modulation)
-        resolution = resolve_ambiguity(res)
-        fo = unwrap_fringe_order(res, resolution, anchor_order=anchor_order)
-        order, reliable = fo.order, fo.reliable
-        maps.update(
-            isoclinic_rad=fo.isoclinic,
-            delta_eq3_rad=np.where(res.valid, res.delta_eq3, np.nan),
-            delta_axis_insensitive_rad=np.where(res.valid, res.delta_axis_insensitive, np.nan),
-            modulation=res.modulation,
+        order, reliable, maps, part, mask = _analyse_phase(
+            paths, dark, mask_args, min_modulation, anchor_order
         )
-        summary["phase"] = {"info": fo.info, "offset": fo.offset, "anchor_order": anchor_order}
     else:
-        if len(paths) != 1:
-            raise ValueError(f"the rgb method takes one colour image, got {len(paths)}")
-        frame = load_image(paths[0], dark=dark)
-        if frame.data.ndim != 3:
-            raise ValueError(f"{paths[0]}: a grey image; the rgb method needs colour")
-        shape = frame.shape
-        # one channel at full scale still constrains the order (vivid fringe colours leave
-        # the sRGB gamut and clip, in the chart exactly as in the image); a pixel with
-        # every channel at full scale does not
-        mask = _mask(shape, roi_circle, exclude) & ~np.all(frame.data >= 1.0, axis=-1)
-        table = _table(calibration, chart)
-        if seeds:
-            seed_list = [((r, c), o) for r, c, o in seeds]
-            rr = search_refined(frame.data, table, seed_list, mask=mask, window=window)
-        else:
-            rr = search(frame.data, table, mask=mask)
-        order = rr.order
-        reliable = np.isfinite(order) & (rr.error < 0.1)
-        maps["colour_error"] = rr.error
-        summary["rgb"] = {
-            "table": table.source,
-            "rows": len(table),
-            "orders": [float(table.orders[0]), float(table.orders[-1])],
-            "refined": bool(seeds),
-        }
+        order, reliable, maps, part, mask = _analyse_rgb(
+            paths, dark, mask_args, calibration, chart, seeds, window
+        )
+    summary: dict = {"method": method, "images": paths, **part}
     out.mkdir(parents=True, exist_ok=True)
     maps["fringe_order"] = order
     maps["reliable"] = reliable
@@ -218,45 +241,13 @@ def run_analyze(
     if f_sigma is not None:
         maps["stress_difference_Pa"] = principal_stress_difference(order, f_sigma, thickness)
     np.savez_compressed(out / "maps.npz", **maps)
+    _write_figures(out, method, maps, pixel_size)
 
-    _figure(out / "fringe_order.png", order, f"fringe order ({method})", "fringe order",
-            pixel_size=pixel_size)  # fmt: skip
-    if method == "phase":
-        _figure(out / "isoclinic.png", np.degrees(maps["isoclinic_rad"]), "isoclinic",
-                "deg", "twilight", pixel_size)  # fmt: skip
-        _figure(out / "phasemap_eq3.png", maps["delta_eq3_rad"], "isochromatic phase (eq. 3)",
-                "rad", "gray", pixel_size, 0, 2 * np.pi)  # fmt: skip
-        _figure(out / "phasemap_axis_insensitive.png", maps["delta_axis_insensitive_rad"],
-                "axis-insensitive phase (eq. 4)", "rad", "gray", pixel_size, 0, np.pi)  # fmt: skip
-        _figure(out / "modulation.png", maps["modulation"], "modulation", "", "viridis",
-                pixel_size, 0, 1)  # fmt: skip
-    else:
-        _figure(out / "colour_error.png", maps["colour_error"], "colour distance to table", "",
-                "magma", pixel_size)  # fmt: skip
-    if "stress_difference_Pa" in maps:
-        _figure(out / "stress_difference.png", maps["stress_difference_Pa"] * 1e-6,
-                "principal stress difference", "MPa", "viridis", pixel_size)  # fmt: skip
-
-    rows, cols = shape
+    rows, cols = order.shape
     if line is None:
         r = exclude[0][0] if exclude else (rows - 1) / 2
         line = (r, 0.0, r, cols - 1.0)
-    prof = line_profile(order, line[:2], line[2:], pixel_size=pixel_size or None)
-    unit = "mm" if pixel_size else "px"
-    dist = prof.distance * (1e3 if pixel_size else 1.0)
-    np.savetxt(out / "profile.csv", np.column_stack([dist, prof.values]), delimiter=",",
-               header=f"distance_{unit},fringe_order", comments="")  # fmt: skip
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(6, 3.4), dpi=120)
-    ax.plot(dist, prof.values)
-    ax.set_xlabel(f"distance along the line ({unit})")
-    ax.set_ylabel("fringe order")
-    ax.set_title(f"profile ({line[0]:.0f}, {line[1]:.0f}) -> ({line[2]:.0f}, {line[3]:.0f})")
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(out / "profile.png")
-    plt.close(fig)
+    _write_profile(out, order, line, pixel_size)
 
     finite = np.isfinite(order)
     summary.update(

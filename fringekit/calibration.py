@@ -2,7 +2,7 @@
 
 ``run_calibrate`` solves one continuation run over the config's load path (through the
 solution cache), renders the monochrome fringe-order map of every state, extracts the
-features of :mod:`analysis.calibrate` about the first indenter and fits them against the
+features of :func:`analysis.fringe_features` about the first indenter and fits them against the
 load. It writes ``calibration.json`` (the fits, the per-state features, the effective
 config), ``features.csv`` and ``calibration.png``.
 
@@ -18,16 +18,24 @@ import time
 from pathlib import Path
 
 import numpy as np
+from tqdm.auto import tqdm
 
-from .calibrate import (
+from analysis import (
     calibrate_from_maps,
     estimate_load,
     fringe_features,
-    fringe_value_from_disc,
     load_calibration,
+    radial_profile,
     save_calibration,
 )
+
+from .analyze import read_order_map
 from .config import ConfigError, effective_config, normal_path, to_toml
+from .disc import fringe_value_from_disc
+from .figures import calibration_figure
+from .inputs import optics_setup
+from .pipeline import PredictError, solve_config
+from .render import fringe_order_map
 
 __all__ = ["default_calibration_config", "run_calibrate", "run_estimate", "run_disc"]
 
@@ -37,42 +45,6 @@ def default_calibration_config() -> dict:
     return effective_config(
         {"case": "calibration", "indenter": [{"load_N": [float(k) for k in range(1, 11)]}]}
     )
-
-
-def _figure(path, cal, profiles):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fits = cal["normal_fits"]
-    names = [n for n in fits if not n.startswith("centroid")]
-    fig, ax = plt.subplots(1, 2, figsize=(12, 4.4), dpi=110)
-    cmap = plt.get_cmap("viridis")
-    loads = cal["loads_N"]
-    for k, (r, prof) in enumerate(profiles):
-        ax[0].plot(r, prof, color=cmap(k / max(len(profiles) - 1, 1)), label=f"{loads[k]:.3g} N")
-    ax[0].set_xlabel("radius (mm)")
-    ax[0].set_ylabel("fringe order (azimuthal mean)")
-    ax[0].set_title("fringe order along the radius")
-    ax[0].legend(fontsize=7, ncol=2)
-    ax[0].grid(alpha=0.3)
-    for n in names:
-        v = np.asarray(cal["features"][n], float)
-        fit = fits[n]
-        vv = np.linspace(*fit["range"], 50)
-        (line,) = ax[1].plot(v, loads, "o", ms=4, label=f"{n}: b = {fit['b']:.2f}")
-        ax[1].plot(vv, fit["a"] * vv ** fit["b"], "-", color=line.get_color(), lw=1)
-    ax[1].set_xscale("log")
-    ax[1].set_yscale("log")
-    ax[1].set_xlabel("feature value (fringe, mm or fringe mm^2)")
-    ax[1].set_ylabel("normal load (N)")
-    ax[1].set_title("fitted relations F = a v^b")
-    ax[1].legend(fontsize=7)
-    ax[1].grid(alpha=0.3, which="both")
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
 
 
 def run_calibrate(
@@ -85,11 +57,6 @@ def run_calibrate(
     echo=print,
 ) -> dict:
     """Calibrate features against the load along ``cfg``'s load path; see module doc."""
-    from tqdm.auto import tqdm
-
-    from .calibrate import _radial_profile
-    from .predict import PredictError, _optics_setup, fringe_order_map, solve_config
-
     say = echo if progress else (lambda s: None)
     ind0 = cfg["indenter"][0]
     path = normal_path(ind0)
@@ -98,7 +65,7 @@ def run_calibrate(
             f"calibrate needs a load path with at least 3 different loads on indenter[0]; got "
             f"{path!r} (e.g. --set 'indenter.load_N=[1, 2, 4, 6, 8, 10]')"
         )
-    optics = _optics_setup(cfg)
+    optics = optics_setup(cfg)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "config.toml").write_text(to_toml(cfg))
@@ -115,7 +82,7 @@ def run_calibrate(
     for sol in tqdm(sols, desc="fringe maps", unit="state", disable=not progress):
         order, grid, centres = fringe_order_map(sol, cfg, optics)
         feats.append(fringe_features(order, pixel, tuple(centres[0])))
-        profiles.append(_radial_profile(order, pixel, tuple(centres[0])))
+        profiles.append(radial_profile(order, pixel, tuple(centres[0])))
         f = sol.indenters[0].force
         loads.append(float(-f[2]))
         shears.append([float(f[0]), float(f[1])])
@@ -135,15 +102,13 @@ def run_calibrate(
     rows = [[loads[k], *shears[k], *(feats[k][n] for n in names)] for k in range(len(feats))]
     head = ",".join(["load_N", "shear_x_N", "shear_y_N", *names])
     np.savetxt(out / "features.csv", np.array(rows, float), delimiter=",", header=head, comments="")
-    _figure(out / "calibration.png", cal, profiles)
+    calibration_figure(out / "calibration.png", cal, profiles)
     if failure:
         raise PredictError(f"{failure}; calibrated on the {len(sols)} converged states in {out}")
     return cal
 
 
 def _read_map(maps, pixel_mm, centre):
-    from .analyze import read_order_map
-
     m = read_order_map(maps, pixel_size=pixel_mm * 1e-3 if pixel_mm else None)
     rc = centre if centre is not None else m.indenter_rc
     if rc is None:
@@ -167,8 +132,6 @@ def run_estimate(maps, calibration, *, pixel_mm=None, centre=None, out=None) -> 
 
 def run_disc(maps, *, load_N, diameter_mm, thickness_mm, pixel_mm=None, centre=None) -> dict:
     """Fringe value from a diametral-disc fringe-order map at a known load."""
-    from .analyze import read_order_map
-
     m = read_order_map(maps, pixel_size=pixel_mm * 1e-3 if pixel_mm else None)
     f, order, px = m.path, m.order, m.pixel_size
     rc = centre if centre is not None else ((order.shape[0] - 1) / 2, (order.shape[1] - 1) / 2)

@@ -1,0 +1,177 @@
+"""Unwrapping the resolved isochromatic phase into a total fringe-order map.
+
+The signed wrapped phase of :func:`analysis.resolve_ambiguity` is unwrapped with
+``skimage.restoration.unwrap_phase`` (Herraez et al., Appl. Opt. 41, 2002) on a masked
+array. Each connected region carries its own global sign (the ambiguity is resolved up to
+one sign per region) and its own integer offset: both are fixed from the region's anchor
+pixels (zero order in the far field, or an RGB fringe-order map). The isochromatic order is
+a magnitude, so each region takes the sign that puts its pixels above its anchor.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import ndimage
+from skimage.restoration import unwrap_phase
+
+from .masks import check_mask
+from .phase import TWO_PI, Resolution, SixStep, resolve_ambiguity, wrap
+
+__all__ = ["FringeOrderMap", "unwrap_fringe_order"]
+
+
+@dataclass(frozen=True)
+class FringeOrderMap:
+    """Total isochromatic fringe order from phase shifting.
+
+    Attributes
+    ----------
+    order : (rows, cols) — NaN where not valid
+    reliable : (rows, cols) bool — valid, resolved, and no phase step above pi/2 between
+        neighbouring pixels (fringes resolved by the pixel pitch)
+    isoclinic : (rows, cols) rad — principal direction consistent with ``order``
+    offset : int — integer added to the unwrapped phase / 2 pi to meet the anchor, in the
+        largest connected region (each region has its own)
+    flipped_groups : int — groups of bands whose global sign was reversed
+    info : dict — counts for reports
+    """
+
+    order: np.ndarray
+    reliable: np.ndarray
+    isoclinic: np.ndarray
+    offset: int
+    flipped_groups: int
+    info: dict = field(default_factory=dict)
+
+
+def _default_anchor(valid: np.ndarray) -> np.ndarray:
+    """The valid pixels within 5 % of the image size from its border (the far field)."""
+    rows, cols = valid.shape
+    m = max(1, int(round(0.05 * min(rows, cols))))
+    ring = np.ones_like(valid)
+    ring[m:-m, m:-m] = False
+    return valid & ring
+
+
+def _unwrap(phase: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    out = unwrap_phase(np.ma.masked_array(phase, mask=~valid))
+    return np.ma.filled(out, np.nan)
+
+
+def _anchors(valid, anchor_mask, anchor_order, reference_order):
+    """(anchor pixels (rows, cols) bool, target order (rows, cols)) from the options."""
+    if reference_order is None:
+        anchor = (
+            _default_anchor(valid)
+            if anchor_mask is None
+            else check_mask(anchor_mask, valid.shape, "anchor_mask") & valid
+        )
+        if not anchor.any():
+            raise ValueError(
+                "anchor_mask has no valid pixel: give anchor_mask (pixels of known order) "
+                "or reference_order"
+            )
+        return anchor, np.full(valid.shape, anchor_order)
+    ref = np.asarray(reference_order, float)
+    if ref.shape != valid.shape:
+        raise ValueError(
+            f"reference_order shape {ref.shape} does not match the images {valid.shape}"
+        )
+    anchor = valid & np.isfinite(ref)
+    if not anchor.any():
+        raise ValueError("reference_order is NaN on every valid pixel")
+    return anchor, ref
+
+
+def _steep(valid: np.ndarray, unw: np.ndarray) -> np.ndarray:
+    """Pixels whose neighbours differ by more than a quarter fringe: not resolved by the
+    pixel pitch, so unwrapping there is a guess."""
+    steep = np.zeros_like(valid)
+    for ax in (0, 1):
+        jump = np.abs(np.diff(np.where(valid, unw, 0.0), axis=ax)) > 0.25
+        both = np.logical_and(
+            np.take(valid, range(valid.shape[ax] - 1), axis=ax),
+            np.take(valid, range(1, valid.shape[ax]), axis=ax),
+        )
+        jump &= both
+        pad = [(0, 0), (0, 0)]
+        pad[ax] = (0, 1)
+        steep |= np.pad(jump, pad)
+        pad[ax] = (1, 0)
+        steep |= np.pad(jump, pad)
+    return steep
+
+
+def unwrap_fringe_order(
+    result: SixStep,
+    resolution: Resolution | None = None,
+    *,
+    anchor_mask=None,
+    anchor_order: float = 0.0,
+    reference_order=None,
+) -> FringeOrderMap:
+    """Unwrap the resolved isochromatic phase into a total fringe order map.
+
+    Parameters
+    ----------
+    result : SixStep
+    resolution : Resolution, optional — computed with defaults when omitted
+    anchor_mask : (rows, cols) bool, optional
+        Pixels of known order ``anchor_order`` (default: the valid pixels within 5 % of
+        the image border, the far field, at order 0).
+    anchor_order : float
+    reference_order : (rows, cols), optional
+        A fringe-order map (e.g. from RGB calibration); when given, the integer offset is
+        the median of (reference - unwrapped) rounded, over pixels where both are finite,
+        and ``anchor_mask`` is not used.
+    """
+    res = resolution or resolve_ambiguity(result)
+    valid = result.valid
+    anchor, target = _anchors(valid, anchor_mask, anchor_order, reference_order)
+    phase = res.phase.copy()
+    unw = _unwrap(phase, valid) / TWO_PI
+    # unwrap_phase treats disconnected regions independently, and each group of pixels
+    # (= a connected region) carries its own global sign: both are fixed per group from
+    # its own anchor pixels. A group without anchor pixels is reported unreliable.
+    lab = np.where(valid, res.group + 1, 0)
+    n_lab = int(lab.max())
+    ids = np.arange(1, n_lab + 1)
+    has_anchor = np.zeros(n_lab + 1, bool)
+    has_anchor[np.unique(lab[anchor])] = True
+    has_anchor[0] = False
+
+    def group_median(values, where):
+        out = np.zeros(n_lab + 1)
+        if n_lab:
+            out[1:] = ndimage.median(values, np.where(where, lab, 0), ids)
+        return np.nan_to_num(out)
+
+    # the isochromatic order is a magnitude: each group takes the sign that puts its
+    # pixels above its anchor
+    level = group_median(unw, anchor)
+    rel = group_median(unw - level[lab], valid)
+    flip = (rel < 0) & has_anchor
+    flip_pixels = valid & flip[lab]
+    flipped = int(flip.sum())
+    if flipped:
+        phase[flip_pixels] = wrap(-phase[flip_pixels])
+        unw = _unwrap(phase, valid) / TWO_PI
+    shift = np.round(group_median(target - unw, anchor))
+    present, counts = np.unique(lab[valid], return_counts=True)
+    offset = int(shift[present[np.argmax(counts)]]) if present.size else 0
+    order = np.where(valid, unw + shift[lab], np.nan)
+    iso = res.isoclinic.copy()
+    iso[flip_pixels] = (iso[flip_pixels] + np.pi) % np.pi - np.pi / 2
+    reliable = valid & ~res.unreliable & ~_steep(valid, unw) & has_anchor[lab]
+    info = {
+        "valid_pixels": int(valid.sum()),
+        "reliable_pixels": int(reliable.sum()),
+        "conflicts": res.conflicts,
+        "flipped_groups": flipped,
+        "offset": offset,
+        "regions": int(present.size),
+        "regions_without_anchor": int((~has_anchor[present]).sum()),
+    }
+    return FringeOrderMap(order, reliable, iso, offset, flipped, info)

@@ -1,0 +1,228 @@
+"""The ``fringekit`` command.
+
+The application layer's entry point. Subcommands:
+
+- ``predict [CONFIG]``: config (a TOML file or a built-in case name; none = the reference
+  case) -> mesh -> contact solution -> optics -> an output folder (fringekit.pipeline);
+- ``config show [CONFIG]``: the effective configuration with defaults and units;
+- ``mesh [CONFIG]``: the mesh ``predict`` would use for a config, summarised and exported.
+
+- ``analyze IMAGES...``: fringe order maps, profiles and figures from six phase-stepped
+  images or one RGB image (fringekit.analyze);
+- ``compare PREDICTION MEASUREMENT``: registration, residual maps and statistics.
+
+- ``calibrate [CONFIG]``: load-to-fringe relations over a load path, or ``--disc`` the
+  fringe value from a disc; ``estimate MAPS --calibration FILE``: the load back.
+- ``sweep SWEEP.toml``: a grid or list of cases on Dask, resumable (fringekit.sweep).
+Exit status: 0 success, 2 a user error (bad config or input; one line, no traceback),
+1 a run that failed (the solver did not reach a load; what converged is written).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+
+from .commands import (
+    MESH_OPTIONS,
+    cmd_analyze,
+    cmd_calibrate,
+    cmd_compare,
+    cmd_config,
+    cmd_estimate,
+    cmd_mesh,
+    cmd_predict,
+    cmd_sweep,
+    fringekit_version,
+)
+
+__all__ = ["main"]
+
+
+def _run_options(p: argparse.ArgumentParser) -> None:
+    """Options of the commands that mesh and solve a config (predict, calibrate)."""
+    p.add_argument("--out", default=None, help="output folder (default fringekit-out/<case>)")
+    p.add_argument(
+        "--set", action="append", metavar="TABLE.KEY=VALUE",
+        help="override one config value, e.g. --set optics.pixels=128 (repeatable)",
+    )  # fmt: skip
+    p.add_argument("--cache-dir", default=None, help="mesh and solution cache root")
+    p.add_argument("--no-cache", action="store_true", help="re-mesh and re-solve")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+
+
+def _add_predict(sub) -> None:
+    pr = sub.add_parser(
+        "predict",
+        help="mesh, solve and render fringes for a config (default: the reference case)",
+    )
+    pr.add_argument(
+        "config", nargs="?", default=None,
+        help="TOML config file or built-in case (reference, shear); default reference",
+    )  # fmt: skip
+    _run_options(pr)
+    pr.set_defaults(func=cmd_predict)
+
+
+def _add_config(sub) -> None:
+    cf = sub.add_parser("config", help="configuration tools")
+    cfs = cf.add_subparsers(dest="action", required=True)
+    show = cfs.add_parser("show", help="print the effective config with defaults and units")
+    show.add_argument("config", nargs="?", default=None)
+    show.add_argument("--set", action="append", metavar="TABLE.KEY=VALUE")
+    show.set_defaults(func=cmd_config, quiet=True)
+
+
+def _add_analyze(sub) -> None:
+    an = sub.add_parser("analyze", help="fringe order from six phase-stepped or RGB images")
+    an.add_argument("images", nargs="+", help="six step images (or a 6-page TIFF), or one RGB")
+    an.add_argument("--method", choices=("phase", "rgb"), default=None,
+                    help="default: rgb for one PNG/JPEG, phase otherwise")  # fmt: skip
+    an.add_argument("--out", default=None, help="output folder (default fringekit-out/analysis)")
+    an.add_argument("--dark", default=None, help="dark frame subtracted from every image")
+    an.add_argument("--roi-circle", nargs=3, type=float, metavar=("ROW", "COL", "R"))
+    an.add_argument(
+        "--exclude-circle", nargs=3, type=float, action="append", metavar=("ROW", "COL", "R"),
+        help="masked circle, e.g. the indenter",
+    )  # fmt: skip
+    an.add_argument("--pixel-mm", type=float, default=None, help="pixel pitch on the sheet (mm)")
+    an.add_argument("--anchor-order", type=float, default=0.0,
+                    help="(phase) fringe order of the image border ring")  # fmt: skip
+    an.add_argument("--min-modulation", type=float, default=0.1)
+    an.add_argument("--calibration", default=None, help="(rgb) table CSV: order,R,G,B")
+    an.add_argument("--light", default="LED", help="(rgb) light of the synthetic chart")
+    an.add_argument("--camera", default="CIE1931", help="(rgb) camera of the synthetic chart")
+    an.add_argument("--max-order", type=float, default=4.0, help="(rgb) chart range")
+    an.add_argument("--exposure", type=float, default=0.9,
+                    help="(rgb) chart exposure, as in predict's optics.exposure")  # fmt: skip
+    an.add_argument("--seed", nargs=3, type=float, action="append", metavar=("ROW", "COL", "N"),
+                    help="(rgb) pixel of known order: refined search from it")  # fmt: skip
+    an.add_argument("--window", type=float, default=0.25, help="(rgb) refined window (fringe)")
+    an.add_argument("--line", nargs=4, type=float, metavar=("R0", "C0", "R1", "C1"))
+    an.add_argument("--f-sigma-N-per-m", type=float, default=None)
+    an.add_argument("--thickness-mm", type=float, default=None)
+    an.add_argument("--quiet", action="store_true")
+    an.set_defaults(func=cmd_analyze)
+
+
+def _add_compare(sub) -> None:
+    co = sub.add_parser("compare", help="prediction vs measurement: residuals and figures")
+    co.add_argument("prediction", help="predict output folder or maps.npz")
+    co.add_argument("measurement", help="analyze output folder or maps.npz")
+    co.add_argument("--out", default=None, help="output folder (default fringekit-out/compare)")
+    co.add_argument("--predicted-pixel-mm", type=float, default=None)
+    co.add_argument("--measured-pixel-mm", type=float, default=None)
+    co.add_argument("--centre-measured", nargs=2, type=float, metavar=("ROW", "COL"))
+    co.add_argument("--rotation-deg", type=float, default=0.0)
+    co.add_argument("--quiet", action="store_true")
+    co.set_defaults(func=cmd_compare)
+
+
+def _add_calibrate(sub) -> None:
+    ca = sub.add_parser(
+        "calibrate",
+        help="load-to-fringe relations from a load path, or the fringe value from a disc",
+    )
+    ca.add_argument(
+        "config", nargs="?", default=None,
+        help="config with a load path (default: the reference case at 1..10 N)",
+    )  # fmt: skip
+    _run_options(ca)
+    ca.add_argument(
+        "--disc", default=None, metavar="MAPS",
+        help="fringe-order map of a diametral disc (transmission): fit f_sigma",
+    )  # fmt: skip
+    ca.add_argument("--load-N", type=float, default=None, help="(disc) diametral load")
+    ca.add_argument("--diameter-mm", type=float, default=None, help="(disc) diameter")
+    ca.add_argument("--thickness-mm", type=float, default=None, help="(disc) thickness")
+    ca.add_argument("--pixel-mm", type=float, default=None)
+    ca.add_argument("--centre", nargs=2, type=float, metavar=("ROW", "COL"))
+    ca.set_defaults(func=cmd_calibrate)
+
+
+def _add_estimate(sub) -> None:
+    es = sub.add_parser("estimate", help="load (and shear) from a fringe-order map")
+    es.add_argument("maps", help="maps.npz, or a fringekit analyze / predict output folder")
+    es.add_argument("--calibration", required=True, help="calibration.json from calibrate")
+    es.add_argument("--pixel-mm", type=float, default=None)
+    es.add_argument("--centre", nargs=2, type=float, metavar=("ROW", "COL"),
+                    help="indenter axis in pixels (default: stored in the maps)")  # fmt: skip
+    es.add_argument("--out", default=None)
+    es.add_argument("--quiet", action="store_true")
+    es.set_defaults(func=cmd_estimate)
+
+
+def _add_sweep(sub) -> None:
+    sw = sub.add_parser("sweep", help="run a grid or list of cases in parallel (Dask)")
+    sw.add_argument("sweep", help="sweep TOML file (base, [set], [grid] or [[case]])")
+    sw.add_argument("--out", default=None, help="output folder (default fringekit-out/<name>)")
+    sw.add_argument("--scheduler", default=None, help="address of an existing Dask scheduler")
+    sw.add_argument("--workers", type=int, default=None, help="local worker processes")
+    sw.add_argument("--cache-dir", default=None)
+    sw.add_argument("--quiet", action="store_true")
+    sw.set_defaults(func=cmd_sweep)
+
+
+def _add_mesh(sub) -> None:
+    m = sub.add_parser(
+        "mesh", help="mesh a config (default: the reference case) as predict does; export VTU"
+    )
+    m.add_argument("config", nargs="?", default=None,
+                   help="TOML config file or built-in case; default reference")  # fmt: skip
+    m.add_argument("--set", action="append", metavar="TABLE.KEY=VALUE",
+                   help="override one config value (repeatable)")  # fmt: skip
+    m.add_argument("--symmetry", choices=("auto", "full", "half", "quarter"), default=None,
+                   help="sets mesh.symmetry")  # fmt: skip
+    for opt, keys in MESH_OPTIONS.items():
+        if opt != "symmetry":
+            flag = "--" + opt.replace("_", "-")
+            m.add_argument(flag, type=float, default=None, help="sets " + " and ".join(keys))
+    m.add_argument("--out", default=None, help="output folder (default fringekit-out/<case>)")
+    m.add_argument("--cache-dir", default=None, help="mesh cache root")
+    m.add_argument("--no-cache", action="store_true", help="always regenerate the mesh")
+    m.add_argument("--quiet", action="store_true")
+    m.set_defaults(func=cmd_mesh)
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="fringekit",
+        description="Contact stress and photoelastic fringe prediction for photoelastic "
+        "tactile sensors.",
+    )
+    p.add_argument("--version", action="version", version=f"fringekit {fringekit_version()}")
+    sub = p.add_subparsers(dest="command")
+    for add in (_add_predict, _add_config, _add_analyze, _add_compare, _add_calibrate,
+                _add_estimate, _add_sweep, _add_mesh):  # fmt: skip
+        add(sub)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``fringekit`` console script; returns the exit status."""
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 0
+    logging.basicConfig(
+        level=logging.WARNING if getattr(args, "quiet", False) else logging.INFO,
+        format="%(name)s: %(message)s",
+    )
+    for noisy in ("distributed", "tornado", "bokeh"):  # Dask's cluster chatter
+        logging.getLogger(noisy).setLevel(logging.WARNING)
+    from .pipeline import PredictError
+
+    try:
+        return args.func(args)
+    except (ValueError, OSError) as exc:
+        print(f"fringekit {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except PredictError as exc:
+        print(f"fringekit {args.command}: failed: {exc}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

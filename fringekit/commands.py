@@ -1,0 +1,277 @@
+"""The ``fringekit`` subcommands: parsed options -> a run -> lines on stdout.
+
+Each ``cmd_*`` takes the :mod:`argparse` namespace of :func:`fringekit.cli.main` and
+returns the exit status; errors are raised (``ValueError``/``ConfigError`` for bad input,
+:class:`fringekit.pipeline.PredictError` for a failed run) and reported by ``main``.
+Heavy stages are imported inside the commands, so ``fringekit --help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from .versions import package_version
+
+__all__ = [
+    "MESH_OPTIONS",
+    "cmd_analyze",
+    "cmd_calibrate",
+    "cmd_compare",
+    "cmd_config",
+    "cmd_estimate",
+    "cmd_mesh",
+    "cmd_predict",
+    "cmd_sweep",
+    "fringekit_version",
+    "overrides",
+]
+
+
+def fringekit_version() -> str:
+    """The installed fringekit version (``0+unknown`` when run from a source tree)."""
+    return package_version("fringekit", missing="0+unknown")
+
+
+#: ``fringekit mesh`` shorthands -> the config keys they set.
+MESH_OPTIONS = {
+    "symmetry": ("mesh.symmetry",),
+    "thickness_mm": ("sheet.thickness_mm",),
+    "substrate_mm": ("substrate.thickness_mm",),
+    "width_mm": ("sheet.width_mm", "sheet.length_mm"),
+    "indenter_diameter_mm": ("indenter.diameter_mm",),
+    "h_contact_mm": ("mesh.h_contact_mm",),
+    "refine_radius_mm": ("mesh.refine_radius_mm",),
+    "h_sheet_mm": ("mesh.h_sheet_mm",),
+    "h_far_mm": ("mesh.h_far_mm",),
+}
+
+
+def cmd_mesh(args: argparse.Namespace) -> int:
+    """Mesh a config (default: the reference case) the way ``predict`` does; export VTU."""
+    from meshes import build_mesh, quality_report, write_vtu
+
+    from .config import apply_overrides
+    from .inputs import mesh_spec
+
+    cfg = overrides(args.config, args.set or [])
+    shorthands = {
+        key: getattr(args, opt)
+        for opt, keys in MESH_OPTIONS.items()
+        for key in keys
+        if getattr(args, opt) is not None
+    }
+    cfg = apply_overrides(cfg, shorthands) if shorthands else cfg
+    spec = mesh_spec(cfg)
+    t0 = time.perf_counter()
+    mesh = build_mesh(spec, cache_dir=args.cache_dir, use_cache=not args.no_cache)
+    elapsed = time.perf_counter() - t0
+    rep = quality_report(mesh.points, mesh.cells, mesh.regions)
+    out = Path(args.out) if args.out else Path("fringekit-out") / cfg["case"]
+    vtu = write_vtu(mesh, out / "mesh.vtu")
+    summary = {
+        "fringekit_version": fringekit_version(),
+        "mesh_spec_SI": spec.to_dict(),
+        "quality": rep.as_dict(),
+        "facet_sets": {k: len(v) for k, v in mesh.facets.items()},
+        "time_s": elapsed,
+        "vtu": str(vtu),
+    }
+    (out / "mesh_summary.json").write_text(json.dumps(summary, indent=2))
+    if not args.quiet:
+        print(f"fringekit {fringekit_version()} - {cfg['case']} mesh ({spec.symmetry} model)")
+        print(f"  {rep}")
+        print("  facet sets: " + ", ".join(f"{k} {v}" for k, v in summary["facet_sets"].items()))
+        print(f"  built or loaded in {elapsed:.1f} s; wrote {vtu} and {out / 'mesh_summary.json'}")
+    return 0
+
+
+def overrides(cfg_source, sets: list[str], base: dict | None = None) -> dict:
+    """Effective config from CONFIG (or ``base``) plus ``--set table.key=value`` overrides."""
+    from .config import ConfigError, apply_overrides, load_config, tomllib
+
+    base = load_config(cfg_source) if base is None or cfg_source is not None else base
+    values = {}
+    for item in sets:
+        key, sep, text = item.partition("=")
+        if not sep or not key.strip():
+            raise ConfigError(f"--set {item!r} is not allowed; use --set table.key=value")
+        try:
+            values[key.strip()] = tomllib.loads(f"v = {text.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            values[key.strip()] = text.strip()  # a bare word is a string
+    return apply_overrides(base, values) if values else base
+
+
+def cmd_predict(args: argparse.Namespace) -> int:
+    from .pipeline import run_predict
+
+    cfg = overrides(args.config, args.set or [])
+    out = Path(args.out) if args.out else Path("fringekit-out") / cfg["case"]
+    t0 = time.perf_counter()
+    summary = run_predict(
+        cfg, out, cache_dir=args.cache_dir, use_cache=not args.no_cache, progress=not args.quiet
+    )
+    if not args.quiet:
+        took = time.perf_counter() - t0
+        print(f"fringekit {fringekit_version()} - {cfg['case']}: done in {took:.1f} s")
+        for j, ind in enumerate(summary["indenters"]):
+            f = ", ".join(f"{v:.3g}" for v in ind["force_N"])
+            print(
+                f"  indenter {j}: force [{f}] N, depth {ind['depth_mm']:.4f} mm, "
+                f"contact radius {ind['contact_radius_mm']:.3f} mm"
+            )
+        print(f"  max fringe order {summary['max_fringe_order']:.2f} (contact zone masked)")
+        print(f"  results in {out}/ (summary.json, state_*/solution.vtu, images, figures)")
+    return 0
+
+
+def cmd_config(args: argparse.Namespace) -> int:
+    from .config import to_toml
+
+    cfg = overrides(args.config, args.set or [])
+    sys.stdout.write(to_toml(cfg))
+    return 0
+
+
+def cmd_analyze(args: argparse.Namespace) -> int:
+    from .analyze import run_analyze
+
+    if args.f_sigma_N_per_m is not None and not args.f_sigma_N_per_m > 0:
+        raise ValueError(f"--f-sigma-N-per-m = {args.f_sigma_N_per_m} is not allowed; must be > 0")
+    out = Path(args.out or "fringekit-out/analysis")
+    summary = run_analyze(
+        args.images,
+        out,
+        method=args.method,
+        dark=args.dark,
+        roi_circle=tuple(args.roi_circle) if args.roi_circle else None,
+        exclude=[tuple(e) for e in args.exclude_circle or []],
+        pixel_size=(args.pixel_mm or 0.0) * 1e-3,
+        anchor_order=args.anchor_order,
+        min_modulation=args.min_modulation,
+        calibration=args.calibration,
+        chart={
+            "light": args.light,
+            "camera": args.camera,
+            "max_order": args.max_order,
+            "exposure": args.exposure,
+        },
+        seeds=[tuple(s) for s in args.seed or []],
+        window=args.window,
+        line=tuple(args.line) if args.line else None,
+        f_sigma=args.f_sigma_N_per_m,
+        thickness=args.thickness_mm * 1e-3 if args.thickness_mm else None,
+    )
+    if not args.quiet:
+        rng = summary["fringe_order_range"]
+        print(
+            f"fringekit analyze ({summary['method']}): {summary['valid_pixels']} valid, "
+            f"{summary['reliable_pixels']} reliable pixels; fringe order "
+            + (f"{rng[0]:.2f}..{rng[1]:.2f}" if rng else "none")
+            + f"; results in {out}/"
+        )
+    return 0
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    from .analyze import run_compare
+
+    out = Path(args.out or "fringekit-out/compare")
+    s = run_compare(
+        args.prediction,
+        args.measurement,
+        out,
+        predicted_pixel_size=(args.predicted_pixel_mm or 0) * 1e-3 or None,
+        measured_pixel_size=(args.measured_pixel_mm or 0) * 1e-3 or None,
+        centre_measured=tuple(args.centre_measured) if args.centre_measured else None,
+        rotation_deg=args.rotation_deg,
+    )
+    if not args.quiet:
+        print(
+            f"fringekit compare: residual RMS {s['rms_fringe']:.3f}, p95 {s['p95_fringe']:.3f} "
+            f"fringe over {s['pixels']} pixels; results in {out}/"
+        )
+    return 0
+
+
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    from .calibration import default_calibration_config, run_calibrate, run_disc
+
+    if args.disc:
+        for name in ("load_N", "diameter_mm", "thickness_mm"):
+            if getattr(args, name) is None:
+                raise ValueError(f"--disc needs --{name.replace('_', '-')}")
+        res = run_disc(
+            args.disc, load_N=args.load_N, diameter_mm=args.diameter_mm,
+            thickness_mm=args.thickness_mm, pixel_mm=args.pixel_mm,
+            centre=tuple(args.centre) if args.centre else None,
+        )  # fmt: skip
+        if args.out:
+            Path(args.out).mkdir(parents=True, exist_ok=True)
+            (Path(args.out) / "fringe_value.json").write_text(json.dumps(res, indent=2))
+        print(
+            f"fringe value f_sigma = {res['f_sigma_N_per_m']:.4g} N/m per fringe (whole-field "
+            f"fit over {res['pixels']} pixels, residual {res['rms_residual_fringe']:.3f} fringe"
+            + (
+                f"; centre only {res['f_sigma_centre_N_per_m']:.4g}"
+                if res["f_sigma_centre_N_per_m"]
+                else ""
+            )
+            + ")"
+        )
+        return 0
+    base = default_calibration_config() if args.config is None else None
+    cfg = overrides(args.config, args.set or [], base=base)
+    out = Path(args.out) if args.out else Path("fringekit-out") / cfg["case"]
+    cal = run_calibrate(
+        cfg, out, cache_dir=args.cache_dir, use_cache=not args.no_cache, progress=not args.quiet
+    )
+    if not args.quiet:
+        print(f"fringekit calibrate - {len(cal['loads_N'])} load states, results in {out}/")
+        for n, fit in cal["normal_fits"].items():
+            print(
+                f"  F = {fit['a']:.4g} * {n}^{fit['b']:.3f}   (scatter "
+                f"{100 * fit['sigma_logF']:.1f} % in F over {fit['n']} states)"
+            )
+        for n, fit in cal["shear_fits"].items():
+            print(f"  {n} = {fit['c0']:.3g} + {fit['c1']:.4g} * {fit['feature']}")
+    return 0
+
+
+def cmd_estimate(args: argparse.Namespace) -> int:
+    from .calibration import run_estimate
+
+    est = run_estimate(
+        args.maps, args.calibration, pixel_mm=args.pixel_mm,
+        centre=tuple(args.centre) if args.centre else None, out=args.out,
+    )  # fmt: skip
+    line = f"normal load {est['normal_N']:.3f} N (+- {est['normal_sigma_N']:.2g} N"
+    line += f", {len(est['per_feature'])} features, spread {est['spread_N']:.2g} N)"
+    if "shear_N" in est:
+        line += f"; shear [{est['shear_N'][0]:.3f}, {est['shear_N'][1]:.3f}] N"
+    print(line)
+    return 0
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from .sweep import load_sweep, run_sweep
+
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"--workers = {args.workers} is not allowed; must be >= 1")
+    sweep = load_sweep(args.sweep)
+    out = Path(args.out) if args.out else Path("fringekit-out") / sweep["name"]
+    res = run_sweep(
+        sweep, out, scheduler=args.scheduler, workers=args.workers, cache_dir=args.cache_dir,
+        progress=not args.quiet,
+    )  # fmt: skip
+    if not args.quiet:
+        print(
+            f"fringekit sweep {sweep['name']}: {res['cases']} cases ({res['run']} run, "
+            f"{res['skipped']} already finished, {res['failed']} failed) in {res['time_s']:.1f} s;"
+            f" table {res['table']}"
+        )
+    return 1 if res["failed"] else 0

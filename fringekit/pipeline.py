@@ -1,0 +1,182 @@
+"""``fringekit predict``: config -> mesh -> contact solution -> optics -> an output folder.
+
+Output folder layout (``<out>/<case>/``):
+
+- ``summary.json`` - ``max_fringe_order``, ``indenters`` (final state, one
+  ``{"force_N": [x, y, z], "depth_mm", "contact_radius_mm", ...}`` per indenter),
+  ``states`` (every load state), run times, versions and the effective config;
+- ``config.toml`` - the effective config (re-runnable as is);
+- ``state_XX/`` for each rendered load state (:func:`fringekit.render.render_state`):
+  ``solution.vtu`` (deformed quadratic tets, stresses in Pa), ``maps.npz`` (fringe order,
+  simple order, isoclinic, mask, pixel x/y in m), ``fringe_order.png`` and
+  ``isoclinic.png`` (figures with a colour bar), ``six_step/step1..6.png`` (monochrome,
+  the six-step table of ``docs/theory.md``), ``white_light.png`` (dark-field circular, the
+  light and camera of the config), ``fringe_image.png`` (the white-light image with axes
+  in mm) and ``profile.png`` / ``profile.csv`` (fringe order along x through the first
+  indenter).
+
+Meshes and solutions are cached (:func:`meshes.build_mesh`, :func:`fea.store.solve_cached`),
+so a second run with other optics settings only re-renders.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+from fea import SolverError
+from fea.store import solve_cached
+from meshes import build_mesh, quality_report
+
+from .config import to_toml
+from .inputs import build_inputs
+from .render import render_state
+from .versions import run_versions
+
+__all__ = ["PredictError", "solve_config", "run_predict"]
+
+log = logging.getLogger("fringekit.predict")
+
+
+class PredictError(RuntimeError):
+    """The pipeline could not finish; converged states were written before raising."""
+
+
+def solve_config(cfg: dict, *, cache_dir=None, use_cache: bool = True, progress: bool = True):
+    """Mesh and solve a config through the caches: (mesh, solutions, stats, failure text)."""
+    inp = build_inputs(cfg)
+    mesh = build_mesh(inp.spec, cache_dir=cache_dir, use_cache=use_cache)
+    try:
+        sols, stats, _ = solve_cached(
+            mesh, inp.indenters, materials=inp.materials, contact=inp.contact,
+            settings=inp.settings, cache_dir=cache_dir, use_cache=use_cache, progress=progress,
+        )  # fmt: skip
+        return mesh, sols, stats, None
+    except SolverError as exc:
+        return mesh, exc.solutions, None, str(exc)
+
+
+def _model_summary(spec, mesh, rep, stats, failure, cache_file) -> dict:
+    return {
+        "symmetry": spec.symmetry,
+        "points": int(mesh.n_points),
+        "cells": int(len(mesh.cells)),
+        "dofs": int(stats.dofs) if stats else 3 * int(mesh.n_points),
+        "mesh_quality": rep.as_dict(),
+        "solution_from_cache": stats is None and failure is None,
+        "solution_cache": str(cache_file) if cache_file else None,
+        "newton_iterations": list(stats.iterations_per_state) if stats else None,
+        "linear_solver": stats.backend if stats else None,
+    }
+
+
+def _write_summary(out: Path, summary: dict) -> None:
+    tmp = out / "summary.json.part"
+    tmp.write_text(json.dumps(summary, indent=2))
+    os.replace(tmp, out / "summary.json")
+
+
+def run_predict(
+    cfg: dict,
+    out: str | os.PathLike,
+    *,
+    cache_dir: str | os.PathLike | None = None,
+    use_cache: bool = True,
+    progress: bool = True,
+    echo: Callable[[str], None] = print,
+) -> dict:
+    """Run the whole prediction for an effective config; return the summary dict.
+
+    Parameters
+    ----------
+    cfg : dict
+        From :func:`fringekit.config.load_config` / :func:`effective_config`.
+    out : path
+        Output folder of this case (created).
+    cache_dir : path, optional
+        Mesh and solution cache root (default: ``$FRINGEKIT_CACHE_DIR`` or the user cache).
+    use_cache : bool
+        False re-meshes and re-solves and writes no cache.
+    progress : bool
+        Progress bar over load states and one line per stage.
+    echo : callable
+        Where stage lines go.
+
+    Raises
+    ------
+    ConfigError
+        Bad inputs (before anything expensive runs where possible).
+    PredictError
+        The solver failed; the states it reached are in ``out`` (``summary.json`` says so).
+    """
+    say = echo if progress else (lambda s: None)
+    out = Path(out)
+    t_all = time.perf_counter()
+    inp = build_inputs(cfg)
+    spec = inp.spec
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "config.toml").write_text(to_toml(cfg))
+    times: dict[str, float] = {}
+
+    say(f"mesh: {spec.symmetry} model")
+    t0 = time.perf_counter()
+    mesh = build_mesh(spec, cache_dir=cache_dir, use_cache=use_cache)
+    times["mesh_s"] = time.perf_counter() - t0
+    rep = quality_report(mesh.points, mesh.cells, mesh.regions)
+    say(f"mesh: {rep}")
+
+    t0 = time.perf_counter()
+    failure = None
+    stats = None
+    try:
+        sols, stats, cache_file = solve_cached(
+            mesh, inp.indenters, materials=inp.materials, contact=inp.contact,
+            settings=inp.settings, cache_dir=cache_dir, use_cache=use_cache, progress=progress,
+        )  # fmt: skip
+    except SolverError as exc:
+        sols, failure, cache_file = exc.solutions, str(exc), None
+    times["solve_s"] = time.perf_counter() - t0
+    say(
+        f"solve: {len(sols)} load state(s) in {times['solve_s']:.1f} s"
+        + (" (from cache)" if stats is None and failure is None else "")
+    )
+
+    render = (
+        range(len(sols))
+        if cfg["optics"]["render"] == "all"
+        else range(max(len(sols) - 1, 0), len(sols))  # nothing when no state converged
+    )
+    rendered = []
+    for k in render:
+        say(f"optics: state {k + 1} of {len(sols)}")
+        rendered.append(render_state(sols[k], k, cfg, out, inp.optics, say, progress))
+
+    final = sols[-1] if sols else None
+    summary = {
+        "case": cfg["case"],
+        "status": "failed" if failure else "ok",
+        "error": failure,
+        "max_fringe_order": rendered[-1]["max_fringe_order"] if rendered else None,
+        "indenters": [i.as_dict() for i in final.indenters] if final else [],
+        "states": [
+            {
+                "state": k + 1,
+                "load_factor": s.load_factor,
+                "indenters": [i.as_dict() for i in s.indenters],
+            }
+            for k, s in enumerate(sols)
+        ],
+        "rendered": rendered,
+        "model": _model_summary(spec, mesh, rep, stats, failure, cache_file),
+        "times_s": {**times, "total_s": time.perf_counter() - t_all},
+        "versions": run_versions(),
+        "config": cfg,
+    }
+    _write_summary(out, summary)
+    if failure:
+        raise PredictError(f"{failure}; the {len(sols)} converged state(s) are written to {out}")
+    return summary

@@ -1,6 +1,6 @@
 """Inputs of the mesher: sheet geometry, indenter sites, sizing and symmetry.
 
-All lengths are in metres (SI, ../shared/DESIGN.md "Conventions"). The geometry
+All lengths are in metres (SI, ``docs/theory.md``, "Conventions"). The geometry
 frame: the sheet spans ``x in [-width/2, width/2]``, ``y in [-length/2, length/2]``;
 the sheet/substrate interface is the plane ``z = 0``, the contact face (top) is
 ``z = sheet_thickness`` and the bottom of the substrate is
@@ -95,25 +95,27 @@ class Sizing:
     ----------
     h_contact : float
         Edge length in the refined zone under each indenter: a cylinder of radius
-        ``refine_radius`` about the indenter axis through the whole sheet.
+        ``refine_radius`` about the indenter axis through the whole sheet. Default
+        0.6 mm: the 8 N depth is converged to 0.3 % there (``docs/validation.md``, mesh
+        convergence); 0.4 mm resolves the order within 0.5 mm of the contact edge.
     refine_radius : float
         Radius of the refined zone (m). Default 2 mm, about 1.6 contact radii of the
-        reference 8 N case (DESIGN.md: contact radius ~0.7 R = 1.2 mm).
+        reference 8 N case (contact radius ~0.7 R = 1.2 mm).
     h_far : float
-        Largest edge length anywhere (m).
+        Largest edge length anywhere (m). Default 8 mm.
     h_sheet : float
         Largest edge length inside the sheet (m), so that stresses are resolved
-        through its thickness everywhere the camera looks. Default 1 mm
-        (three quadratic elements through the 3 mm sheet).
+        through its thickness everywhere the camera looks. Default 2 mm (quadratic
+        elements: two through the 3 mm sheet).
     growth : float
         Grading rate: the target size grows by ``growth`` per unit distance from the
         refined zone (dimensionless, > 0).
     """
 
-    h_contact: float = 0.3e-3
+    h_contact: float = 0.6e-3
     refine_radius: float = 2e-3
-    h_far: float = 4e-3
-    h_sheet: float = 1e-3
+    h_far: float = 8e-3
+    h_sheet: float = 2e-3
     growth: float = 0.4
 
     def __post_init__(self) -> None:

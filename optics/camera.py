@@ -1,6 +1,6 @@
 """Light sources, cameras and image formation (monochrome and white light).
 
-White light (../shared/DESIGN.md): channel value
+White light (``docs/theory.md``, "White light"): channel value
 I_c = sum S(lam) Q_c(lam) T(lam) w(lam) / sum S(lam) Q_c(lam) w(lam), with T the
 polariscope transmittance from the Jones matrix at each wavelength and w the width of
 the wavelength cell each sample stands for (:attr:`Spectrum.weights`). Spectra, colour-matching
@@ -83,6 +83,8 @@ class Camera:
         ``colour.MSDS_CAMERA_SENSITIVITIES`` (raw RGB, white-balanced on the source).
     exposure : float
         Scale from transmittance to full scale (1 = a fully transmitting pixel saturates).
+        Default 0.9: the brightest fringes stay below saturation, as an experimenter
+        exposes.
     gamma : float
         Encoding exponent applied to linear values (1 = linear); ignored for sRGB,
         which uses the sRGB transfer function.
@@ -94,7 +96,7 @@ class Camera:
     """
 
     sensitivities: str = "CIE1931"
-    exposure: float = 1.0
+    exposure: float = 0.9
     gamma: float = 1.0
     full_well: float = 0.0
     read_noise: float = 0.0

@@ -1,6 +1,6 @@
 """Generate the quadratic tetrahedral mesh of a bonded sheet/substrate block.
 
-Pipeline (../shared/DESIGN.md "meshes"; measured gotchas in ../shared/DEPENDENCIES.md):
+Pipeline (fTetWild behaviour measured on this project: ``docs/validation.md``, "Meshes"):
 
 1. trimesh builds the closed surfaces of the layers, merged into one soup that keeps
    the internal interface face, so a single fTetWild run conforms at the interface.

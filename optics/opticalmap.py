@@ -124,7 +124,7 @@ def integrate_layers(
     ----------
     samples : list of RaySamples on the same grid, in the order the light meets them
         (for the sensor viewed from the PC side: the polycarbonate, then the sheet; the
-        coated contact face reflects it back, DESIGN.md).
+        coated contact face reflects it back, ``docs/theory.md``).
     laws : one StressOpticLaw per layer
     wavelengths : (W,) m
     reflection : bool — double pass U^T U
@@ -160,7 +160,7 @@ def integrate_layers(
     r = np.flatnonzero(row_valid)
     q_rows = integrate_path(ds[r], th[r], dz[r], k)
     if reflection:
-        q_rows = qmul(qtranspose(q_rows), q_rows)  # U_refl = U^T U (DESIGN.md, unfolded frame)
+        q_rows = qmul(qtranspose(q_rows), q_rows)  # U_refl = U^T U (docs/theory.md, unfolded frame)
     ref = laws[reference]
     passes = 2.0 if reflection else 1.0
     simple_rows = np.zeros(len(r))

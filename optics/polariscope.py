@@ -4,7 +4,7 @@ Element angles are measured from the x axis (rad); an element at angle a has the
 matrix R(-a) M R(a) with R(a) = [[cos a, sin a], [-sin a, cos a]] (optics.jones). A
 polariser at angle a passes the field component along (cos a, sin a).
 
-Six-step phase shifting (../shared/DESIGN.md table; Ramesh, Digital Photoelasticity,
+Six-step phase shifting (the table of ``docs/theory.md``; Ramesh, Digital Photoelasticity,
 2000): polariser at pi/2, quarter-wave plates xi (before the model) and eta (after),
 analyser beta. With these sign conventions the intensities follow the table's column
 ``I / (I_a/2)`` exactly; :func:`six_step_intensities` is checked against it by test.
@@ -113,7 +113,7 @@ def plane_polariscope(polariser: float = 0.0, *, dark: bool = True) -> Arrangeme
 
 
 _P4 = np.pi / 4
-#: The six phase-stepped arrangements of DESIGN.md (polariser at pi/2).
+#: The six phase-stepped arrangements of ``docs/theory.md`` (polariser at pi/2).
 SIX_STEPS = (
     Arrangement(np.pi / 2, np.pi / 2, 3 * _P4, _P4, name="step1"),
     Arrangement(np.pi / 2, 0.0, 3 * _P4, _P4, name="step2"),

@@ -1,4 +1,4 @@
-"""Stress-optic law with dispersion (../shared/DESIGN.md "Reference formulas").
+"""Stress-optic law with dispersion (``docs/theory.md``, "The stress-optic law").
 
 Relative retardation of a slab of thickness dz under a secondary principal stress
 difference ds (Pa) at wavelength lam (m):
@@ -80,7 +80,8 @@ class StressOpticLaw:
     ) -> StressOpticLaw:
         """Law from the strain-optic coefficient: f_sigma = lam E / (K (1 + nu)).
 
-        Seed paper eq. 4 (../shared/000_677beacb1a7f1729.txt). ``K`` dimensionless,
+        Eq. 4 of "Tactile whole-field imaging sensor on photoelasticity" (the seed
+        paper, ``docs/theory.md``). ``K`` dimensionless,
         ``E`` in Pa, ``wavelength_ref`` in m.
         """
         if not (K > 0 and E > 0 and -1 < nu <= 0.5):

@@ -8,7 +8,7 @@ import pytest
 
 from meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh
 
-# Headless VTK (../shared/DEPENDENCIES.md "pyvista / VTK headless").
+# Headless VTK: pyvista writes VTU without a display when VTK uses its EGL window.
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
 SMALL_LAYERS = Layers(sheet_thickness=3e-3, substrate_thickness=4e-3, width=12e-3, length=12e-3)

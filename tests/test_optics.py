@@ -65,7 +65,7 @@ def test_quaternion_algebra_matches_matrices():
         to_matrix(qtranspose(b)), np.swapaxes(to_matrix(b), -1, -2), atol=1e-14
     )
     np.testing.assert_allclose(from_matrix(to_matrix(b)), b, atol=1e-14)
-    # the retarder is R(-t) diag(e^{-id/2}, e^{id/2}) R(t) (DESIGN.md)
+    # the retarder is R(-t) diag(e^{-id/2}, e^{id/2}) R(t) (docs/theory.md)
     d, t = 1.3, 0.4
     R = np.array([[np.cos(t), np.sin(t)], [-np.sin(t), np.cos(t)]])
     m = R.T @ np.diag([np.exp(-0.5j * d), np.exp(0.5j * d)]) @ R

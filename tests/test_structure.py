@@ -1,0 +1,82 @@
+"""The code-base rules a newcomer relies on, checked rather than hoped for.
+
+Module and function sizes, public names across modules, no plotting-backend switches in
+library code, and documentation that stays inside the repository. The one-way layering of
+the packages is checked by import-linter (``pyproject.toml``, run by ``.ci/run``).
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("parallel", "meshes", "fea", "optics", "analysis", "fringekit")
+SOURCES = sorted(p for pkg in PACKAGES for p in (ROOT / pkg).glob("*.py"))
+SCRIPTS = sorted([*(ROOT / "bench").glob("*.py"), *(ROOT / "examples").glob("*.py")])
+TESTS = sorted((ROOT / "tests").glob("*.py"))
+
+
+def _rel(p: Path) -> str:
+    return str(p.relative_to(ROOT))
+
+
+def test_packages_have_small_modules_and_functions():
+    long_modules = [(_rel(p), n) for p in SOURCES if (n := p.read_text().count("\n")) > 400]
+    long_functions = []
+    for p in [*SOURCES, *SCRIPTS]:
+        for node in ast.walk(ast.parse(p.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                n = node.end_lineno - node.lineno + 1
+                if n > 100:
+                    long_functions.append((_rel(p), node.name, n))
+    assert not long_modules, long_modules
+    assert not long_functions, long_functions
+
+
+def test_no_private_name_is_imported_across_modules():
+    found = []
+    for p in [*SOURCES, *SCRIPTS, *TESTS]:
+        for node in ast.walk(ast.parse(p.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                for a in node.names:
+                    if a.name.startswith("_") and not a.name.startswith("__"):
+                        found.append((_rel(p), node.module, a.name))
+    assert not found, found
+
+
+def test_library_code_never_switches_the_matplotlib_backend():
+    found = [_rel(p) for p in SOURCES if re.search(r"matplotlib\.use\(", p.read_text())]
+    assert not found, found
+
+
+def _docs() -> list[Path]:
+    return sorted(
+        p
+        for p in ROOT.rglob("*")
+        if p.suffix in (".py", ".md", ".toml", ".cff")
+        and not {".venv", ".git", "build", ".pytest_cache"} & set(p.relative_to(ROOT).parts)
+        and p.name != "test_structure.py"
+    )
+
+
+def test_nothing_refers_to_files_outside_the_repository():
+    outside = re.compile(r"\.\./" + "shared" + r"\b|DESIGN\.md|DEPENDENCIES\.md")
+    found = [_rel(p) for p in _docs() if outside.search(p.read_text())]
+    assert not found, found
+
+
+@pytest.mark.parametrize("doc", ["README.md", "examples/README.md", "docs/theory.md",
+                                 "docs/validation.md"])  # fmt: skip
+def test_markdown_links_resolve_inside_the_repository(doc):
+    path = ROOT / doc
+    text = path.read_text()
+    links = re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", text)
+    local = [x for x in links if not re.match(r"[a-z]+://", x)]
+    missing = [x for x in local if not (path.parent / x).resolve().exists()]
+    outside = [x for x in local if ROOT not in (path.parent / x).resolve().parents
+               and (path.parent / x).resolve() != ROOT]  # fmt: skip
+    assert not missing and not outside, (missing, outside)

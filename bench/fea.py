@@ -111,6 +111,8 @@ def run(case: str, mesh_name: str) -> dict:
         "time_solve_s": stats.time_solve,
         "newton_iterations": stats.iterations_per_state,
         "al_updates": stats.al_updates,
+        "tangent_assemblies": stats.tangent_assemblies,
+        "residual_evaluations": stats.residual_evaluations,
         "cutbacks": stats.cutbacks,
         "peak_mem_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
         "states": states,
@@ -149,6 +151,11 @@ def run(case: str, mesh_name: str) -> dict:
         "of the run is per load state (predictor, multiplier updates, stress recovery)"
     )
     print(f"   iterations per state {stats.iterations_per_state}, peak {res['peak_mem_mb']:.0f} MB")
+    print(
+        f"   per Newton iteration: {stats.tangent_assemblies / n_it:.2f} tangent assemblies, "
+        f"{stats.residual_evaluations / n_it:.2f} residual evaluations "
+        f"({stats.tangent_assemblies} and {stats.residual_evaluations} over {n_it} iterations)"
+    )
     for s in states:
         print(
             f"   F = {s['force_N']} N  depth {s['depth_mm']:.4f} mm  "

@@ -1,36 +1,110 @@
-"""Sparse direct solves: MKL PARDISO through pypardiso on x86-64, SciPy SuperLU elsewhere.
+"""Sparse direct solves: MKL PARDISO on x86-64 (loaded through pypardiso), SciPy SuperLU elsewhere.
 
-PARDISO keeps one solver object so the symbolic analysis (ordering, phase 11) is done
-once per sparsity pattern and every Newton iteration only refactorises (phase 22) and
-solves (phase 33). Symmetric matrices use ``mtype = -2`` (real symmetric indefinite: the
-contact term and the mean-dilatation pressure can make the tangent indefinite) with the
-upper triangle; unsymmetric ones (Coulomb slip) ``mtype = 11`` with the full matrix
-(Intel oneMKL PARDISO reference, "pardiso mtype").
+PARDISO keeps its symbolic analysis (ordering, phase 11) for as long as the sparsity
+pattern stays, so every Newton iteration only refactorises (phase 22) and solves (phase
+33). Symmetric matrices use ``mtype = -2`` (real symmetric indefinite: the contact term
+and the mean-dilatation pressure can make the tangent indefinite) with the upper
+triangle; unsymmetric ones (Coulomb slip) ``mtype = 11`` with the full matrix (Intel
+oneMKL PARDISO reference, "pardiso" and "pardiso iparm Parameter").
+
+Mixed precision (``precision="mixed"``, the default with PARDISO): the factorization is
+done in single precision (``iparm[27] = 1``), about twice as fast (0.20 s against 0.37-0.42 s
+on the 34k-DOF reference tangent), and the solution is refined in double precision,
+x <- x + A^-1 (b - A x) with the residual formed from the double-precision matrix, until
+the relative residual is below :data:`REFINE_RTOL`. A system that does not get there in
+:data:`MAX_REFINE` steps (a condition number near 1/eps_single) is refactorised in double
+precision, and the solver stays in double precision from then on.
 """
 
 from __future__ import annotations
 
+import ctypes
 import time
+from functools import cache
 
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-__all__ = ["LinearSolver", "available_backends"]
+__all__ = ["LinearSolver", "available_backends", "MAX_REFINE", "REFINE_RTOL"]
+
+#: relative residual |b - A x| / |b| a mixed-precision solve must reach
+REFINE_RTOL = 1e-10
+#: refinement steps before falling back to a double-precision factorization
+MAX_REFINE = 6
 
 
-def _pardiso_class():
+@cache
+def _mkl():
+    """The loaded ``mkl_rt`` library (pypardiso finds and loads it), or None."""
     try:
-        import pypardiso  # noqa: F401
         from pypardiso.pardiso_wrapper import PyPardisoSolver
+
+        return PyPardisoSolver().libmkl
     except Exception:  # pragma: no cover - depends on the platform
         return None
-    return PyPardisoSolver
 
 
 def available_backends() -> list[str]:
     """Backends usable on this machine, fastest first."""
-    return (["pardiso"] if _pardiso_class() is not None else []) + ["scipy"]
+    return (["pardiso"] if _mkl() is not None else []) + ["scipy"]
+
+
+class _Pardiso:
+    """One PARDISO handle: a matrix type, a precision and a sparsity pattern."""
+
+    def __init__(self, lib, mtype: int, single: bool):
+        self.fn = lib.pardiso
+        i32 = ctypes.POINTER(ctypes.c_int32)
+        self.fn.argtypes = [ctypes.POINTER(ctypes.c_int64), i32, i32, i32, i32, i32,
+                            ctypes.c_void_p, i32, i32, i32, i32, i32, i32,
+                            ctypes.c_void_p, ctypes.c_void_p, i32]  # fmt: skip
+        self.fn.restype = None
+        self.pt = np.zeros(64, np.int64)
+        self.iparm = np.zeros(64, np.int32)
+        ip = self.iparm
+        ip[0] = 1  # the values below, not MKL's defaults
+        ip[1] = 2  # nested-dissection ordering (METIS)
+        ip[9] = 13 if mtype == 11 else 8  # pivot perturbation 1e-13 / 1e-8
+        ip[10] = ip[12] = 1 if mtype == 11 else 0  # scaling and matching (unsymmetric)
+        ip[27] = 1 if single else 0  # single-precision factorization
+        ip[34] = 1  # zero-based indices: scipy's arrays as they are
+        self.mtype = mtype
+        self.dtype = np.float32 if single else np.float64
+        self.n = 0
+        self._a = self._ia = self._ja = None
+
+    def call(self, phase: int, b: np.ndarray | None = None) -> np.ndarray:
+        n = self.n
+        rhs = np.zeros((n, 1), self.dtype) if b is None else np.asfortranarray(b, self.dtype)
+        x = np.zeros_like(rhs)
+        err = ctypes.c_int32(0)
+        i32 = ctypes.POINTER(ctypes.c_int32)
+        one = ctypes.c_int32(1)
+        self.fn(self.pt.ctypes.data_as(ctypes.POINTER(ctypes.c_int64)), ctypes.byref(one),
+                ctypes.byref(one), ctypes.byref(ctypes.c_int32(self.mtype)),
+                ctypes.byref(ctypes.c_int32(phase)), ctypes.byref(ctypes.c_int32(n)),
+                self._a.ctypes.data, self._ia.ctypes.data_as(i32), self._ja.ctypes.data_as(i32),
+                None, ctypes.byref(ctypes.c_int32(rhs.shape[1])), self.iparm.ctypes.data_as(i32),
+                ctypes.byref(ctypes.c_int32(0)), rhs.ctypes.data, x.ctypes.data,
+                ctypes.byref(err))  # fmt: skip
+        if err.value != 0:
+            raise RuntimeError(f"PARDISO phase {phase} failed with error {err.value}")
+        return x
+
+    def set_matrix(self, A: sp.csr_matrix) -> None:
+        self.n = A.shape[0]
+        self._a = np.ascontiguousarray(A.data, self.dtype)
+        self._ia = np.ascontiguousarray(A.indptr, np.int32)
+        self._ja = np.ascontiguousarray(A.indices, np.int32)
+
+    def release(self) -> None:
+        if self._a is not None:
+            try:
+                self.call(-1)
+            except Exception:  # pragma: no cover - best effort
+                pass
+        self._a = None
 
 
 class LinearSolver:
@@ -40,32 +114,40 @@ class LinearSolver:
     ----------
     backend : {"auto", "pardiso", "scipy"}
         ``auto`` picks pardiso when pypardiso imports, else scipy.
+    precision : {"mixed", "double"}
+        PARDISO only: a single-precision factorization refined to double-precision
+        accuracy (see the module docstring), or a double-precision factorization.
 
     Attributes
     ----------
     time_analysis, time_factorize, time_solve : float
-        Accumulated wall times (s).
+        Accumulated wall times (s); refinement steps count as solve time.
+    n_factorizations, n_refinements, n_fallbacks : int
     """
 
-    def __init__(self, backend: str = "auto"):
+    def __init__(self, backend: str = "auto", precision: str = "mixed"):
         # set first: __del__ runs even when the checks below raise
-        self._ps = None
-        self._pattern_id = None
-        self._mtype = None
+        self._ps: _Pardiso | None = None
+        self._key = None
         allowed = ("auto", "pardiso", "scipy")
         if backend not in allowed:
             raise ValueError(
                 f"linear solver backend = {backend!r} is not allowed; use one of {allowed}"
             )
+        if precision not in ("mixed", "double"):
+            raise ValueError(
+                f"linear solver precision = {precision!r} is not allowed; use 'mixed' or 'double'"
+            )
         if backend == "auto":
             backend = available_backends()[0]
-        if backend == "pardiso" and _pardiso_class() is None:
+        if backend == "pardiso" and _mkl() is None:
             raise ValueError(
                 "linear solver backend = 'pardiso' is not available: pypardiso does not import"
             )
         self.backend = backend
+        self.single = backend == "pardiso" and precision == "mixed"
         self.time_analysis = self.time_factorize = self.time_solve = 0.0
-        self.n_factorizations = 0
+        self.n_factorizations = self.n_refinements = self.n_fallbacks = 0
 
     def solve(
         self, A: sp.csr_matrix, b: np.ndarray, *, symmetric: bool, pattern_id: int
@@ -81,29 +163,63 @@ class LinearSolver:
         """
         if self.backend == "scipy":
             return self._solve_scipy(A, b, symmetric)
+        A.sort_indices()
+        x = self._factor_and_solve(A, b, symmetric, pattern_id)
+        if self.single:
+            x, ok = self._refine(A, b, x, symmetric)
+            if not ok:  # too ill-conditioned for a single-precision factor
+                self.single = False
+                self.n_fallbacks += 1
+                x = self._factor_and_solve(A, b, symmetric, pattern_id)
+        return x
+
+    def _factor_and_solve(self, A, b, symmetric: bool, pattern_id: int) -> np.ndarray:
         mtype = -2 if symmetric else 11
-        if self._ps is None or self._mtype != mtype or self._pattern_id != pattern_id:
+        key = (mtype, pattern_id, self.single)
+        if self._ps is None or self._key != key:
             self.release()
-            cls = _pardiso_class()
-            self._ps = cls(mtype=mtype)
-            self._mtype, self._pattern_id = mtype, pattern_id
-            A.sort_indices()
+            self._ps = _Pardiso(_mkl(), mtype, self.single)
+            self._key = key
+            self._ps.set_matrix(A)
             t = time.perf_counter()
-            self._ps._check_A(A)
-            self._ps.set_phase(11)
-            self._ps._call_pardiso(A, np.zeros((A.shape[0], 1)))
+            self._ps.call(11)
             self.time_analysis += time.perf_counter() - t
         ps = self._ps
+        ps.set_matrix(A)
         t = time.perf_counter()
-        ps.set_phase(22)
-        ps._call_pardiso(A, np.zeros((A.shape[0], 1)))
+        ps.call(22)
         self.time_factorize += time.perf_counter() - t
         self.n_factorizations += 1
         t = time.perf_counter()
-        ps.set_phase(33)
-        x = ps._call_pardiso(A, np.asfortranarray(b.reshape(-1, 1)))
+        x = ps.call(33, b.reshape(-1, 1))[:, 0].astype(float)
         self.time_solve += time.perf_counter() - t
-        return x.ravel()
+        return x
+
+    def _refine(self, A, b, x, symmetric: bool) -> tuple[np.ndarray, bool]:
+        """Iterative refinement in double precision on the single-precision factor."""
+        t = time.perf_counter()
+        if symmetric:  # A holds the upper triangle: A_full x = A x + A^T x - diag(A) x
+            d = A.diagonal()
+
+            def matvec(v):
+                return A @ v + A.T @ v - d * v
+
+        else:
+
+            def matvec(v):
+                return A @ v
+
+        bnorm = float(np.linalg.norm(b)) or 1.0
+        ok = False
+        for _ in range(MAX_REFINE):
+            r = b - matvec(x)
+            if np.linalg.norm(r) <= REFINE_RTOL * bnorm:
+                ok = True
+                break
+            x = x + self._ps.call(33, r.reshape(-1, 1))[:, 0]
+            self.n_refinements += 1
+        self.time_solve += time.perf_counter() - t
+        return x, ok and bool(np.all(np.isfinite(x)))
 
     def _solve_scipy(self, A, b, symmetric):
         t = time.perf_counter()
@@ -120,12 +236,9 @@ class LinearSolver:
     def release(self) -> None:
         """Free PARDISO's memory (the factor can be ~1 GB at 100k DOF)."""
         if self._ps is not None:
-            try:
-                self._ps.free_memory(everything=True)
-            except Exception:  # pragma: no cover
-                pass
+            self._ps.release()
         self._ps = None
-        self._pattern_id = None
+        self._key = None
 
     def __del__(self):  # pragma: no cover - best effort
         self.release()

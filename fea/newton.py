@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -22,7 +22,7 @@ from .linsolve import LinearSolver
 from .model import Model, State
 from .stats import SolveStats
 
-__all__ = ["Run", "evaluate", "newton", "solve_increment"]
+__all__ = ["BodyCache", "Run", "evaluate", "newton", "solve_increment"]
 
 log = logging.getLogger("fringekit.fea")
 
@@ -30,16 +30,65 @@ log = logging.getLogger("fringekit.fea")
 AL_SWITCH = 1e-3
 
 
+class BodyCache:
+    """The body's last element evaluation and the displacements it was made at.
+
+    The body part (energy, internal forces, element tangents) depends on the
+    displacements only. Multiplier updates, the start of an increment and the stress
+    recovery happen at displacements the last Newton iterate was already evaluated at,
+    so they reuse it and recompute the contact terms alone.
+    """
+
+    def __init__(self) -> None:
+        self.u: np.ndarray | None = None
+        self.body = None
+
+    def get(self, u: np.ndarray, tangent: bool):
+        """The cached body state at ``u`` (with its tangent when asked), else None."""
+        if self.body is None or (tangent and self.body.Ke is None):
+            return None
+        return self.body if np.array_equal(u, self.u) else None
+
+    def put(self, u: np.ndarray, body) -> None:
+        self.u, self.body = u.copy(), body
+
+
 @dataclass(frozen=True)
 class Run:
-    """One solve in progress: the model, the linear solver and the counters it fills."""
+    """One solve in progress: the model, the linear solver, the counters it fills and the
+    body evaluation it may reuse."""
 
     model: Model
     lin: LinearSolver
     stats: SolveStats
+    cache: BodyCache = field(default_factory=BodyCache)
 
 
-def evaluate(model: Model, st: State, f_ind: np.ndarray, *, tangent: bool, stats: SolveStats):
+def _body(model: Model, st: State, tangent: bool, stats: SolveStats, cache: BodyCache | None):
+    """The body's element evaluation at ``st.u``: reused from ``cache`` when it holds one
+    at the same displacements, else assembled (and counted in ``stats``)."""
+    body = cache.get(st.u, tangent) if cache is not None else None
+    if body is not None:
+        return body
+    body = body_state(st.u, model.cells, model.grads, model.groups, tangent=tangent)
+    if tangent:
+        stats.tangent_assemblies += 1
+    else:
+        stats.residual_evaluations += 1
+    if cache is not None and body.min_J > 0:
+        cache.put(st.u, body)
+    return body
+
+
+def evaluate(
+    model: Model,
+    st: State,
+    f_ind: np.ndarray,
+    *,
+    tangent: bool,
+    stats: SolveStats,
+    cache: BodyCache | None = None,
+):
     """Energy, reduced residual, reduced tangent and per-indenter contact results.
 
     Parameters
@@ -50,7 +99,9 @@ def evaluate(model: Model, st: State, f_ind: np.ndarray, *, tangent: bool, stats
     tangent : bool
         Also assemble the reduced tangent (sparse, N/m).
     stats : SolveStats
-        Assembly and contact times are added to it.
+        Assembly and contact times, and the evaluations made, are added to it.
+    cache : BodyCache, optional
+        Reuse the body evaluation when it was made at ``st.u``; store a new one.
 
     Returns
     -------
@@ -58,7 +109,7 @@ def evaluate(model: Model, st: State, f_ind: np.ndarray, *, tangent: bool, stats
     or None when an element is inverted.
     """
     t0 = time.perf_counter()
-    body = body_state(st.u, model.cells, model.grads, model.groups, tangent=tangent)
+    body = _body(model, st, tangent, stats, cache)
     t1 = time.perf_counter()
     stats.time_assembly += t1 - t0
     if body.min_J <= 0:
@@ -183,7 +234,7 @@ def _line_search(run: Run, st: State, f_ind, dx, energy: float, rnorm: float):
     for k in range(8):
         st.u = base_u + alpha * du[: model.n]
         st.c = base_c + alpha * du[model.n :]
-        trial = evaluate(model, st, f_ind, tangent=k == 0, stats=run.stats)
+        trial = evaluate(model, st, f_ind, tangent=k == 0, stats=run.stats, cache=run.cache)
         if trial is not None:
             e_t, r_t = trial[0], trial[1]
             if e_t <= energy + 1e-12 * abs(energy) or np.linalg.norm(r_t) < rnorm:
@@ -207,7 +258,7 @@ def newton(run: Run, st: State, f_ind: np.ndarray, fscale: float, iter_log: list
     updates = 0
     e0 = None
     e_last = None
-    prev = evaluate(model, st, f_ind, tangent=True, stats=stats)
+    prev = evaluate(model, st, f_ind, tangent=True, stats=stats, cache=run.cache)
     if prev is None:
         return False, "inverted element at the start of the increment", None
     for it in range(settings.max_iterations):
@@ -231,7 +282,7 @@ def newton(run: Run, st: State, f_ind: np.ndarray, fscale: float, iter_log: list
                     st.lam[j] = res.p.copy()
                 updates += 1
                 stats.al_updates += 1
-                prev = evaluate(model, st, f_ind, tangent=True, stats=stats)
+                prev = evaluate(model, st, f_ind, tangent=True, stats=stats, cache=run.cache)
                 e_last = None
                 continue
             if rnorm <= settings.force_tol * scale and (
@@ -253,6 +304,10 @@ def newton(run: Run, st: State, f_ind: np.ndarray, fscale: float, iter_log: list
         log.debug("fea: %s", row)
         if accepted is None:
             return False, "the line search found no decreasing, admissible step", None
-        prev = accepted if alpha == 1.0 else evaluate(model, st, f_ind, tangent=True, stats=stats)
+        prev = (
+            accepted
+            if alpha == 1.0
+            else evaluate(model, st, f_ind, tangent=True, stats=stats, cache=run.cache)
+        )
         stats.iteration_times.append((time.perf_counter() - t_it, lin.time_factorize - f_it))
     return False, f"Newton did not converge in {settings.max_iterations} iterations", None

@@ -178,6 +178,9 @@ class SolverSettings:
         Halvings of the load increment before giving up.
     backend : {"auto", "pardiso", "scipy"}
         Sparse direct solver.
+    precision : {"mixed", "double"}
+        PARDISO's factorization: single precision refined to double-precision accuracy
+        (about twice as fast; :mod:`fea.linsolve`), or double precision.
     """
 
     force_tol: float = 1e-8
@@ -185,6 +188,7 @@ class SolverSettings:
     max_iterations: int = 30
     max_cutbacks: int = 8
     backend: str = "auto"
+    precision: str = "mixed"
 
     def __post_init__(self) -> None:
         for name in ("force_tol", "energy_tol"):
@@ -195,3 +199,7 @@ class SolverSettings:
             raise ValueError(f"solver.max_iterations = {self.max_iterations!r}; it must be >= 2")
         if self.max_cutbacks < 0:
             raise ValueError(f"solver.max_cutbacks = {self.max_cutbacks!r}; it must be >= 0")
+        if self.precision not in ("mixed", "double"):
+            raise ValueError(
+                f"solver.precision = {self.precision!r} is not allowed; use 'mixed' or 'double'"
+            )

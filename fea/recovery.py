@@ -14,7 +14,7 @@ import numpy as np
 
 from .materials import cauchy_stress
 from .model import Model, State
-from .newton import evaluate
+from .newton import BodyCache, evaluate
 from .solution import IndenterState, Solution
 from .stats import SolveStats
 
@@ -57,10 +57,18 @@ def _indenter_state(model: Model, st: State, j: int, x: np.ndarray) -> IndenterS
     )
 
 
-def make_solution(model: Model, st: State, s: float, iter_log: list, stats: SolveStats) -> Solution:
-    """The :class:`Solution` of converged state ``st`` at load-path position ``s``."""
+def make_solution(
+    model: Model,
+    st: State,
+    s: float,
+    iter_log: list,
+    stats: SolveStats,
+    cache: BodyCache | None = None,
+) -> Solution:
+    """The :class:`Solution` of converged state ``st`` at load-path position ``s``
+    (``cache``: the body evaluation of the last Newton iterate, reused)."""
     f_ind, _ = model.targets(s)
-    _, _, _, _, body, _ = evaluate(model, st, f_ind, tangent=False, stats=stats)
+    _, _, _, _, body, _ = evaluate(model, st, f_ind, tangent=False, stats=stats, cache=cache)
     F = body.F[model.inverse]  # back to mesh cell order
     jbar = body.Jbar[model.inverse]
     sigma = np.empty_like(F)

@@ -152,7 +152,7 @@ def solve(
     settings = settings or SolverSettings()
     stats = SolveStats()
     model = Model(mesh, indenters, materials, contact, settings)
-    lin = LinearSolver(settings.backend)
+    lin = LinearSolver(settings.backend, settings.precision)
     stats.dofs = model.n_free
     stats.backend = lin.backend
     log.info(
@@ -183,7 +183,7 @@ def solve(
                 st, s_done, iter_log = _reach_state(run, st, s_done, k, ds, len(solutions))
             except SolverError as exc:
                 raise SolverError(str(exc), solutions) from None
-            sol = make_solution(model, st, s_done, iter_log, stats)
+            sol = make_solution(model, st, s_done, iter_log, stats, run.cache)
             solutions.append(sol)
             stats.iterations_per_state.append(stats.newton_iterations - it_before)
             if bar is not None:

@@ -30,6 +30,10 @@ class SolveStats:
     iteration_times: list = field(default_factory=list)
     cutbacks: int = 0
     al_updates: int = 0
+    #: element-kernel evaluations of the body with its tangent, and without (energy and
+    #: residual only: line-search trials, stress recovery)
+    tangent_assemblies: int = 0
+    residual_evaluations: int = 0
 
     def as_dict(self) -> dict:
         return dict(self.__dict__)

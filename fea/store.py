@@ -120,8 +120,10 @@ def solution_key(
         "indenters": [dataclasses.asdict(i) for i in indenters],
         "contact": dataclasses.asdict(contact),
         "settings": {
-            k: v for k, v in dataclasses.asdict(settings).items() if k != "backend"
-        },  # the backend changes round-off, not the answer
+            k: v
+            for k, v in dataclasses.asdict(settings).items()
+            if k not in ("backend", "precision")
+        },  # the backend and precision change round-off, not the answer
     }
     text = json.dumps(payload, sort_keys=True, default=repr)
     return hashlib.sha256(text.encode()).hexdigest()

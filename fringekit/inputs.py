@@ -259,6 +259,7 @@ def build_inputs(cfg: dict) -> RunInputs:
         max_iterations=s["max_iterations"],
         max_cutbacks=s["max_cutbacks"],
         backend=s["backend"],
+        precision=s["precision"],
     )
     return RunInputs(
         spec=spec,

@@ -137,6 +137,13 @@ SCHEMA: dict[str, Any] = {
         "backend": Key(
             "auto", "sparse direct solver", kind="str", choices=("auto", "pardiso", "scipy")
         ),
+        "precision": Key(
+            "mixed",
+            "pardiso factorization: single precision refined to double accuracy (2x faster), "
+            "or double",
+            kind="str",
+            choices=("mixed", "double"),
+        ),
         "force_tol": _f(1e-8, "residual tolerance relative to the applied force", "", 0, 0.1, True),
         "max_iterations": Key(30, "Newton iterations per attempt", kind="int", lo=2, hi=500),
         "max_cutbacks": Key(8, "load-increment halvings before giving up", kind="int", lo=0, hi=30),

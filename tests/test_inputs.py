@@ -43,6 +43,7 @@ PINS = [
     ("solver", "max_iterations", SolverSettings().max_iterations, 1),
     ("solver", "max_cutbacks", SolverSettings().max_cutbacks, 1),
     ("solver", "backend", SolverSettings().backend, None),
+    ("solver", "precision", SolverSettings().precision, None),
     ("optics", "f_sigma_N_per_m", PSM4_ASSUMED.f_sigma, 1.0),
     ("optics", "wavelength_nm", PSM4_ASSUMED.wavelength_ref, 1e-9),
     ("optics", "dispersion", StressOpticLaw(f_sigma=1.0).dispersion, None),

@@ -26,12 +26,20 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-__all__ = ["LinearSolver", "available_backends", "MAX_REFINE", "REFINE_RTOL"]
+__all__ = [
+    "LinearSolver",
+    "available_backends",
+    "MAX_REFINE",
+    "REFINE_RTOL",
+    "REUSE_CONTRACTION",
+]
 
 #: relative residual |b - A x| / |b| a mixed-precision solve must reach
 REFINE_RTOL = 1e-10
 #: refinement steps before falling back to a double-precision factorization
 MAX_REFINE = 6
+#: a reused factor must shrink the residual by this factor in its first refinement step
+REUSE_CONTRACTION = 0.05
 
 
 @cache
@@ -122,7 +130,9 @@ class LinearSolver:
     ----------
     time_analysis, time_factorize, time_solve : float
         Accumulated wall times (s); refinement steps count as solve time.
-    n_factorizations, n_refinements, n_fallbacks : int
+    n_factorizations, n_refinements, n_fallbacks, n_reuses : int
+        Factorizations, refinement steps, falls back to double precision, and solves
+        done on an earlier factor.
     """
 
     def __init__(self, backend: str = "auto", precision: str = "mixed"):
@@ -147,10 +157,16 @@ class LinearSolver:
         self.backend = backend
         self.single = backend == "pardiso" and precision == "mixed"
         self.time_analysis = self.time_factorize = self.time_solve = 0.0
-        self.n_factorizations = self.n_refinements = self.n_fallbacks = 0
+        self.n_factorizations = self.n_refinements = self.n_fallbacks = self.n_reuses = 0
 
     def solve(
-        self, A: sp.csr_matrix, b: np.ndarray, *, symmetric: bool, pattern_id: int
+        self,
+        A: sp.csr_matrix,
+        b: np.ndarray,
+        *,
+        symmetric: bool,
+        pattern_id: int,
+        reuse: bool = False,
     ) -> np.ndarray:
         """Solve ``A x = b``.
 
@@ -160,10 +176,25 @@ class LinearSolver:
             Upper triangle when ``symmetric``, the full matrix otherwise.
         pattern_id : int
             Changes whenever the sparsity pattern changes (forces a new analysis).
+        reuse : bool
+            First try the factor of an earlier matrix of the same pattern (PARDISO): its
+            solution is refined against ``A`` (x <- x + A_old^-1 (b - A x)); when the first
+            step contracts the residual by at least :data:`REUSE_CONTRACTION` and the
+            refinement reaches :data:`REFINE_RTOL`, the result is ``A``'s exact solution
+            without a factorization. Otherwise ``A`` is factorised as usual.
         """
         if self.backend == "scipy":
             return self._solve_scipy(A, b, symmetric)
         A.sort_indices()
+        mtype = -2 if symmetric else 11
+        if reuse and self._ps is not None and self._key == (mtype, pattern_id, self.single):
+            t = time.perf_counter()
+            x0 = self._ps.call(33, b.reshape(-1, 1))[:, 0].astype(float)
+            self.time_solve += time.perf_counter() - t
+            x, ok = self._refine(A, b, x0, symmetric, contraction=REUSE_CONTRACTION)
+            if ok:
+                self.n_reuses += 1
+                return x
         x = self._factor_and_solve(A, b, symmetric, pattern_id)
         if self.single:
             x, ok = self._refine(A, b, x, symmetric)
@@ -195,8 +226,11 @@ class LinearSolver:
         self.time_solve += time.perf_counter() - t
         return x
 
-    def _refine(self, A, b, x, symmetric: bool) -> tuple[np.ndarray, bool]:
-        """Iterative refinement in double precision on the single-precision factor."""
+    def _refine(
+        self, A, b, x, symmetric: bool, contraction: float = 1.0
+    ) -> tuple[np.ndarray, bool]:
+        """Iterative refinement in double precision on the current factor; gives up when
+        the first step reduces the residual by less than ``contraction``."""
         t = time.perf_counter()
         if symmetric:  # A holds the upper triangle: A_full x = A x + A^T x - diag(A) x
             d = A.diagonal()
@@ -211,10 +245,16 @@ class LinearSolver:
 
         bnorm = float(np.linalg.norm(b)) or 1.0
         ok = False
-        for _ in range(MAX_REFINE):
+        first = None
+        for step in range(MAX_REFINE):
             r = b - matvec(x)
-            if np.linalg.norm(r) <= REFINE_RTOL * bnorm:
+            rnorm = float(np.linalg.norm(r))
+            if rnorm <= REFINE_RTOL * bnorm:
                 ok = True
+                break
+            if step == 0:
+                first = rnorm
+            elif step == 1 and rnorm > contraction * first:
                 break
             x = x + self._ps.call(33, r.reshape(-1, 1))[:, 0]
             self.n_refinements += 1

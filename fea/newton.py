@@ -28,6 +28,9 @@ log = logging.getLogger("fringekit.fea")
 
 #: residual (relative to the load) below which the multipliers are updated
 AL_SWITCH = 1e-3
+#: residual (relative to the load) below which the previous factorization is tried
+#: first (fea.linsolve.LinearSolver.solve, ``reuse``)
+REUSE_BELOW = 1e-4
 
 
 class BodyCache:
@@ -219,11 +222,13 @@ def solve_increment(run: Run, st: State, s_new: float, iter_log: list) -> tuple[
     return False, "the contact zone kept growing beyond the candidate facets"
 
 
-def _line_search(run: Run, st: State, f_ind, dx, energy: float, rnorm: float):
+def _line_search(run: Run, st: State, f_ind, dx, energy: float, rnorm: float, tangent: bool):
     """Backtracking on energy or residual; never an inverted element.
 
-    Returns (accepted evaluation or None, step length alpha). The full step is usually
-    accepted, so its tangent is assembled at once.
+    Returns (accepted evaluation or None, step length alpha). With ``tangent`` the full
+    step's trial also assembles the tangent (used when the previous step was taken
+    whole: the full step is then usually accepted); every other trial evaluates energy
+    and residual only.
     """
     model = run.model
     alpha = 1.0
@@ -234,7 +239,9 @@ def _line_search(run: Run, st: State, f_ind, dx, energy: float, rnorm: float):
     for k in range(8):
         st.u = base_u + alpha * du[: model.n]
         st.c = base_c + alpha * du[model.n :]
-        trial = evaluate(model, st, f_ind, tangent=k == 0, stats=run.stats, cache=run.cache)
+        trial = evaluate(
+            model, st, f_ind, tangent=tangent and k == 0, stats=run.stats, cache=run.cache
+        )
         if trial is not None:
             e_t, r_t = trial[0], trial[1]
             if e_t <= energy + 1e-12 * abs(energy) or np.linalg.norm(r_t) < rnorm:
@@ -258,6 +265,7 @@ def newton(run: Run, st: State, f_ind: np.ndarray, fscale: float, iter_log: list
     updates = 0
     e0 = None
     e_last = None
+    whole = True  # the last step was taken whole: try the next one with its tangent
     prev = evaluate(model, st, f_ind, tangent=True, stats=stats, cache=run.cache)
     if prev is None:
         return False, "inverted element at the start of the increment", None
@@ -291,14 +299,17 @@ def newton(run: Run, st: State, f_ind: np.ndarray, fscale: float, iter_log: list
                 iter_log.append({"iteration": it, "residual_N": rnorm, "energy_norm_J": 0.0})
                 return True, "", results
         t_it, f_it = time.perf_counter(), lin.time_factorize
-        dx = lin.solve(K, -r, symmetric=model.symmetric, pattern_id=model.pattern_id)
+        dx = lin.solve(
+            K, -r, symmetric=model.symmetric, pattern_id=model.pattern_id,
+            reuse=rnorm < REUSE_BELOW * scale,
+        )  # fmt: skip
         stats.newton_iterations += 1
         if not np.all(np.isfinite(dx)):
             return False, "the linear solve returned non-finite values", None
         enorm = abs(float(dx @ r))
         e0 = enorm if e0 is None else max(e0, enorm)
         e_last = enorm
-        accepted, alpha = _line_search(run, st, f_ind, dx, energy, rnorm)
+        accepted, alpha = _line_search(run, st, f_ind, dx, energy, rnorm, whole)
         row = {"iteration": it, "residual_N": rnorm, "energy_norm_J": enorm, "alpha": alpha}
         iter_log.append(row)
         log.debug("fea: %s", row)
@@ -306,8 +317,9 @@ def newton(run: Run, st: State, f_ind: np.ndarray, fscale: float, iter_log: list
             return False, "the line search found no decreasing, admissible step", None
         prev = (
             accepted
-            if alpha == 1.0
+            if accepted[2] is not None
             else evaluate(model, st, f_ind, tangent=True, stats=stats, cache=run.cache)
         )
+        whole = alpha == 1.0
         stats.iteration_times.append((time.perf_counter() - t_it, lin.time_factorize - f_it))
     return False, f"Newton did not converge in {settings.max_iterations} iterations", None

@@ -40,6 +40,9 @@ __all__ = ["solve", "SolverError", "SolveStats", "dimitriadis_force", "hertz_for
 
 log = logging.getLogger("fringekit.fea")
 
+#: the first increment ends where the bonded-layer formula gives this depth / thickness
+FIRST_DEPTH = 0.1
+
 
 class SolverError(RuntimeError):
     """The solver could not reach a load state.
@@ -196,6 +199,8 @@ def solve(
         stats.time_analysis = lin.time_analysis
         stats.time_factorize = lin.time_factorize
         stats.time_solve = lin.time_solve
+        stats.factorizations = lin.n_factorizations
+        stats.factor_reuses = lin.n_reuses
         lin.release()
         stats.time_total = time.perf_counter() - t_start
     return solutions, stats
@@ -216,8 +221,8 @@ def _first_increment(model: Model) -> float:
     for j, ind in enumerate(model.indenters):
         if model.z_free(j) and f1[j, 2] < 0:
             d = depth_guess(-f1[j, 2] / model.frac[j], ind.radius, E, h)
-            if d > 0.1 * h:
-                frac = min(frac, (0.1 * h / d) ** 1.5)
+            if d > FIRST_DEPTH * h:
+                frac = min(frac, (FIRST_DEPTH * h / d) ** 1.5)
     return max(frac, 0.05)
 
 

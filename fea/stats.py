@@ -34,6 +34,9 @@ class SolveStats:
     #: residual only: line-search trials, stress recovery)
     tangent_assemblies: int = 0
     residual_evaluations: int = 0
+    #: sparse factorizations, and Newton steps solved exactly on an earlier factor
+    factorizations: int = 0
+    factor_reuses: int = 0
 
     def as_dict(self) -> dict:
         return dict(self.__dict__)

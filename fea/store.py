@@ -13,12 +13,13 @@ import hashlib
 import json
 import logging
 import os
+import tempfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
 
-from meshes import Mesh, default_cache_dir
+from meshes import UNREADABLE, Mesh, default_cache_dir
 
 from .materials import Material
 from .problem import ContactSettings, Indenter, SolverSettings
@@ -57,9 +58,16 @@ def save_solutions(path: str | os.PathLike, solutions: Sequence[Solution]) -> Pa
         for j, ind in enumerate(s.indenters):
             for name in _IND_ARRAYS + _IND_SCALARS:
                 arrays[f"{p}i{j}_{name}"] = np.asarray(getattr(ind, name))
-    tmp = path.with_name(path.name + ".part.npz")
-    np.savez(tmp, **arrays)
-    os.replace(tmp, path)
+    # a temporary file of this process alone, renamed over the target: two runs of one
+    # case never write into each other's file, and a reader sees a whole file or none
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.stem + ".", suffix=".part")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, **arrays)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
     return path
 
 
@@ -156,8 +164,8 @@ def solve_cached(
             sols = load_solutions(path, mesh)
             log.info("solution cache hit: %s", path)
             return sols, None, path
-        except (OSError, ValueError, KeyError) as exc:  # a stale or truncated file: re-solve
-            log.warning("solution cache %s unreadable (%s); solving again", path, exc)
+        except UNREADABLE as exc:  # a stale, truncated or empty file: solve again
+            log.warning("solution cache %s is unreadable (%s); solving again", path, exc)
     sols, stats = solve(
         mesh, indenters, materials=materials, contact=contact, settings=settings, progress=progress
     )

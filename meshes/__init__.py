@@ -1,7 +1,7 @@
 """Stage 1 of the pipeline: bilayer sheet geometry and quadratic tetrahedral meshes."""
 
 from .build import generate_mesh
-from .cache import build_mesh, cache_path, default_cache_dir
+from .cache import UNREADABLE, build_mesh, cache_path, default_cache_dir
 from .io import facet_grid, from_pyvista, load_npz, read_vtu, save_npz, to_pyvista, write_vtu
 from .mesh import FACET_SETS, REGION_NAMES, REGION_SHEET, REGION_SUBSTRATE, FacetSet, Mesh
 from .mirror import mirror
@@ -13,6 +13,7 @@ __all__ = [
     "REGION_NAMES",
     "REGION_SHEET",
     "REGION_SUBSTRATE",
+    "UNREADABLE",
     "FacetSet",
     "IndenterSite",
     "Layers",

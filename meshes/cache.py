@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import os
+import zipfile
 from pathlib import Path
 
 from .build import MESHER_VERSION, generate_mesh
@@ -11,9 +12,12 @@ from .io import load_npz, save_npz
 from .mesh import Mesh
 from .spec import MeshSpec
 
-__all__ = ["default_cache_dir", "build_mesh", "cache_path"]
+__all__ = ["default_cache_dir", "build_mesh", "cache_path", "UNREADABLE"]
 
 log = logging.getLogger("fringekit.meshes")
+
+#: What reading a damaged cache file raises (truncated zip, empty file, missing arrays).
+UNREADABLE = (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile)
 
 
 def default_cache_dir() -> Path:
@@ -62,8 +66,12 @@ def build_mesh(
     spec = MeshSpec() if spec is None else spec
     path = cache_path(spec, cache_dir)
     if use_cache and path.exists():
-        log.info("mesh cache hit: %s", path)
-        return load_npz(path)
+        try:
+            mesh = load_npz(path)
+            log.info("mesh cache hit: %s", path)
+            return mesh
+        except UNREADABLE as exc:  # truncated, empty or foreign: mesh again, overwrite it
+            log.warning("mesh cache %s is unreadable (%s); meshing again", path, exc)
     mesh = generate_mesh(spec, num_threads=num_threads)
     if use_cache:
         save_npz(mesh, path)

@@ -24,7 +24,9 @@ from __future__ import annotations
 import json
 import logging
 import os
+import shutil
 import time
+import uuid
 from collections.abc import Callable
 from pathlib import Path
 
@@ -106,19 +108,56 @@ def run_predict(
     echo : callable
         Where stage lines go.
 
+    The run is written into a fresh folder beside ``out`` and swapped in when it ends, so
+    ``out`` always holds exactly one run. A run that fails to converge keeps its converged
+    states; when ``out`` already holds an earlier run, that run is kept and the failed
+    one goes to ``<out>-failed``. A run stopped by an error or an interrupt leaves ``out``
+    as it was.
+
     Raises
     ------
     ConfigError
         Bad inputs (before anything expensive runs where possible).
     PredictError
-        The solver failed; the states it reached are in ``out`` (``summary.json`` says so).
+        The solver failed; the states it reached are written (``summary.json`` says so).
     """
-    say = echo if progress else (lambda s: None)
     out = Path(out)
-    t_all = time.perf_counter()
     inp = build_inputs(cfg)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    work = out.with_name(f".{out.name}.{os.getpid()}-{uuid.uuid4().hex[:8]}.part")
+    work.mkdir()
+    try:
+        summary = _run(cfg, inp, work, cache_dir, use_cache, progress, echo)
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        raise
+    failed = summary["status"] != "ok"
+    dest = out.with_name(out.name + "-failed") if failed and out.exists() else out
+    _swap_in(work, dest)
+    if failed:
+        raise PredictError(
+            f"{summary['error']}; the {len(summary['states'])} converged state(s) are written "
+            f"to {dest}" + (f" (the earlier run in {out} is kept)" if dest != out else "")
+        )
+    return summary
+
+
+def _swap_in(work: Path, dest: Path) -> None:
+    """Replace ``dest`` by the finished run folder ``work`` (same parent: a rename)."""
+    old = None
+    if dest.exists():
+        old = dest.with_name(f".{dest.name}.old-{os.getpid()}")
+        os.replace(dest, old)
+    os.replace(work, dest)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+def _run(cfg, inp, out: Path, cache_dir, use_cache, progress, echo) -> dict:
+    """Mesh, solve and render into the empty folder ``out``; return the summary."""
+    say = echo if progress else (lambda s: None)
+    t_all = time.perf_counter()
     spec = inp.spec
-    out.mkdir(parents=True, exist_ok=True)
     (out / "config.toml").write_text(to_toml(cfg))
     times: dict[str, float] = {}
 
@@ -177,6 +216,4 @@ def run_predict(
         "config": cfg,
     }
     _write_summary(out, summary)
-    if failure:
-        raise PredictError(f"{failure}; the {len(sols)} converged state(s) are written to {out}")
     return summary

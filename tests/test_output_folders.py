@@ -1,0 +1,71 @@
+"""An output folder describes exactly one run: runs are written beside it and swapped in
+when they end; a failed solve never replaces an earlier run; an error leaves it as it was."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from test_cli import TINY
+
+from fringekit.cli import main
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory, cache_dir):
+    root = tmp_path_factory.mktemp("folders")
+    cfg = root / "tiny.toml"
+    cfg.write_text(TINY)
+    out = root / "out"
+
+    def run(*sets: str) -> int:
+        args = ["predict", str(cfg), "--out", str(out), "--cache-dir", str(cache_dir), "--quiet"]
+        for s in sets:
+            args += ["--set", s]
+        return main(args)
+
+    return root, out, run
+
+
+def _summary(out):
+    return json.loads((out / "summary.json").read_text())
+
+
+def _leftovers(root):
+    return sorted(p.name for p in root.iterdir() if p.name.startswith("."))
+
+
+def test_a_rerun_replaces_the_earlier_run_whole(folder):
+    root, out, run = folder
+    assert run("indenter.load_N=[4.0, 8.0]", "optics.render=all") == 0
+    assert sorted(p.name for p in out.glob("state_*")) == ["state_01", "state_02"]
+    assert run() == 0
+    assert sorted(p.name for p in out.glob("state_*")) == ["state_01"]  # no stale state_02
+    assert _summary(out)["status"] == "ok" and len(_summary(out)["states"]) == 1
+    assert _leftovers(root) == []
+
+
+def test_a_failed_solve_keeps_the_earlier_run(folder, capsys):
+    root, out, run = folder
+    assert run() == 0
+    before = (out / "summary.json").read_bytes()
+    code = run("indenter.load_N=[1.0, 400.0]", "solver.max_cutbacks=2", "solver.max_iterations=20")
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "out-failed" in err and "earlier run" in err and "Traceback" not in err
+    assert (out / "summary.json").read_bytes() == before
+    failed = root / "out-failed"
+    assert _summary(failed)["status"] == "failed" and (failed / "state_01").is_dir()
+    assert _leftovers(root) == []
+
+
+def test_an_error_after_solving_leaves_the_folder_as_it_was(folder, capsys):
+    root, out, run = folder
+    assert run() == 0
+    before = sorted(p.name for p in out.rglob("*"))
+    summary = (out / "summary.json").read_bytes()
+    assert run("optics.center_mm=[500.0, 500.0]") == 2  # no pixel over the sheet
+    assert "field of view" in capsys.readouterr().err
+    assert sorted(p.name for p in out.rglob("*")) == before
+    assert (out / "summary.json").read_bytes() == summary
+    assert _leftovers(root) == []

@@ -178,6 +178,8 @@ def effective_config(given: dict | None = None) -> dict:
             f"mesh.h_contact_mm = {m['h_contact_mm']} is larger than sheet.thickness_mm = "
             f"{cfg['sheet']['thickness_mm']}; allowed: h_contact_mm <= thickness_mm"
         )
+    _check_shear_friction(cfg)
+    _check_field_of_view(cfg)
     o = cfg["optics"]
     if o["read_noise_e"] > 0 and o["full_well_e"] == 0:
         raise ConfigError(
@@ -185,6 +187,31 @@ def effective_config(given: dict | None = None) -> dict:
             "(electrons at full scale)"
         )
     return cfg
+
+
+def _check_shear_friction(cfg: dict) -> None:
+    """Shear needs friction: a frictionless sphere carries no tangential load."""
+    if cfg["contact"]["friction"] != 0.0:
+        return
+    for i, d in enumerate(cfg["indenter"]):
+        if d["shear_N"] is not None and any(v != 0.0 for p in d["shear_N"] for v in p):
+            raise ConfigError(
+                f"indenter[{i}].shear_N = {d['shear_N']} needs friction, but contact.friction "
+                '= 0; allowed: contact.friction > 0 (Coulomb) or "stick" (full stick)'
+            )
+
+
+def _check_field_of_view(cfg: dict) -> None:
+    """The field of view must overlap the sheet (centred at the origin)."""
+    o, sh = cfg["optics"], cfg["sheet"]
+    half = o["field_of_view_mm"] / 2
+    for c, size, axis in zip(o["center_mm"], (sh["width_mm"], sh["length_mm"]), "xy", strict=True):
+        if abs(c) - half >= size / 2:
+            raise ConfigError(
+                f"optics.center_mm = {o['center_mm']} puts the field of view "
+                f"({o['field_of_view_mm']:g} mm wide) off the sheet along {axis}; allowed: "
+                f"|{axis}| < {size / 2 + half:g} mm (half the sheet plus half the field)"
+            )
 
 
 def load_config(source: str | os.PathLike | None = None) -> dict:

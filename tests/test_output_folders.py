@@ -64,8 +64,28 @@ def test_an_error_after_solving_leaves_the_folder_as_it_was(folder, capsys):
     assert run() == 0
     before = sorted(p.name for p in out.rglob("*"))
     summary = (out / "summary.json").read_bytes()
-    assert run("optics.center_mm=[500.0, 500.0]") == 2  # no pixel over the sheet
+    assert run("optics.field_of_view_mm=0.5") == 2  # every pixel in the contact zone
     assert "field of view" in capsys.readouterr().err
     assert sorted(p.name for p in out.rglob("*")) == before
     assert (out / "summary.json").read_bytes() == summary
     assert _leftovers(root) == []
+
+
+@pytest.mark.parametrize(
+    ("sets", "message"),
+    [
+        (["indenter.shear_N=[8.0, 0.0]"], 'contact.friction > 0 (Coulomb) or "stick"'),
+        (["optics.center_mm=[500.0, 0.0]"], "optics.center_mm = [500.0, 0.0]"),
+    ],
+)
+def test_checks_that_need_no_solve_come_before_any_work(tmp_path, capsys, sets, message):
+    """Shear without friction and a field of view off the sheet stop the run before it
+    meshes or writes anything (they were found after meshing or solving)."""
+    out = tmp_path / "o"
+    args = ["predict", "--out", str(out), "--cache-dir", str(tmp_path / "c")]
+    for s in sets:
+        args += ["--set", s]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and len(err.splitlines()) == 1 and "inf" not in err
+    assert not out.exists() and not (tmp_path / "c").exists()

@@ -291,4 +291,22 @@ def load_calibration(path: str | os.PathLike) -> dict:
         raise ValueError(f"{path}: not a fringekit calibration (invalid JSON: {exc})") from None
     if not isinstance(cal, dict) or cal.get("version") != CAL_VERSION or "normal_fits" not in cal:
         raise ValueError(f"{path}: not a fringekit calibration file (version {CAL_VERSION})")
+    _check_fits(cal, path)
     return cal
+
+
+def _check_fits(cal: dict, path) -> None:
+    """Every fit coefficient a finite number; at least one normal-load fit."""
+    fits = cal.get("normal_fits")
+    if not isinstance(fits, dict) or not fits:
+        raise ValueError(f"{path}: the calibration has no normal-load fit (normal_fits is empty)")
+    groups = (("normal_fits", ("a", "b", "sigma_logF")), ("shear_fits", ("c0", "c1")))
+    for group, keys in groups:
+        for name, fit in (cal.get(group) or {}).items():
+            for k in keys:
+                v = fit.get(k) if isinstance(fit, dict) else None
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+                    raise ValueError(
+                        f"{path}: {group}.{name}.{k} = {v!r} is not allowed; a calibration "
+                        "coefficient must be a finite number"
+                    )

@@ -112,8 +112,9 @@ def load_image(path, *, dark=None) -> Frame:
         raise FileNotFoundError(f"image file {str(path)!r} does not exist")
     try:
         img = iio.imread(path)
-    except Exception as exc:  # imageio raises many types for unreadable files
-        raise ValueError(f"{path}: not a readable PNG/TIFF/JPEG image ({exc})") from None
+    except Exception as exc:  # imageio raises many types (and multi-line advice)
+        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0][:120]
+        raise ValueError(f"{path}: not a readable PNG/TIFF/JPEG image ({first})") from None
     if img.ndim == 3 and img.shape[2] not in (3, 4) and img.shape[0] > 1:
         raise ValueError(
             f"{path}: holds {img.shape[0]} pages; read phase-stepped stacks with load_six_step"

@@ -105,8 +105,9 @@ def _reach_state(run: Run, st: State, s_done: float, k: int, ds: float, n_done: 
                 S = model.indenters[0].n_states
                 raise SolverError(
                     f"the solver could not reach load state {k} of {S} "
-                    f"({_describe(model.indenters, k)}): {reason}; last converged load "
-                    f"factor {s_done:.4g} ({n_done} states kept in err.solutions)",
+                    f"({_describe(model.indenters, k)}): {reason}; it reached "
+                    f"{_reached(model, s_done)} ({n_done} load state(s) converged); try more "
+                    "load states on the way, a finer contact mesh or more cut-backs",
                     [],
                 )
     return st, s_done, iter_log
@@ -224,6 +225,18 @@ def _first_increment(model: Model) -> float:
             if d > FIRST_DEPTH * h:
                 frac = min(frac, (FIRST_DEPTH * h / d) ** 1.5)
     return max(frac, 0.05)
+
+
+def _reached(model: Model, s: float) -> str:
+    """The loads (N) or depths (mm) at load-path position ``s``, whole indenters."""
+    f, c = model.targets(s)
+    parts = []
+    for j, ind in enumerate(model.indenters):
+        if ind.force_control:
+            parts.append(f"{-f[j, 2] / model.frac[j]:.4g} N")
+        else:
+            parts.append(f"depth {(model.c0[j, 2] - c[j, 2]) * 1e3:.4g} mm")
+    return "indenter loads " + ", ".join(parts)
 
 
 def _describe(indenters, k: int) -> str:

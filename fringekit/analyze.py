@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import json
 import os
+import zipfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -234,6 +235,16 @@ def run_analyze(
             paths, dark, mask_args, calibration, chart, seeds, window
         )
     summary: dict = {"method": method, "images": paths, **part}
+    rows, cols = order.shape
+    if line is None:
+        r = exclude[0][0] if exclude else (rows - 1) / 2
+        line = (r, 0.0, r, cols - 1.0)
+    for name, (r, c) in (("start", line[:2]), ("end", line[2:])):
+        if not (0 <= r <= rows - 1 and 0 <= c <= cols - 1):
+            raise ValueError(
+                f"--line {name} ({r:g}, {c:g}) is outside the image; allowed rows 0..{rows - 1}, "
+                f"columns 0..{cols - 1}"
+            )
     out.mkdir(parents=True, exist_ok=True)
     maps["fringe_order"] = order
     maps["reliable"] = reliable
@@ -243,10 +254,6 @@ def run_analyze(
     np.savez_compressed(out / "maps.npz", **maps)
     _write_figures(out, method, maps, pixel_size)
 
-    rows, cols = order.shape
-    if line is None:
-        r = exclude[0][0] if exclude else (rows - 1) / 2
-        line = (r, 0.0, r, cols - 1.0)
     _write_profile(out, order, line, pixel_size)
 
     finite = np.isfinite(order)
@@ -259,7 +266,7 @@ def run_analyze(
         if finite.any()
         else None,
         pixel_size_mm=pixel_size * 1e3,
-        line_px=list(line),
+        line_px=[float(v) for v in line],
     )
     (out / "summary.json").write_text(json.dumps(summary, indent=2, default=float))
     return summary
@@ -303,7 +310,17 @@ def read_order_map(path, *, pixel_size: float | None = None, hint: str = "--pixe
     """Read a :class:`OrderMap` (see :func:`find_maps`); a pixel size is required, from
     the file or ``pixel_size`` (m); the error names ``hint``, the option that gives it."""
     f = find_maps(path)
-    with np.load(f) as z:
+    try:
+        z = np.load(f, allow_pickle=False)
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0][:100]
+        raise ValueError(f"{f}: not a maps.npz of fringekit predict or analyze ({first})") from None
+    with z:
+        if "fringe_order" not in z:
+            raise ValueError(
+                f"{f}: holds no fringe_order map (arrays: {sorted(z.files)}); give the "
+                "maps.npz of fringekit predict or analyze"
+            )
         order = np.array(z["fringe_order"], float)
         px = float(z["pixel_size_m"]) if "pixel_size_m" in z else 0.0
         rc = z["indenter_rc"][0] if "indenter_rc" in z and len(z["indenter_rc"]) else None

@@ -36,6 +36,7 @@ from .commands import (
     cmd_sweep,
     fringekit_version,
 )
+from .options import Parser, at_least_one, finite, fraction, positive
 
 __all__ = ["main"]
 
@@ -81,27 +82,27 @@ def _add_analyze(sub) -> None:
                     help="default: rgb for one PNG/JPEG, phase otherwise")  # fmt: skip
     an.add_argument("--out", default=None, help="output folder (default fringekit-out/analysis)")
     an.add_argument("--dark", default=None, help="dark frame subtracted from every image")
-    an.add_argument("--roi-circle", nargs=3, type=float, metavar=("ROW", "COL", "R"))
+    an.add_argument("--roi-circle", nargs=3, type=finite, metavar=("ROW", "COL", "R"))
     an.add_argument(
-        "--exclude-circle", nargs=3, type=float, action="append", metavar=("ROW", "COL", "R"),
+        "--exclude-circle", nargs=3, type=finite, action="append", metavar=("ROW", "COL", "R"),
         help="masked circle, e.g. the indenter",
     )  # fmt: skip
-    an.add_argument("--pixel-mm", type=float, default=None, help="pixel pitch on the sheet (mm)")
-    an.add_argument("--anchor-order", type=float, default=0.0,
+    an.add_argument("--pixel-mm", type=positive, default=None, help="pixel pitch on the sheet (mm)")
+    an.add_argument("--anchor-order", type=finite, default=0.0,
                     help="(phase) fringe order of the image border ring")  # fmt: skip
-    an.add_argument("--min-modulation", type=float, default=0.1)
+    an.add_argument("--min-modulation", type=fraction, default=0.1)
     an.add_argument("--calibration", default=None, help="(rgb) table CSV: order,R,G,B")
     an.add_argument("--light", default="LED", help="(rgb) light of the synthetic chart")
     an.add_argument("--camera", default="CIE1931", help="(rgb) camera of the synthetic chart")
-    an.add_argument("--max-order", type=float, default=4.0, help="(rgb) chart range")
-    an.add_argument("--exposure", type=float, default=0.9,
+    an.add_argument("--max-order", type=positive, default=4.0, help="(rgb) chart range")
+    an.add_argument("--exposure", type=positive, default=0.9,
                     help="(rgb) chart exposure, as in predict's optics.exposure")  # fmt: skip
-    an.add_argument("--seed", nargs=3, type=float, action="append", metavar=("ROW", "COL", "N"),
+    an.add_argument("--seed", nargs=3, type=finite, action="append", metavar=("ROW", "COL", "N"),
                     help="(rgb) pixel of known order: refined search from it")  # fmt: skip
-    an.add_argument("--window", type=float, default=0.25, help="(rgb) refined window (fringe)")
-    an.add_argument("--line", nargs=4, type=float, metavar=("R0", "C0", "R1", "C1"))
-    an.add_argument("--f-sigma-N-per-m", type=float, default=None)
-    an.add_argument("--thickness-mm", type=float, default=None)
+    an.add_argument("--window", type=positive, default=0.25, help="(rgb) refined window (fringe)")
+    an.add_argument("--line", nargs=4, type=finite, metavar=("R0", "C0", "R1", "C1"))
+    an.add_argument("--f-sigma-N-per-m", type=positive, default=None)
+    an.add_argument("--thickness-mm", type=positive, default=None)
     an.add_argument("--quiet", action="store_true")
     an.set_defaults(func=cmd_analyze)
 
@@ -111,10 +112,10 @@ def _add_compare(sub) -> None:
     co.add_argument("prediction", help="predict output folder or maps.npz")
     co.add_argument("measurement", help="analyze output folder or maps.npz")
     co.add_argument("--out", default=None, help="output folder (default fringekit-out/compare)")
-    co.add_argument("--predicted-pixel-mm", type=float, default=None)
-    co.add_argument("--measured-pixel-mm", type=float, default=None)
-    co.add_argument("--centre-measured", nargs=2, type=float, metavar=("ROW", "COL"))
-    co.add_argument("--rotation-deg", type=float, default=0.0)
+    co.add_argument("--predicted-pixel-mm", type=positive, default=None)
+    co.add_argument("--measured-pixel-mm", type=positive, default=None)
+    co.add_argument("--centre-measured", nargs=2, type=finite, metavar=("ROW", "COL"))
+    co.add_argument("--rotation-deg", type=finite, default=0.0)
     co.add_argument("--quiet", action="store_true")
     co.set_defaults(func=cmd_compare)
 
@@ -133,11 +134,11 @@ def _add_calibrate(sub) -> None:
         "--disc", default=None, metavar="MAPS",
         help="fringe-order map of a diametral disc (transmission): fit f_sigma",
     )  # fmt: skip
-    ca.add_argument("--load-N", type=float, default=None, help="(disc) diametral load")
-    ca.add_argument("--diameter-mm", type=float, default=None, help="(disc) diameter")
-    ca.add_argument("--thickness-mm", type=float, default=None, help="(disc) thickness")
-    ca.add_argument("--pixel-mm", type=float, default=None)
-    ca.add_argument("--centre", nargs=2, type=float, metavar=("ROW", "COL"))
+    ca.add_argument("--load-N", type=positive, default=None, help="(disc) diametral load")
+    ca.add_argument("--diameter-mm", type=positive, default=None, help="(disc) diameter")
+    ca.add_argument("--thickness-mm", type=positive, default=None, help="(disc) thickness")
+    ca.add_argument("--pixel-mm", type=positive, default=None)
+    ca.add_argument("--centre", nargs=2, type=finite, metavar=("ROW", "COL"))
     ca.set_defaults(func=cmd_calibrate)
 
 
@@ -145,8 +146,8 @@ def _add_estimate(sub) -> None:
     es = sub.add_parser("estimate", help="load (and shear) from a fringe-order map")
     es.add_argument("maps", help="maps.npz, or a fringekit analyze / predict output folder")
     es.add_argument("--calibration", required=True, help="calibration.json from calibrate")
-    es.add_argument("--pixel-mm", type=float, default=None)
-    es.add_argument("--centre", nargs=2, type=float, metavar=("ROW", "COL"),
+    es.add_argument("--pixel-mm", type=positive, default=None)
+    es.add_argument("--centre", nargs=2, type=finite, metavar=("ROW", "COL"),
                     help="indenter axis in pixels (default: stored in the maps)")  # fmt: skip
     es.add_argument("--out", default=None)
     es.add_argument("--quiet", action="store_true")
@@ -158,7 +159,7 @@ def _add_sweep(sub) -> None:
     sw.add_argument("sweep", help="sweep TOML file (base, [set], [grid] or [[case]])")
     sw.add_argument("--out", default=None, help="output folder (default fringekit-out/<name>)")
     sw.add_argument("--scheduler", default=None, help="address of an existing Dask scheduler")
-    sw.add_argument("--workers", type=int, default=None, help="local worker processes")
+    sw.add_argument("--workers", type=at_least_one, default=None, help="local worker processes")
     sw.add_argument("--cache-dir", default=None)
     sw.add_argument("--quiet", action="store_true")
     sw.set_defaults(func=cmd_sweep)
@@ -177,7 +178,7 @@ def _add_mesh(sub) -> None:
     for opt, keys in MESH_OPTIONS.items():
         if opt != "symmetry":
             flag = "--" + opt.replace("_", "-")
-            m.add_argument(flag, type=float, default=None, help="sets " + " and ".join(keys))
+            m.add_argument(flag, type=finite, default=None, help="sets " + " and ".join(keys))
     m.add_argument("--out", default=None, help="output folder (default fringekit-out/<case>)")
     m.add_argument("--cache-dir", default=None, help="mesh cache root")
     m.add_argument("--no-cache", action="store_true", help="always regenerate the mesh")
@@ -186,7 +187,7 @@ def _add_mesh(sub) -> None:
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = Parser(
         prog="fringekit",
         description="Contact stress and photoelastic fringe prediction for photoelastic "
         "tactile sensors.",
@@ -202,7 +203,10 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``fringekit`` console script; returns the exit status."""
     parser = _parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help, --version, or a bad option (one line, exit 2)
+        return int(exc.code or 0)
     if args.command is None:
         parser.print_help()
         return 0

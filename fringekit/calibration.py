@@ -113,6 +113,12 @@ def _read_map(maps, pixel_mm, centre):
     rc = centre if centre is not None else m.indenter_rc
     if rc is None:
         raise ValueError(f"{m.path} stores no indenter position; give --centre ROW COL (pixels)")
+    rows, cols = m.order.shape
+    if not (0 <= rc[0] <= rows - 1 and 0 <= rc[1] <= cols - 1):
+        raise ValueError(
+            f"--centre {rc[0]:g} {rc[1]:g} is outside the map; allowed rows 0..{rows - 1}, "
+            f"columns 0..{cols - 1}"
+        )
     return m.path, m.order, m.pixel_size, (float(rc[0]), float(rc[1]))
 
 

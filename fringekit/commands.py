@@ -252,6 +252,8 @@ def cmd_estimate(args: argparse.Namespace) -> int:
     if "shear_N" in est:
         line += f"; shear [{est['shear_N'][0]:.3f}, {est['shear_N'][1]:.3f}] N"
     print(line)
+    if "warning" in est:
+        print(f"fringekit estimate: warning: {est['warning']}", file=sys.stderr)
     return 0
 
 

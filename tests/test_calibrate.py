@@ -99,3 +99,21 @@ def test_fringe_value_from_the_disc(tmp_path, capsys):
     assert f"{PSM4_ASSUMED.f_sigma:.4g}" in capsys.readouterr().out
     assert main(["calibrate", "--disc", str(tmp_path / "maps.npz"), "--load-N", "300"]) == 2
     assert "--diameter-mm" in capsys.readouterr().err
+
+
+def test_an_estimate_refuses_a_map_the_calibration_does_not_describe():
+    """The features of a map off its centre disagree with each other far beyond their
+    calibrated scatter: refused, not a confident wrong load (3.54 +- 0.004 N before).
+    Slightly off, the load is kept and its uncertainty widened with a warning."""
+    loads = np.array([1.0, 2.0, 4.0, 6.0, 8.0, 10.0])
+    feats = [fringe_features(*_cone(n=301, k=(F / 8.0) ** (2 / 3))) for F in loads]
+    cal = calibrate_from_maps(loads, np.zeros((6, 2)), feats)
+    N, px, rc = _cone(n=301, k=(5.0 / 8.0) ** (2 / 3))
+    good = estimate_load(cal, fringe_features(N, px, rc))
+    assert good["normal_N"] == pytest.approx(5.0, rel=0.01)
+    assert good["consistency_chi2"] < 4 and "warning" not in good
+    with pytest.raises(ValueError, match="not consistent with the calibration"):
+        estimate_load(cal, fringe_features(N, px, (rc[0] + 20, rc[1] + 20)))  # 1.4 mm off
+    near = estimate_load(cal, fringe_features(N, px, (rc[0] + 6, rc[1])))  # 0.3 mm off
+    assert near["normal_N"] == pytest.approx(5.0, rel=0.01)
+    assert "warning" in near and near["normal_sigma_N"] > 2 * good["normal_sigma_N"]

@@ -221,6 +221,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             )
             + ")"
         )
+        if "warning" in res:
+            print(f"fringekit calibrate: warning: {res['warning']}", file=sys.stderr)
         return 0
     base = default_calibration_config() if args.config is None else None
     cfg = overrides(args.config, args.set or [], base=base)

@@ -117,3 +117,27 @@ def test_an_estimate_refuses_a_map_the_calibration_does_not_describe():
     near = estimate_load(cal, fringe_features(N, px, (rc[0] + 6, rc[1])))  # 0.3 mm off
     assert near["normal_N"] == pytest.approx(5.0, rel=0.01)
     assert "warning" in near and near["normal_sigma_N"] > 2 * good["normal_sigma_N"]
+
+
+def test_the_disc_fit_refuses_a_map_that_is_not_a_disc(tmp_path, capsys):
+    """An indenter-like map fitted as a disc returned f_sigma = 1.6e4 N/m with a 0.84
+    fringe residual and no word; now the residual is measured against the order: refused
+    above 25 %, flagged above 5 %."""
+    N, px, rc = _cone(n=301)
+    with pytest.raises(ValueError, match="does not look like a diametral disc"):
+        fringe_value_from_disc(N, px, rc, load_N=300, diameter=0.015, thickness=5e-3)
+    D, t, P, n = 0.04, 5e-3, 300.0, 121
+    grid = PixelGrid((n, n), D / n)
+    m = optical_map(DiametralDisc(P=P, D=D, t=t), grid, PSM4_ASSUMED, n_samples=3,
+                    reflection=False)  # fmt: skip
+    order = m.fringe_order()
+    rng = np.random.default_rng(1)
+    noisy = order * (1 + 0.15 * rng.standard_normal(order.shape))  # 15 % speckle
+    res = fringe_value_from_disc(noisy, grid.pixel_size, ((n - 1) / 2, (n - 1) / 2),
+                                 load_N=P, diameter=D, thickness=t)  # fmt: skip
+    assert 0.05 < res["relative_residual"] < 0.25 and "warning" in res
+    np.savez(tmp_path / "m.npz", fringe_order=noisy, pixel_size_m=grid.pixel_size)
+    args = ["calibrate", "--disc", str(tmp_path / "m.npz"), "--load-N", str(P),
+            "--diameter-mm", "40", "--thickness-mm", "5"]  # fmt: skip
+    assert main(args) == 0
+    assert "warning: Frocht's field leaves" in capsys.readouterr().err

@@ -108,7 +108,9 @@ def test_bad_config_names_key_value_and_allowed(given, words):
 
 
 def _sym(indenters, **mesh):
-    return choose_symmetry(effective_config({"indenter": indenters, "mesh": mesh}))
+    # full stick: shear needs friction (a config error before any work otherwise)
+    given = {"indenter": indenters, "mesh": mesh, "contact": {"friction": "stick"}}
+    return choose_symmetry(effective_config(given))
 
 
 def test_symmetry_choice_follows_positions_and_loads():

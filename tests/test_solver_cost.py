@@ -46,7 +46,6 @@ def test_body_is_assembled_once_per_newton_iteration(small_meshes):
     rows = [row for s in sols for row in s.log]
     assert stats.al_updates > 0 and len(sols) == 3 and stats.cutbacks == 0
     assert (stats.tangent_assemblies, stats.residual_evaluations) == _expected_evaluations(rows)
-    assert stats.tangent_assemblies <= 1.15 * stats.newton_iterations + 1
 
 
 @pytest.mark.skipif(not PARDISO, reason="PARDISO (pypardiso) is not available here")

@@ -94,28 +94,28 @@ def coarse_dent(cache_dir):
 
 def _seam(img: np.ndarray, axis: int) -> tuple[float, float]:
     """Mean |difference| between the two pixel lines either side of the image's middle
-    along ``axis``, and between the neighbouring lines (3 on each side)."""
+    along ``axis``, and the mean of the differences next to it on either side."""
     d = np.nanmean(np.abs(np.diff(img, axis=axis)), axis=1 - axis)
     c = img.shape[axis] // 2 - 1
-    return float(d[c]), float(np.r_[d[c - 4 : c - 1], d[c + 2 : c + 5]].mean())
+    return float(d[c]), float(0.5 * (d[c - 1] + d[c + 1]))
 
 
 def test_unfolded_quarter_has_no_seam_on_the_symmetry_planes(coarse_dent):
-    """The sin 2theta sin delta phase steps (3 and 5) of an unfolded quarter model are
-    continuous across both mirror planes: the jump between the lines either side of a
-    plane is within 25 % of that between neighbouring lines. The recovered shear stresses that
-    change sign under a mirror are zero on its plane; before, the FE values there were
-    mirrored into a seam (reference case: 8.5 grey levels against 2.6)."""
+    """The sin 2theta sin delta phase step 3 of an unfolded quarter model is continuous
+    across both mirror planes: on 62.5 um pixels the jump between the lines either side of
+    a plane is within 2x the differences next to it. The recovered shear stresses that
+    change sign under a mirror are zero on its plane; before, their extrapolated FE values
+    were mirrored into a seam (measured on one mesh: 5.4x and 4.0x, now 1.1x and 0.9x;
+    reference case images: 8.5 grey levels against 2.6)."""
     sol = coarse_dent[-1]
     nodes = np.unique(sol.mesh.facet_nodes("symmetry_y0"))
     assert np.all(sol.stress_nodes[nodes, 0, 1] == 0) and np.all(sol.stress_nodes[nodes, 1, 2] == 0)
-    grid = PixelGrid.from_field_of_view(10e-3, (40, 40))
-    m = optical_map(FEMStressField(sol), grid, LAW, n_samples=32)
+    grid = PixelGrid.from_field_of_view(10e-3, (160, 160))
+    m = optical_map(FEMStressField(sol), grid, LAW, n_samples=16)
     step3 = intensity(m.q[:, :, 0], six_step_arrangements()[2])
     for axis in (0, 1):
-        jump, neighbours = _seam(np.where(m.mask, step3, np.nan), axis)
-        # measured on this mesh: 0.099 vs 0.097 and 0.082 vs 0.103 (before: 0.161 vs 0.106)
-        assert jump <= 1.25 * neighbours, (axis, jump, neighbours)
+        jump, beside = _seam(np.where(m.mask, step3, np.nan), axis)
+        assert jump <= 2.0 * beside, (axis, jump, beside)
 
 
 def test_indentation_rays_converge_and_contact_is_masked(coarse_dent):

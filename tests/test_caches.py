@@ -56,7 +56,9 @@ def test_a_damaged_solution_cache_entry_is_solved_again(small_meshes, tmp_path, 
         again, stats2, _ = _solve(mesh, root)
     assert str(path) in caplog.text and "unreadable" in caplog.text
     assert stats2 is not None  # solved, not read
-    assert again[0].indenters[0].depth == pytest.approx(sols[0].indenters[0].depth, rel=1e-12)
+    # the same state to the solver's force tolerance (1e-8): threaded PARDISO with
+    # mixed-precision refinement reproduces a solve to about 1e-10, not bit for bit
+    assert again[0].indenters[0].depth == pytest.approx(sols[0].indenters[0].depth, rel=1e-8)
     _, stats3, _ = _solve(mesh, root)
     assert stats3 is None  # and the rewritten entry reads back
 

@@ -215,8 +215,9 @@ class LinearSolver:
             t = time.perf_counter()
             self._ps.call(11)
             self.time_analysis += time.perf_counter() - t
+        else:
+            self._ps.set_matrix(A)
         ps = self._ps
-        ps.set_matrix(A)
         t = time.perf_counter()
         ps.call(22)
         self.time_factorize += time.perf_counter() - t

@@ -1,4 +1,4 @@
-"""``fringekit calibrate`` and ``fringekit estimate``: load-to-fringe relations on disk.
+"""``fringekit calibrate``: load-to-fringe relations on disk.
 
 ``run_calibrate`` solves one continuation run over the config's load path (through the
 solution cache), renders the monochrome fringe-order map of every state, extracts the
@@ -6,13 +6,11 @@ features of :func:`analysis.fringe_features` about the first indenter and fits t
 load. It writes ``calibration.json`` (the fits, the per-state features, the effective
 config), ``features.csv`` and ``calibration.png``.
 
-``run_estimate`` computes the same features from a fringe-order map (``fringekit
-analyze`` or ``predict`` output) and inverts the calibration.
+The inverse (``estimate``) and the disc fit are in :mod:`fringekit.estimate`.
 """
 
 from __future__ import annotations
 
-import json
 import os
 import time
 from pathlib import Path
@@ -22,22 +20,18 @@ from tqdm.auto import tqdm
 
 from analysis import (
     calibrate_from_maps,
-    estimate_load,
     fringe_features,
-    load_calibration,
     radial_profile,
     save_calibration,
 )
 
-from .analyze import read_order_map
 from .config import ConfigError, effective_config, normal_path, to_toml
-from .disc import fringe_value_from_disc
 from .figures import calibration_figure
 from .inputs import optics_setup
 from .pipeline import PredictError, solve_config
 from .render import fringe_order_map
 
-__all__ = ["default_calibration_config", "run_calibrate", "run_estimate", "run_disc"]
+__all__ = ["default_calibration_config", "run_calibrate"]
 
 
 def default_calibration_config() -> dict:
@@ -106,42 +100,3 @@ def run_calibrate(
     if failure:
         raise PredictError(f"{failure}; calibrated on the {len(sols)} converged states in {out}")
     return cal
-
-
-def _read_map(maps, pixel_mm, centre):
-    m = read_order_map(maps, pixel_size=pixel_mm * 1e-3 if pixel_mm else None)
-    rc = centre if centre is not None else m.indenter_rc
-    if rc is None:
-        raise ValueError(f"{m.path} stores no indenter position; give --centre ROW COL (pixels)")
-    rows, cols = m.order.shape
-    if not (0 <= rc[0] <= rows - 1 and 0 <= rc[1] <= cols - 1):
-        raise ValueError(
-            f"--centre {rc[0]:g} {rc[1]:g} is outside the map; allowed rows 0..{rows - 1}, "
-            f"columns 0..{cols - 1}"
-        )
-    return m.path, m.order, m.pixel_size, (float(rc[0]), float(rc[1]))
-
-
-def run_estimate(maps, calibration, *, pixel_mm=None, centre=None, out=None) -> dict:
-    """Normal load (and shear) from a fringe-order map and a calibration file."""
-    cal = load_calibration(calibration)
-    f, order, px, rc = _read_map(maps, pixel_mm, centre)
-    feats = fringe_features(order, px, rc)
-    est = estimate_load(cal, feats)
-    est.update(maps=str(f), calibration=str(calibration), features=feats, centre_rc=list(rc))
-    if out is not None:
-        out = Path(out)
-        out.mkdir(parents=True, exist_ok=True)
-        (out / "estimate.json").write_text(json.dumps(est, indent=2, default=float))
-    return est
-
-
-def run_disc(maps, *, load_N, diameter_mm, thickness_mm, pixel_mm=None, centre=None) -> dict:
-    """Fringe value from a diametral-disc fringe-order map at a known load."""
-    m = read_order_map(maps, pixel_size=pixel_mm * 1e-3 if pixel_mm else None)
-    f, order, px = m.path, m.order, m.pixel_size
-    rc = centre if centre is not None else ((order.shape[0] - 1) / 2, (order.shape[1] - 1) / 2)
-    res = fringe_value_from_disc(
-        order, px, rc, load_N=load_N, diameter=diameter_mm * 1e-3, thickness=thickness_mm * 1e-3
-    )
-    return {**res, "maps": str(f), "centre_rc": list(rc)}

@@ -176,7 +176,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
-    from .analyze import run_compare
+    from .maps import run_compare
 
     out = Path(args.out or "fringekit-out/compare")
     s = run_compare(
@@ -197,9 +197,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
-    from .calibration import default_calibration_config, run_calibrate, run_disc
-
     if args.disc:
+        from .estimate import run_disc
+
         for name in ("load_N", "diameter_mm", "thickness_mm"):
             if getattr(args, name) is None:
                 raise ValueError(f"--disc needs --{name.replace('_', '-')}")
@@ -224,6 +224,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         if "warning" in res:
             print(f"fringekit calibrate: warning: {res['warning']}", file=sys.stderr)
         return 0
+    from .calibration import default_calibration_config, run_calibrate
+
     base = default_calibration_config() if args.config is None else None
     cfg = overrides(args.config, args.set or [], base=base)
     out = Path(args.out) if args.out else Path("fringekit-out") / cfg["case"]
@@ -243,7 +245,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 
 def cmd_estimate(args: argparse.Namespace) -> int:
-    from .calibration import run_estimate
+    from .estimate import run_estimate
 
     est = run_estimate(
         args.maps, args.calibration, pixel_mm=args.pixel_mm,

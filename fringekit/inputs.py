@@ -117,6 +117,7 @@ def mesh_spec(cfg: dict, symmetry: str | None = None) -> MeshSpec:
                 growth=m["growth"],
             ),
             symmetry=symmetry or choose_symmetry(cfg),
+            mesher=m["mesher"],
         )
     except ValueError as exc:  # geometry errors speak SI; say which config part it is
         raise ConfigError(f"geometry: {exc}") from None

@@ -107,6 +107,13 @@ SCHEMA: dict[str, Any] = {
             kind="str",
             choices=("auto", "full", "half", "quarter"),
         ),
+        "mesher": Key(
+            "layered",
+            "layered: graded plane triangulation extruded through the layers, the same mesh "
+            "on every run; tetwild: fTetWild, a different mesh on every run",
+            kind="str",
+            choices=("layered", "tetwild"),
+        ),
         "h_contact_mm": _f(
             0.6,
             "edge length under each indenter (0.6 converges the depth; 0.4 for the fringe "

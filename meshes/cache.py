@@ -30,16 +30,18 @@ def default_cache_dir() -> Path:
     return Path(platformdirs.user_cache_dir("fringekit"))
 
 
-def _salt() -> str:
-    import pytetwild
+def _salt(spec: MeshSpec) -> str:
+    """The versions the mesh of ``spec`` depends on (part of its cache key)."""
+    from importlib.metadata import version
 
-    return f"mesher={MESHER_VERSION};pytetwild={getattr(pytetwild, '__version__', '?')}"
+    libs = ("numpy", "scipy") if spec.mesher == "layered" else ("pytetwild",)
+    return f"mesher={MESHER_VERSION};" + ";".join(f"{n}={version(n)}" for n in libs)
 
 
 def cache_path(spec: MeshSpec, cache_dir: str | os.PathLike | None = None) -> Path:
     """Where the mesh of ``spec`` is (or would be) cached."""
     root = Path(cache_dir) if cache_dir is not None else default_cache_dir()
-    return root / "meshes" / f"{spec.key(_salt())[:32]}.npz"
+    return root / "meshes" / f"{spec.key(_salt(spec))[:32]}.npz"
 
 
 def build_mesh(

@@ -17,10 +17,13 @@ import math
 from dataclasses import asdict, dataclass, field
 from typing import Literal
 
-__all__ = ["Layers", "IndenterSite", "Sizing", "MeshSpec", "SYMMETRIES"]
+__all__ = ["Layers", "IndenterSite", "Sizing", "MeshSpec", "SYMMETRIES", "MESHERS"]
 
 SYMMETRIES = ("full", "half", "quarter")
 Symmetry = Literal["full", "half", "quarter"]
+#: ``"layered"``: deterministic extruded plane triangulation; ``"tetwild"``: fTetWild.
+MESHERS = ("layered", "tetwild")
+Mesher = Literal["layered", "tetwild"]
 
 
 def _positive(name: str, value: float, *, allow_zero: bool = False) -> None:
@@ -148,12 +151,17 @@ class MeshSpec:
     symmetry : {"full", "half", "quarter"}
         ``"half"`` keeps y >= 0 (mirror plane y = 0); ``"quarter"`` keeps x >= 0 and
         y >= 0. Only allowed when the indenter set is mirror-symmetric accordingly.
+    mesher : {"layered", "tetwild"}
+        ``"layered"`` (default) extrudes a graded plane triangulation through the
+        layers and gives the same mesh on every run; ``"tetwild"`` runs fTetWild, whose
+        mesh changes from run to run.
     """
 
     layers: Layers = field(default_factory=Layers)
     indenters: tuple[IndenterSite, ...] = (IndenterSite(),)
     sizing: Sizing = field(default_factory=Sizing)
     symmetry: Symmetry = "full"
+    mesher: Mesher = "layered"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "indenters", tuple(self.indenters))
@@ -161,6 +169,8 @@ class MeshSpec:
             raise ValueError(
                 f"symmetry = {self.symmetry!r} is not allowed; use one of {SYMMETRIES}"
             )
+        if self.mesher not in MESHERS:
+            raise ValueError(f"mesher = {self.mesher!r} is not allowed; use one of {MESHERS}")
         if len(self.indenters) == 0:
             raise ValueError("indenters = () is not allowed; give at least one IndenterSite")
         lay, siz = self.layers, self.sizing
@@ -239,6 +249,7 @@ class MeshSpec:
             indenters=tuple(IndenterSite(**i) for i in d["indenters"]),
             sizing=Sizing(**d["sizing"]),
             symmetry=d["symmetry"],
+            mesher=d.get("mesher", "tetwild"),  # files written before the layered mesher
         )
 
     def key(self, salt: str = "") -> str:

@@ -26,6 +26,7 @@ def small_spec(symmetry="full", indenters=CENTRE, **kw) -> MeshSpec:
         indenters=indenters,
         sizing=kw.pop("sizing", SMALL_SIZING),
         symmetry=symmetry,
+        mesher=kw.pop("mesher", "layered"),
     )
 
 

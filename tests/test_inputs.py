@@ -32,6 +32,7 @@ PINS = [
     ("substrate", "thickness_mm", Layers().substrate_thickness, MM),
     ("substrate", "E_MPa", POLYCARBONATE_DEFAULT.E, 1e6),
     ("substrate", "nu", POLYCARBONATE_DEFAULT.nu, 1.0),
+    ("mesh", "mesher", MeshSpec().mesher, None),
     ("mesh", "h_contact_mm", Sizing().h_contact, MM),
     ("mesh", "refine_radius_mm", Sizing().refine_radius, MM),
     ("mesh", "h_sheet_mm", Sizing().h_sheet, MM),

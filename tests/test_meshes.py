@@ -139,12 +139,17 @@ def test_symmetry_mesh_lies_in_its_part(small_meshes, sym):
 
 
 def _mean_edge_in_zone(mesh, ind, radius):
+    """Mean lateral (z = const) edge length in the sheet within radius of an indenter,
+    plus all edges: length, distance from the axis, midpoint. Prism-split tets also have
+    vertical edges (checked by the z levels) and quadrilateral diagonals (longer)."""
     edges, _ = unique_edges(mesh.cells[:, :4])
     p = mesh.points
     mid = 0.5 * (p[edges[:, 0]] + p[edges[:, 1]])
-    length = np.linalg.norm(p[edges[:, 0]] - p[edges[:, 1]], axis=1)
+    vec = p[edges[:, 0]] - p[edges[:, 1]]
+    length = np.linalg.norm(vec, axis=1)
     r = np.hypot(mid[:, 0] - ind.x, mid[:, 1] - ind.y)
-    return length[(r < radius) & (mid[:, 2] > 0)].mean(), length, r, mid
+    lateral = vec[:, 2] == 0
+    return length[(r < radius) & (mid[:, 2] > 0) & lateral].mean(), length, r, mid
 
 
 @pytest.mark.parametrize("sym", SYMS)
@@ -271,14 +276,14 @@ def test_symmetric_sets_accepted():
 
 
 def test_meshing_leaves_the_working_directory_clean(tmp_path, monkeypatch):
-    """fTetWild writes a debug STL into the cwd; the mesher must keep it out of there.
+    """fTetWild writes a debug STL into the cwd; the tetwild mesher must keep it out of there.
 
     The test block of the other tests: this test used an 8 x 8 mm block on 2 mm of
     polycarbonate, where fTetWild stalled (5-8 minutes instead of 2-16 s) on 2 of 44
-    repeats; see meshes.build.FTETWILD_MAX_PASSES."""
+    repeats; see meshes.tetwild.FTETWILD_MAX_PASSES."""
     import pytetwild
 
-    from meshes.build import FTETWILD_MAX_PASSES
+    from meshes.tetwild import FTETWILD_MAX_PASSES
 
     seen = {}
     real = pytetwild.tetrahedralize
@@ -289,7 +294,96 @@ def test_meshing_leaves_the_working_directory_clean(tmp_path, monkeypatch):
 
     monkeypatch.setattr(pytetwild, "tetrahedralize", spy)
     monkeypatch.chdir(tmp_path)
-    generate_mesh(small_spec("quarter"))
+    generate_mesh(small_spec("quarter", mesher="tetwild"))
     assert list(tmp_path.iterdir()) == []
     # and the optimisation passes are capped (fTetWild's 80 let a stuck mesh grow 100x)
     assert seen["num_opt_iter"] == FTETWILD_MAX_PASSES <= 20
+
+
+_HASH_SCRIPT = """
+import hashlib, sys
+from meshes import MeshSpec, build_mesh, IndenterSite, Layers
+specs = [MeshSpec(symmetry="quarter"),
+         MeshSpec(layers=Layers(2e-3, 15e-3, 30e-3, 30e-3),
+                  indenters=(IndenterSite(-4e-3, 0.0), IndenterSite(4e-3, 2e-3)))]
+h = hashlib.sha256()
+for spec in specs:
+    m = build_mesh(spec, cache_dir=sys.argv[1])
+    for a in (m.points, m.cells, m.regions):
+        h.update(a.tobytes())
+    for name in sorted(m.facets):
+        h.update(name.encode() + m.facets[name].cells.tobytes() + m.facets[name].local.tobytes())
+print(h.hexdigest())
+"""
+
+
+def test_same_spec_gives_the_same_mesh_in_fresh_processes(tmp_path):
+    """The layered mesher is deterministic: two processes with empty caches make the
+    reference quarter model and a two-indenter full model node for node identical."""
+    import subprocess
+    import sys
+
+    digests = [
+        subprocess.run(
+            [sys.executable, "-c", _HASH_SCRIPT, str(tmp_path / f"cache{k}")],
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
+        for k in range(2)
+    ]
+    assert len(digests[0]) == 64 and digests[0] == digests[1]
+
+
+@pytest.mark.parametrize("sym", SYMS)
+def test_plane_triangulation_quality_and_exact_boundary(sym):
+    from meshes.plane import plane_size, triangulate_plane
+
+    spec = small_spec(sym)
+    p, tri = triangulate_plane(spec)
+    a, b, c = p[tri[:, 0]], p[tri[:, 1]], p[tri[:, 2]]
+    area = 0.5 * (
+        (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    )
+    assert np.all(area > 0)  # counter-clockwise, none degenerate
+    xmin, xmax, ymin, ymax, _, _ = spec.bounds()
+    assert area.sum() == pytest.approx((xmax - xmin) * (ymax - ymin), rel=1e-12)
+    sq = [np.sum((u - v) ** 2, axis=1) for u, v in ((b, c), (c, a), (a, b))]
+    quality = 4 * np.sqrt(3) * area / sum(sq)  # 1 for an equilateral triangle
+    assert quality.min() > 0.6 and quality.mean() > 0.9
+    # edge lengths follow the target size within 25 % on average
+    edge = np.sqrt(np.concatenate(sq))
+    mids = np.concatenate([0.5 * (u + v) for u, v in ((b, c), (c, a), (a, b))])
+    ratio = edge / plane_size(spec, mids)
+    assert 0.85 < np.median(ratio) < 1.25
+
+
+def test_extruded_prisms_are_conforming():
+    """Two triangles sharing an edge, swept through two layers: every internal face is
+    shared by exactly two tets (the Dompierre diagonal rule), the volume is exact."""
+    from meshes.layered import extrude
+    from meshes.topology import orient_positive, signed_volumes
+
+    p2 = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    for tris in (np.array([[0, 1, 2], [1, 3, 2]]), np.array([[2, 0, 1], [3, 2, 1]])):
+        pts, tets = extrude(p2, tris, np.array([0.0, 0.5, 2.0]))
+        tets = orient_positive(pts, tets)
+        vol = signed_volumes(pts, tets)
+        assert np.all(vol > 0) and vol.sum() == pytest.approx(2.0, rel=1e-14)
+        keys, _ = face_keys(tets)
+        _, counts = np.unique(keys, axis=0, return_counts=True)
+        # faces: 2 layers x 2 prisms x 3 tets x 4 = 48; boundary: 2 + 2 top/bottom
+        # triangles + 4 sides x 2 layers x 2 = 20; the other 28 pair up into 14
+        assert np.sum(counts == 1) == 20 and np.sum(counts == 2) == 14 and counts.max() == 2
+
+
+def test_z_levels_cover_the_layers_exactly():
+    from meshes.layered import z_levels
+
+    spec = MeshSpec(symmetry="quarter")
+    z = z_levels(spec)
+    assert z[0] == -spec.layers.substrate_thickness and z[-1] == spec.layers.sheet_thickness
+    assert 0.0 in z and np.all(np.diff(z) > 0)
+    dz_sheet = np.diff(z[z >= 0])
+    assert np.allclose(dz_sheet, dz_sheet[0]) and dz_sheet[0] <= spec.sizing.h_contact * (1 + 1e-12)
+    assert np.diff(z).max() <= spec.sizing.h_sheet * 1.05

@@ -198,6 +198,7 @@ def sphere_contact(
     anchor: np.ndarray | None = None,
     eps_t: float = 0.0,
     tangent: bool = True,
+    p_curvature_cap: float = np.inf,
 ) -> ContactResult:
     """Augmented-Lagrangian sphere contact at surface quadrature points.
 
@@ -219,6 +220,15 @@ def sphere_contact(
         Friction coefficient; 0 frictionless, ``inf`` full stick.
     anchor : (f, q, 3) float array or None
         Stick anchors relative to the centre (m); required when ``mu > 0``.
+    p_curvature_cap : float
+        Pressure (Pa) above which the curvature term of the normal tangent,
+        ``-(p / r) (I - n n)``, is taken at this pressure instead of ``p``. That term is
+        a NEGATIVE tangential stiffness: a point pushed deep into the sphere is pushed
+        sideways out of it. With the penalty pressures of a first placement (100 times
+        the physical ones) it outweighs the sheet's lateral stiffness, the tangent turns
+        indefinite and Newton throws surface nodes millimetres sideways (inverted
+        elements, line-search crawl). Only the tangent changes, never the residual, so
+        the converged state is the same; below the cap the tangent is exact.
     """
     y = xq - centre
     r = np.linalg.norm(y, axis=-1)
@@ -233,7 +243,8 @@ def sphere_contact(
     H = None
     if tangent:
         nn = n[..., :, None] * n[..., None, :]
-        H = (w * act)[..., None, None] * (eps_n * nn - (p / r)[..., None, None] * (eye - nn))
+        pc = np.minimum(p, p_curvature_cap)
+        H = (w * act)[..., None, None] * (eps_n * nn - (pc / r)[..., None, None] * (eye - nn))
     slip = np.zeros(g.shape, dtype=bool)
     s = np.zeros_like(y)
     if mu > 0:

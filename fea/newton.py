@@ -22,7 +22,7 @@ from .linsolve import LinearSolver
 from .model import Model, State
 from .stats import SolveStats
 
-__all__ = ["BodyCache", "Run", "evaluate", "newton", "solve_increment"]
+__all__ = ["BodyCache", "Run", "Watchdog", "evaluate", "newton", "solve_increment", "STALL_WARN_S"]
 
 log = logging.getLogger("fringekit.fea")
 
@@ -31,6 +31,11 @@ AL_SWITCH = 1e-3
 #: residual (relative to the load) below which the previous factorization is tried
 #: first (fea.linsolve.LinearSolver.solve, ``reuse``)
 REUSE_BELOW = 1e-4
+#: contact pressure, in units of the sheet's Young's modulus, above which the negative
+#: curvature term of the contact tangent is capped (fea.contact.sphere_contact,
+#: ``p_curvature_cap``). Converged Hertzian peak pressures of the built-in cases are
+#: 0.3-0.8 E, where the tangent stays exact.
+CURVATURE_CAP = 1.0
 
 
 class BodyCache:
@@ -56,6 +61,42 @@ class BodyCache:
         self.u, self.body = u.copy(), body
 
 
+#: wall time (s) of one increment after which the user is told it is still running
+STALL_WARN_S = 60.0
+
+
+class Watchdog:
+    """Tells the user, once per increment, when an increment runs longer than
+    :data:`STALL_WARN_S`: which loads it is trying, how far Newton got, what to change."""
+
+    def __init__(self, limit_s: float | None = None) -> None:
+        self.limit_s = STALL_WARN_S if limit_s is None else limit_s
+        self.started = time.perf_counter()
+        self.target = ""
+        self.warned = False
+
+    def start(self, target: str) -> None:
+        """A new increment towards ``target`` (the loads, in words) begins."""
+        self.started, self.target, self.warned = time.perf_counter(), target, False
+
+    def check(self, iteration: int, residual: float, max_iterations: int) -> None:
+        """Called after each Newton iteration; warns once past the limit."""
+        elapsed = time.perf_counter() - self.started
+        if self.warned or elapsed < self.limit_s:
+            return
+        self.warned = True
+        log.warning(
+            "fea: the increment to %s has run %.0f s (Newton iteration %d of %d, residual "
+            "%.3g N) and goes on; if it is cut back again and again, add load states on the "
+            "way (indenter.load_N), or raise solver.max_iterations",
+            self.target,
+            elapsed,
+            iteration + 1,
+            max_iterations,
+            residual,
+        )
+
+
 @dataclass(frozen=True)
 class Run:
     """One solve in progress: the model, the linear solver, the counters it fills and the
@@ -65,6 +106,7 @@ class Run:
     lin: LinearSolver
     stats: SolveStats
     cache: BodyCache = field(default_factory=BodyCache)
+    watch: Watchdog = field(default_factory=Watchdog)
 
 
 def _body(model: Model, st: State, tangent: bool, stats: SolveStats, cache: BodyCache | None):
@@ -137,6 +179,7 @@ def evaluate(
             anchor=st.anchor[j] if mu > 0 else None,
             eps_t=model.contact.tangential_factor * model.eps_n[j],
             tangent=tangent,
+            p_curvature_cap=CURVATURE_CAP * model.sheet.E,
         )
         results.append(res)
         energy += res.energy - float(f_ind[j] @ st.c[j])
@@ -322,4 +365,5 @@ def newton(run: Run, st: State, f_ind: np.ndarray, fscale: float, iter_log: list
         )
         whole = alpha == 1.0
         stats.iteration_times.append((time.perf_counter() - t_it, lin.time_factorize - f_it))
+        run.watch.check(it, rnorm, settings.max_iterations)
     return False, f"Newton did not converge in {settings.max_iterations} iterations", None

@@ -92,6 +92,7 @@ def _reach_state(run: Run, st: State, s_done: float, k: int, ds: float, n_done: 
         model.refresh_candidates(st)
         trial = st.copy()
         _predict(model, trial, s_new)
+        run.watch.start(_reached(model, s_new))
         ok, reason = solve_increment(run, trial, s_new, iter_log)
         if ok:
             st = trial
@@ -100,7 +101,12 @@ def _reach_state(run: Run, st: State, s_done: float, k: int, ds: float, n_done: 
         else:
             run.stats.cutbacks += 1
             ds *= 0.5
-            log.info("fea: cut back at load %.4g (%s); increment %.4g", s_new, reason, ds)
+            log.warning(
+                "fea: cut back: %s not reached (%s); trying %s",
+                _reached(model, s_new),
+                reason,
+                _reached(model, s_done + ds),
+            )
             if ds < 0.5**model.settings.max_cutbacks:
                 S = model.indenters[0].n_states
                 raise SolverError(

@@ -276,37 +276,37 @@ def apply_overrides(cfg: dict, overrides: dict[str, Any]) -> dict:
     return effective_config(given)
 
 
-def _toml_value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(v, float):
-        return repr(v)
-    if isinstance(v, list):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    return str(v)
+def _toml_table(schema: dict, d: dict):
+    """A tomlkit table of ``d``, each key commented with its help, unit and choices."""
+    import tomlkit
 
-
-def _toml_table(lines: list[str], d: dict, schema: dict) -> None:
+    table = tomlkit.table()
     for key, k in schema.items():
         v = d.get(key)
         unit = f" [{k.unit}]" if k.unit else ""
         choices = f" {list(k.choices)}" if k.choices and k.kind == "str" else ""
         if v is None:
-            lines.append(f"# {key} =  (unset){'':8}# {k.help}{unit}{choices}")
+            table.add(tomlkit.comment(f"{key} = (unset)  # {k.help}{unit}{choices}"))
         else:
-            lines.append(f"{key} = {_toml_value(v)}{'':4}# {k.help}{unit}{choices}")
+            item = tomlkit.item(v)
+            item.comment(f"{k.help}{unit}{choices}")
+            table.add(key, item)
+    return table
 
 
 def to_toml(cfg: dict) -> str:
     """The effective config as commented TOML (re-readable by :func:`load_config`)."""
-    lines = [f"case = {_toml_value(cfg['case'])}    # {SCHEMA['case'].help}"]
+    import tomlkit
+
+    doc = tomlkit.document()
+    case = tomlkit.item(cfg["case"])
+    case.comment(SCHEMA["case"].help)
+    doc.add("case", case)
     for table, schema in SCHEMA.items():
         if isinstance(schema, dict):
-            lines += ["", f"[{table}]"]
-            _toml_table(lines, cfg[table], schema)
+            doc.add(table, _toml_table(schema, cfg[table]))
+    indenters = tomlkit.aot()
     for d in cfg["indenter"]:
-        lines += ["", "[[indenter]]"]
-        _toml_table(lines, d, INDENTER_SCHEMA)
-    return "\n".join(lines) + "\n"
+        indenters.append(_toml_table(INDENTER_SCHEMA, d))
+    doc.add("indenter", indenters)
+    return tomlkit.dumps(doc)

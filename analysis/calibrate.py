@@ -3,11 +3,11 @@
 Features of a fringe-order map about an indenter axis (:func:`fringe_features`):
 
 - ``order_at_<r>mm`` - azimuthal mean of the fringe order on the circle of radius r;
-- ``radius_fringe_<k>`` - outermost radius (mm) where the azimuthal mean reaches order k
+- ``radius_mm_fringe_<k>`` - outermost radius (mm) where the azimuthal mean reaches order k
   (k = 1, 2, 3): the radii of the first, second and third dark fringes of a monochrome
   dark-field image;
-- ``integrated_order`` - the order integrated over the annulus ``r_in <= r <= r_out``
-  (fringe mm^2), inside the contact-free zone at every calibrated load;
+- ``integrated_order_fringe_mm2`` - the order integrated over the annulus
+  ``r_in <= r <= r_out`` (fringe mm^2), inside the contact-free zone at every calibrated load;
 - ``centroid_x_mm``, ``centroid_y_mm`` - first moment of the order over that annulus about
   the axis (mm): the shift of the pattern that shear causes (seed paper Fig. 3b).
 
@@ -57,7 +57,7 @@ WARN_CHI2 = 4.0
 
 #: Radii (mm) at which the order is sampled; beyond the 8 N contact radius (1.2 mm).
 RADII_MM = (1.5, 2.0, 3.0, 4.0, 6.0)
-CAL_VERSION = 1
+CAL_VERSION = 2  # 2: feature names carry their units (radius_mm_fringe_k, ...)
 
 
 def radial_profile(order, pixel_size, centre_rc):
@@ -125,15 +125,15 @@ def fringe_features(
     for k in fringes:
         above = ok & (prof >= k)
         if not above.any():
-            out[f"radius_fringe_{k}"] = float("nan")
+            out[f"radius_mm_fringe_{k}"] = float("nan")
             continue
         i = int(np.flatnonzero(above)[-1])  # the outermost annulus at or above order k
         j = next((m for m in range(i + 1, len(prof)) if ok[m]), None)
         if j is None:
-            out[f"radius_fringe_{k}"] = float("nan")  # the fringe runs off the image
+            out[f"radius_mm_fringe_{k}"] = float("nan")  # the fringe runs off the image
             continue
         f = (prof[i] - k) / (prof[i] - prof[j])
-        out[f"radius_fringe_{k}"] = float(r_mm[i] + f * (r_mm[j] - r_mm[i]))
+        out[f"radius_mm_fringe_{k}"] = float(r_mm[i] + f * (r_mm[j] - r_mm[i]))
     rows, cols = order.shape
     r, c = np.mgrid[:rows, :cols]
     dx = (c - centre_rc[1]) * pixel_size * 1e3
@@ -143,11 +143,11 @@ def fringe_features(
     # the annulus must be covered (a masked or clipped annulus would bias the integral)
     full = (np.pi * (r_out_mm**2 - r_in_mm**2)) / (pixel_size * 1e3) ** 2
     if ring.sum() < 0.9 * full:
-        out["integrated_order"] = float("nan")
+        out["integrated_order_fringe_mm2"] = float("nan")
         out["centroid_x_mm"] = out["centroid_y_mm"] = float("nan")
     else:
         w = np.where(ring, order, 0.0)
-        out["integrated_order"] = float(w.sum() * (pixel_size * 1e3) ** 2)
+        out["integrated_order_fringe_mm2"] = float(w.sum() * (pixel_size * 1e3) ** 2)
         out["centroid_x_mm"] = float((w * dx).sum() / w.sum())
         out["centroid_y_mm"] = float((w * dy).sum() / w.sum())
     return out
@@ -322,6 +322,11 @@ def load_calibration(path: str | os.PathLike) -> dict:
         cal = json.loads(path.read_text())
     except json.JSONDecodeError as exc:
         raise ValueError(f"{path}: not a fringekit calibration (invalid JSON: {exc})") from None
+    if isinstance(cal, dict) and cal.get("version") == 1:
+        raise ValueError(
+            f"{path}: a calibration of an earlier fringekit (version 1, feature names without "
+            f"units); run fringekit calibrate again to write version {CAL_VERSION}"
+        )
     if not isinstance(cal, dict) or cal.get("version") != CAL_VERSION or "normal_fits" not in cal:
         raise ValueError(f"{path}: not a fringekit calibration file (version {CAL_VERSION})")
     _check_fits(cal, path)

@@ -95,7 +95,9 @@ def run_calibrate(
     names = sorted(feats[0])
     rows = [[loads[k], *shears[k], *(feats[k][n] for n in names)] for k in range(len(feats))]
     head = ",".join(["load_N", "shear_x_N", "shear_y_N", *names])
-    np.savetxt(out / "features.csv", np.array(rows, float), delimiter=",", header=head, comments="")
+    # six significant digits (fringekit.numbers.SIGNIFICANT_DIGITS); nan where undefined
+    np.savetxt(out / "features.csv", np.array(rows, float), delimiter=",", header=head,
+               comments="", fmt="%.6g")  # fmt: skip
     calibration_figure(out / "calibration.png", cal, profiles)
     if failure:
         raise PredictError(f"{failure}; calibrated on the {len(sols)} converged states in {out}")

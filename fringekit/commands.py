@@ -233,14 +233,17 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         cfg, out, cache_dir=args.cache_dir, use_cache=not args.no_cache, progress=not args.quiet
     )
     if not args.quiet:
-        print(f"fringekit calibrate - {len(cal['loads_N'])} load states, results in {out}/")
+        print(
+            f"fringekit calibrate - {len(cal['loads_N'])} load states, results in {out}/ "
+            "(F in N; each feature in the unit its name ends with, order in fringes)"
+        )
         for n, fit in cal["normal_fits"].items():
             print(
                 f"  F = {fit['a']:.4g} * {n}^{fit['b']:.3f}   (scatter "
                 f"{100 * fit['sigma_logF']:.1f} % in F over {fit['n']} states)"
             )
         for n, fit in cal["shear_fits"].items():
-            print(f"  {n} = {fit['c0']:.3g} + {fit['c1']:.4g} * {fit['feature']}")
+            print(f"  {n} = {fit['c0']:.3g} N + {fit['c1']:.4g} N/mm * {fit['feature']}")
     return 0
 
 
@@ -251,8 +254,11 @@ def cmd_estimate(args: argparse.Namespace) -> int:
         args.maps, args.calibration, pixel_mm=args.pixel_mm,
         centre=tuple(args.centre) if args.centre else None, out=args.out,
     )  # fmt: skip
-    line = f"normal load {est['normal_N']:.3f} N (+- {est['normal_sigma_N']:.2g} N"
-    line += f", {len(est['per_feature'])} features, spread {est['spread_N']:.2g} N)"
+    line = (
+        f"normal load {est['normal_N']:.3f} N (standard uncertainty {est['normal_sigma_N']:.2g} N"
+        f" from the calibration scatter; {len(est['per_feature'])} features, whose estimates "
+        f"span {est['spread_N']:.2g} N)"
+    )
     if "shear_N" in est:
         line += f"; shear [{est['shear_N'][0]:.3f}, {est['shear_N'][1]:.3f}] N"
     print(line)

@@ -99,7 +99,7 @@ def comparison_figure(comp, path, *, line=None, title: str = "") -> None:
         fig.colorbar(im, ax=a, shrink=0.8)
     lim = np.nanmax(np.abs(comp.residual)) or 1.0
     im = ax[2].imshow(comp.residual, cmap="RdBu_r", vmin=-lim, vmax=lim)
-    ax[2].set_title(f"residual (RMS {comp.rms:.3f}, p95 {comp.p95:.3f})")
+    ax[2].set_title(f"residual, fringe (RMS {comp.rms:.3g}, 95th percentile of |r| {comp.p95:.3g})")
     fig.colorbar(im, ax=ax[2], shrink=0.8)
     for a in ax[:3]:
         a.plot([line[0][1], line[1][1]], [line[0][0], line[1][0]], "w--", lw=1)

@@ -21,6 +21,7 @@ so a second run with other optics settings only re-renders.
 
 from __future__ import annotations
 
+import copy
 import json
 import logging
 import os
@@ -36,10 +37,11 @@ from meshes import build_mesh, quality_report
 
 from .config import to_toml
 from .inputs import build_inputs
+from .numbers import significant
 from .render import render_state
 from .versions import run_versions
 
-__all__ = ["PredictError", "solve_config", "run_predict"]
+__all__ = ["PredictError", "solve_config", "run_predict", "used_config"]
 
 log = logging.getLogger("fringekit.predict")
 
@@ -63,12 +65,16 @@ def solve_config(cfg: dict, *, cache_dir=None, use_cache: bool = True, progress:
 
 
 def _model_summary(spec, mesh, rep, stats, failure, cache_file) -> dict:
+    quality = rep.as_dict()
+    quality.pop("n_dofs")  # "dofs" below is the one DOF figure
+    quality["min_volume_mm3"] = quality.pop("min_volume_m3") * 1e9
     return {
         "symmetry": spec.symmetry,
+        "mesher": spec.mesher,
         "points": int(mesh.n_points),
         "cells": int(len(mesh.cells)),
-        "dofs": int(stats.dofs) if stats else 3 * int(mesh.n_points),
-        "mesh_quality": rep.as_dict(),
+        "dofs": int(mesh.n_dofs),  # 3 per node, the same whether solved or from the cache
+        "mesh_quality": quality,
         "solution_from_cache": stats is None and failure is None,
         "solution_cache": str(cache_file) if cache_file else None,
         "newton_iterations": list(stats.iterations_per_state) if stats else None,
@@ -76,9 +82,23 @@ def _model_summary(spec, mesh, rep, stats, failure, cache_file) -> dict:
     }
 
 
+def used_config(cfg: dict) -> dict:
+    """The effective config without the keys the run did not use: the other hyperelastic
+    model's constants, and the polycarbonate's optics when light does not cross it."""
+    used = copy.deepcopy(cfg)
+    sheet = used["sheet"]
+    unused = ("C10_MPa", "C01_MPa", "K_MPa") if sheet["model"] == "neo-hookean" else ("nu",)
+    for key in unused:
+        sheet.pop(key, None)
+    if not used["optics"]["include_substrate"]:
+        for key in [k for k in used["optics"] if k.startswith("substrate_")]:
+            used["optics"].pop(key)
+    return used
+
+
 def _write_summary(out: Path, summary: dict) -> None:
     tmp = out / "summary.json.part"
-    tmp.write_text(json.dumps(summary, indent=2))
+    tmp.write_text(json.dumps(significant(summary), indent=2, allow_nan=False))
     os.replace(tmp, out / "summary.json")
 
 
@@ -213,7 +233,7 @@ def _run(cfg, inp, out: Path, cache_dir, use_cache, progress, echo) -> dict:
         "model": _model_summary(spec, mesh, rep, stats, failure, cache_file),
         "times_s": {**times, "total_s": time.perf_counter() - t_all},
         "versions": run_versions(),
-        "config": cfg,
+        "config": used_config(cfg),
     }
     _write_summary(out, summary)
     return summary

@@ -23,12 +23,12 @@ def files(tmp_path_factory):
     (d / "garbage.npz").write_bytes(b"\x00\x01 not a zip at all")
     (d / "empty.png").write_bytes(b"")
     (d / "text.png").write_text("this is not an image\n")
-    cal = {"version": 1, "normal_fits": {"order_at_2mm": {"a": "x", "b": 1.0,
+    cal = {"version": 2, "normal_fits": {"order_at_2mm": {"a": "x", "b": 1.0,
                                                            "sigma_logF": 0.1}}}  # fmt: skip
     (d / "cal.json").write_text(json.dumps(cal))
-    (d / "nofits.json").write_text(json.dumps({"version": 1, "normal_fits": {}}))
+    (d / "nofits.json").write_text(json.dumps({"version": 2, "normal_fits": {}}))
     good = {"a": 1.0, "b": 1.5, "sigma_logF": 0.1, "n": 5, "range": [0.1, 5.0]}
-    (d / "good.json").write_text(json.dumps({"version": 1, "normal_fits": {"order_at_2mm": good}}))
+    (d / "good.json").write_text(json.dumps({"version": 2, "normal_fits": {"order_at_2mm": good}}))
     return d
 
 

@@ -36,14 +36,14 @@ def test_features_of_a_known_radial_field():
     assert f["order_at_2mm"] == pytest.approx(3.0, rel=0.01)
     assert f["order_at_3mm"] == pytest.approx(2.0, rel=0.01)
     # N = 6/r reaches order k at r = 6/k mm
-    assert f["radius_fringe_2"] == pytest.approx(3.0, abs=0.06)
-    assert f["radius_fringe_3"] == pytest.approx(2.0, abs=0.06)
-    assert f["radius_fringe_1"] == pytest.approx(6.0, abs=0.06)  # in the image corners
+    assert f["radius_mm_fringe_2"] == pytest.approx(3.0, abs=0.06)
+    assert f["radius_mm_fringe_3"] == pytest.approx(2.0, abs=0.06)
+    assert f["radius_mm_fringe_1"] == pytest.approx(6.0, abs=0.06)  # in the image corners
     # the annulus 2..6 mm does not fit in a 10 mm image: not defined rather than biased
-    assert np.isnan(f["integrated_order"])
+    assert np.isnan(f["integrated_order_fringe_mm2"])
     N2, px2, rc2 = _cone(n=301)  # 15 mm image: the annulus fits
     f2 = fringe_features(N2, px2, rc2)
-    assert f2["integrated_order"] == pytest.approx(
+    assert f2["integrated_order_fringe_mm2"] == pytest.approx(
         2 * np.pi * 6.0 * 4.0, rel=0.01
     )  # int 6/r r dr dphi
     assert abs(f2["centroid_x_mm"]) < 1e-9 and abs(f2["centroid_y_mm"]) < 1e-9

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +19,7 @@ from fringekit.config import (
     to_toml,
 )
 from fringekit.inputs import build_inputs, choose_symmetry
+from fringekit.pipeline import used_config
 
 # The small block of conftest.py (12 x 12 mm, 3 mm sheet on 4 mm PC, coarse sizes), a
 # 32 x 32 image and few samples: the whole pipeline in well under a minute.
@@ -176,11 +178,20 @@ def test_predict_end_to_end(tiny_run):
     assert 0.5 < ind["depth_mm"] < 0.9 and 0.9 < ind["contact_radius_mm"] < 1.5
     assert set(s["times_s"]) >= {"mesh_s", "solve_s", "total_s"}
     assert s["versions"]["fringekit"] and s["config"]["case"] == "tiny"
+    # numbers read as numbers: six significant digits, one DOF figure, one unit system,
+    # only the parameters the run used (issue 20)
+    assert ind["force_N"][2] == -8.0
+    floats = re.findall(r"-?\d+\.\d+(?:e-?\d+)?", (out / "summary.json").read_text())
+    assert max(len(re.sub(r"e.*|[-.]", "", f).lstrip("0")) for f in floats) <= 6
+    assert "n_dofs" not in s["model"]["mesh_quality"] and s["model"]["dofs"] > 0
+    assert "min_volume_mm3" in s["model"]["mesh_quality"]
+    assert "C10_MPa" not in s["config"]["sheet"] and "nu" in s["config"]["sheet"]
+    assert "substrate_f_sigma_N_per_m" not in s["config"]["optics"]
     d = out / "state_01"
     maps = np.load(d / "maps.npz")
     order = maps["fringe_order"]
     assert order.shape == (32, 32)
-    assert s["max_fringe_order"] == pytest.approx(np.nanmax(order))
+    assert s["max_fringe_order"] == pytest.approx(np.nanmax(order), rel=1e-5)  # 6 digits
     # 8 N on this sheet gives ~3.5 fringes at the contact edge (bench/optics.py: 3.67)
     assert 2.5 < s["max_fringe_order"] < 5.0
     ok = maps["mask"]
@@ -203,7 +214,7 @@ def test_predict_end_to_end(tiny_run):
     assert prof.shape == (32, 2) and np.isnan(prof[16, 1])  # the contact zone is masked
     grid = pv.read(d / "solution.vtu")
     assert "stress_Pa" in grid.point_data and grid.n_cells > 0
-    assert load_config(out / "config.toml") == s["config"]
+    assert used_config(load_config(out / "config.toml")) == s["config"]
 
 
 def test_predict_rerender_uses_the_cached_solution(tiny_run):
@@ -348,6 +359,10 @@ def test_calibrate_and_estimate_end_to_end(tiny_images, cache_dir, capsys):
     assert (cal_dir / "calibration.png").stat().st_size > 1000
     feats = np.loadtxt(cal_dir / "features.csv", delimiter=",", skiprows=1)
     assert feats.shape[0] == 4
+    text = (cal_dir / "features.csv").read_text()
+    header = text.splitlines()[0].split(",")
+    assert "radius_mm_fringe_1" in header and "integrated_order_fringe_mm2" in header
+    assert max(len(v) for v in re.split(r"[,\n]", text.split("\n", 1)[1])) <= 12  # 6 digits
     calf = str(cal_dir / "calibration.json")
     assert main(["estimate", str(out96), "--calibration", calf]) == 0
     line = capsys.readouterr().out

@@ -177,7 +177,7 @@ def inputs(tmp_path_factory):
     np.savez(d / "maps.npz", fringe_order=order, pixel_size_m=np.array(1e-4))
     (d / "img.png").write_text("not an image")
     good = {"a": 1.0, "b": 1.5, "sigma_logF": 0.1, "n": 5, "range": [0.1, 5.0]}
-    (d / "cal.json").write_text(json.dumps({"version": 1, "normal_fits": {"order_at_2mm": good}}))
+    (d / "cal.json").write_text(json.dumps({"version": 2, "normal_fits": {"order_at_2mm": good}}))
     (d / "cfg.toml").write_text('case = "x"\n')
     return {"img": d / "img.png", "maps": d / "maps.npz", "cal": d / "cal.json",
             "cfg": d / "cfg.toml"}  # fmt: skip

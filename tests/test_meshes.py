@@ -378,7 +378,7 @@ def test_extruded_prisms_are_conforming():
 
 
 def test_z_levels_cover_the_layers_exactly():
-    from meshes.layered import z_levels
+    from meshes.layered import SUBSTRATE_CAP, z_levels
 
     spec = MeshSpec(symmetry="quarter")
     z = z_levels(spec)
@@ -386,4 +386,5 @@ def test_z_levels_cover_the_layers_exactly():
     assert 0.0 in z and np.all(np.diff(z) > 0)
     dz_sheet = np.diff(z[z >= 0])
     assert np.allclose(dz_sheet, dz_sheet[0]) and dz_sheet[0] <= spec.sizing.h_contact * (1 + 1e-12)
-    assert np.diff(z).max() <= spec.sizing.h_sheet * 1.05
+    cap = min(SUBSTRATE_CAP * spec.sizing.h_sheet, spec.sizing.h_far)
+    assert np.diff(z).max() <= 1.5 * cap  # a dropped last layer stretches the others

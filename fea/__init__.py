@@ -21,7 +21,7 @@ from .materials import (
 )
 from .problem import ContactSettings, Indenter, SolverSettings
 from .solution import IndenterState, Solution, write_solution_vtu
-from .solver import SolverError, SolveStats, solve
+from .solver import SolveInterrupted, SolverError, SolveStats, solve
 
 __all__ = [
     "FRICTION_STICK",
@@ -39,6 +39,7 @@ __all__ = [
     "IndenterState",
     "Solution",
     "write_solution_vtu",
+    "SolveInterrupted",
     "SolverError",
     "SolveStats",
     "solve",

@@ -66,11 +66,13 @@ STALL_WARN_S = 60.0
 
 
 class Watchdog:
-    """Tells the user, once per increment, when an increment runs longer than
-    :data:`STALL_WARN_S`: which loads it is trying, how far Newton got, what to change."""
+    """Shows the loads and the Newton iteration on the progress bar, and tells the user,
+    once per increment, when an increment runs longer than :data:`STALL_WARN_S`: which
+    loads it is trying, how far Newton got, what to change."""
 
-    def __init__(self, limit_s: float | None = None) -> None:
+    def __init__(self, limit_s: float | None = None, bar=None) -> None:
         self.limit_s = STALL_WARN_S if limit_s is None else limit_s
+        self.bar = bar  # a tqdm bar, or None
         self.started = time.perf_counter()
         self.target = ""
         self.warned = False
@@ -78,9 +80,15 @@ class Watchdog:
     def start(self, target: str) -> None:
         """A new increment towards ``target`` (the loads, in words) begins."""
         self.started, self.target, self.warned = time.perf_counter(), target, False
+        if self.bar is not None:
+            self.bar.set_postfix_str(f"{target}: Newton iteration 0")
 
     def check(self, iteration: int, residual: float, max_iterations: int) -> None:
         """Called after each Newton iteration; warns once past the limit."""
+        if self.bar is not None:
+            self.bar.set_postfix_str(
+                f"{self.target}: Newton iteration {iteration + 1}, residual {residual:.2g} N"
+            )
         elapsed = time.perf_counter() - self.started
         if self.warned or elapsed < self.limit_s:
             return

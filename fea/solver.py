@@ -30,13 +30,20 @@ from .analytic import depth_guess, dimitriadis_force, hertz_force
 from .linsolve import LinearSolver
 from .materials import POLYCARBONATE_DEFAULT, SHEET_DEFAULT, Material
 from .model import Model, State
-from .newton import Run, solve_increment
+from .newton import Run, Watchdog, solve_increment
 from .problem import ContactSettings, Indenter, SolverSettings
 from .recovery import make_solution
 from .solution import Solution
 from .stats import SolveStats
 
-__all__ = ["solve", "SolverError", "SolveStats", "dimitriadis_force", "hertz_force"]
+__all__ = [
+    "solve",
+    "SolverError",
+    "SolveInterrupted",
+    "SolveStats",
+    "dimitriadis_force",
+    "hertz_force",
+]
 
 log = logging.getLogger("fringekit.fea")
 
@@ -56,6 +63,10 @@ class SolverError(RuntimeError):
     def __init__(self, message: str, solutions: list):
         super().__init__(message)
         self.solutions = solutions
+
+
+class SolveInterrupted(SolverError):
+    """The user interrupted the solve (Ctrl-C); ``solutions`` keeps the converged states."""
 
 
 def _check_indenters(indenters: tuple) -> int:
@@ -176,13 +187,12 @@ def solve(
     st = State.initial(model)
     model.recandidate(st, model.candidates_near(mesh.points, st.c))
     stats.time_setup = time.perf_counter() - t_start
-    run = Run(model, lin, stats)
-
     bar = None
     if progress is True:
         from tqdm.auto import tqdm
 
         bar = tqdm(total=S, desc="load states", unit="state")
+    run = Run(model, lin, stats, watch=Watchdog(bar=bar))
     solutions: list[Solution] = []
     s_done = 0.0
     try:
@@ -193,6 +203,12 @@ def solve(
                 st, s_done, iter_log = _reach_state(run, st, s_done, k, ds, len(solutions))
             except SolverError as exc:
                 raise SolverError(str(exc), solutions) from None
+            except KeyboardInterrupt:
+                raise SolveInterrupted(
+                    f"interrupted by the user on the way to load state {k} of {S} "
+                    f"({_describe(model.indenters, k)}), at {_reached(model, s_done)}",
+                    solutions,
+                ) from None
             sol = make_solution(model, st, s_done, iter_log, stats, run.cache)
             solutions.append(sol)
             stats.iterations_per_state.append(stats.newton_iterations - it_before)

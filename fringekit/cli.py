@@ -216,13 +216,19 @@ def main(argv: list[str] | None = None) -> int:
     )
     for noisy in ("distributed", "tornado", "bokeh"):  # Dask's cluster chatter
         logging.getLogger(noisy).setLevel(logging.WARNING)
-    from .pipeline import PredictError
+    from .pipeline import PredictError, PredictInterrupted
 
     try:
         return args.func(args)
     except (ValueError, OSError) as exc:
         print(f"fringekit {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except PredictInterrupted as exc:
+        print(f"fringekit {args.command}: {exc}", file=sys.stderr)
+        return 130
+    except KeyboardInterrupt:
+        print(f"fringekit {args.command}: interrupted by the user", file=sys.stderr)
+        return 130
     except PredictError as exc:
         print(f"fringekit {args.command}: failed: {exc}", file=sys.stderr)
         return 1

@@ -31,7 +31,7 @@ import uuid
 from collections.abc import Callable
 from pathlib import Path
 
-from fea import SolverError
+from fea import SolveInterrupted, SolverError, write_solution_vtu
 from fea.store import solve_cached
 from meshes import build_mesh, quality_report
 
@@ -41,13 +41,17 @@ from .numbers import significant
 from .render import render_state
 from .versions import run_versions
 
-__all__ = ["PredictError", "solve_config", "run_predict", "used_config"]
+__all__ = ["PredictError", "PredictInterrupted", "solve_config", "run_predict", "used_config"]
 
 log = logging.getLogger("fringekit.predict")
 
 
 class PredictError(RuntimeError):
     """The pipeline could not finish; converged states were written before raising."""
+
+
+class PredictInterrupted(PredictError):
+    """The user stopped the solve; the converged states and a summary were written."""
 
 
 def solve_config(cfg: dict, *, cache_dir=None, use_cache: bool = True, progress: bool = True):
@@ -96,6 +100,24 @@ def used_config(cfg: dict) -> dict:
     return used
 
 
+#: Measured solver cost on 2 cores (bench/fea.py, 2026-11-23): seconds per Newton iteration
+#: at 34.5k DOF, the exponent of its growth with DOF (34.5k: 0.58 s, 70k: 1.5 s, 144k:
+#: 5-6 s), and Newton iterations for the first load state and each later one.
+_S_PER_ITERATION, _DOF_REF, _GROWTH, _FIRST_ITS, _LATER_ITS = 0.58, 34.5e3, 1.5, 12, 5
+
+
+def estimate_text(mesh, indenters) -> str:
+    """One line before solving: model size and a rough time estimate from measured rates."""
+    states = indenters[0].n_states
+    its = _FIRST_ITS * len(indenters) + _LATER_ITS * (states - 1)
+    t = its * _S_PER_ITERATION * (mesh.n_dofs / _DOF_REF) ** _GROWTH
+    return (
+        f"{mesh.n_dofs:,} DOF, {mesh.n_cells:,} cells, {states} load state(s); about "
+        f"{max(t, 1):.0f} s to solve on 2 cores (rough: ~{its} Newton iterations at the "
+        "measured rate; cached solutions take seconds)"
+    )
+
+
 def _write_summary(out: Path, summary: dict) -> None:
     tmp = out / "summary.json.part"
     tmp.write_text(json.dumps(significant(summary), indent=2, allow_nan=False))
@@ -140,6 +162,10 @@ def run_predict(
         Bad inputs (before anything expensive runs where possible).
     PredictError
         The solver failed; the states it reached are written (``summary.json`` says so).
+    PredictInterrupted
+        Ctrl-C during the solve: the converged states' VTU files and a summary with status
+        ``"interrupted"`` are written (to ``<out>-interrupted`` when ``out`` holds a run).
+        Ctrl-C elsewhere leaves ``out`` as it was.
     """
     out = Path(out)
     inp = build_inputs(cfg)
@@ -152,10 +178,10 @@ def run_predict(
         shutil.rmtree(work, ignore_errors=True)
         raise
     failed = summary["status"] != "ok"
-    dest = out.with_name(out.name + "-failed") if failed and out.exists() else out
+    dest = out.with_name(f"{out.name}-{summary['status']}") if failed and out.exists() else out
     _swap_in(work, dest)
     if failed:
-        raise PredictError(
+        raise (PredictInterrupted if summary["status"] == "interrupted" else PredictError)(
             f"{summary['error']}; the {len(summary['states'])} converged state(s) are written "
             f"to {dest}" + (f" (the earlier run in {out} is kept)" if dest != out else "")
         )
@@ -188,9 +214,11 @@ def _run(cfg, inp, out: Path, cache_dir, use_cache, progress, echo) -> dict:
     rep = quality_report(mesh.points, mesh.cells, mesh.regions)
     say(f"mesh: {rep}")
 
+    say(f"solve: {estimate_text(mesh, inp.indenters)}")
     t0 = time.perf_counter()
     failure = None
     stats = None
+    interrupted = False
     try:
         sols, stats, cache_file = solve_cached(
             mesh, inp.indenters, materials=inp.materials, contact=inp.contact,
@@ -198,6 +226,7 @@ def _run(cfg, inp, out: Path, cache_dir, use_cache, progress, echo) -> dict:
         )  # fmt: skip
     except SolverError as exc:
         sols, failure, cache_file = exc.solutions, str(exc), None
+        interrupted = isinstance(exc, SolveInterrupted)
     times["solve_s"] = time.perf_counter() - t0
     say(
         f"solve: {len(sols)} load state(s) in {times['solve_s']:.1f} s"
@@ -209,6 +238,11 @@ def _run(cfg, inp, out: Path, cache_dir, use_cache, progress, echo) -> dict:
         if cfg["optics"]["render"] == "all"
         else range(max(len(sols) - 1, 0), len(sols))  # nothing when no state converged
     )
+    if interrupted:  # the user wants to stop: keep the states, render nothing
+        render = range(0)
+        for k, sol in enumerate(sols):
+            (out / f"state_{k + 1:02d}").mkdir()
+            write_solution_vtu(sol, out / f"state_{k + 1:02d}" / "solution.vtu")
     rendered = []
     for k in render:
         say(f"optics: state {k + 1} of {len(sols)}")
@@ -217,7 +251,7 @@ def _run(cfg, inp, out: Path, cache_dir, use_cache, progress, echo) -> dict:
     final = sols[-1] if sols else None
     summary = {
         "case": cfg["case"],
-        "status": "failed" if failure else "ok",
+        "status": "interrupted" if interrupted else "failed" if failure else "ok",
         "error": failure,
         "max_fringe_order": rendered[-1]["max_fringe_order"] if rendered else None,
         "indenters": [i.as_dict() for i in final.indenters] if final else [],

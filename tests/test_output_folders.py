@@ -89,3 +89,42 @@ def test_checks_that_need_no_solve_come_before_any_work(tmp_path, capsys, sets, 
     err = capsys.readouterr().err.strip()
     assert message in err and len(err.splitlines()) == 1 and "inf" not in err
     assert not out.exists() and not (tmp_path / "c").exists()
+
+
+def test_ctrl_c_during_the_solve_keeps_the_converged_states(folder, capsys, monkeypatch):
+    """Ctrl-C on the way to the second state: exit 130, the first state's VTU and a
+    summary saying "interrupted" go to out-interrupted; the earlier run stays."""
+    import fea.newton
+
+    root, out, run = folder
+    assert run() == 0
+    before = (out / "summary.json").read_bytes()
+    real = fea.newton.Watchdog.check
+
+    def ctrl_c(self, iteration, residual, max_iterations):
+        if "7 N" in self.target:
+            raise KeyboardInterrupt
+        return real(self, iteration, residual, max_iterations)
+
+    monkeypatch.setattr(fea.newton.Watchdog, "check", ctrl_c)
+    assert run("indenter.load_N=[3.0, 7.0]") == 130
+    err = capsys.readouterr().err
+    assert "interrupted by the user" in err and "Traceback" not in err
+    assert (out / "summary.json").read_bytes() == before
+    got = root / "out-interrupted"
+    s = _summary(got)
+    assert s["status"] == "interrupted" and len(s["states"]) == 1
+    assert "load state 2 of 2" in s["error"]
+    assert (got / "state_01" / "solution.vtu").stat().st_size > 0
+    assert _leftovers(root) == []
+
+
+def test_predict_says_the_model_size_and_an_estimate_before_solving(folder, capsys):
+    root, out, _ = folder
+    cfg = root / "tiny.toml"
+    code = main(["predict", str(cfg), "--out", str(root / "loud")])
+    said = capsys.readouterr().out
+    assert code == 0
+    line = next(x for x in said.splitlines() if x.startswith("solve:") and "DOF" in x)
+    assert "cells" in line and "about" in line and "s to solve" in line
+    assert "quarter model" in said

@@ -9,11 +9,11 @@ from pathlib import Path
 
 import numpy as np
 
-from meshes import Mesh
+from meshes import Mesh, mirror_with_sources
 
 from .element import TET_QUADRATURE
 
-__all__ = ["IndenterState", "Solution", "write_solution_vtu"]
+__all__ = ["IndenterState", "Solution", "unfold", "write_solution_vtu"]
 
 
 @dataclass(frozen=True)
@@ -167,33 +167,73 @@ class Solution:
         }
 
 
-def write_solution_vtu(sol: Solution, path: str | os.PathLike, *, deformed: bool = True) -> Path:
+def unfold(sol: Solution) -> tuple[Mesh, np.ndarray, np.ndarray, np.ndarray]:
+    """The solution of a half or quarter model on the full sensor, by mirroring.
+
+    Returns (full mesh, displacement (n, 3) m, Cauchy stress (n, 3, 3) Pa, J-bar (c,)).
+    A mirror about the plane x_a = 0 flips the displacement component a and the stress
+    components with exactly one index a (sigma_xy, sigma_xz for x = 0). A full model is
+    returned as it is.
+    """
+    mesh, u, s, jbar = sol.mesh, sol.displacement, sol.stress_nodes, sol.jbar
+    symmetry = mesh.spec.symmetry if mesh.spec is not None else "full"
+    for axis in {"quarter": (0, 1), "half": (1,)}.get(symmetry, ()):
+        n = mesh.n_points
+        mesh, src = mirror_with_sources(mesh, axis)
+        flip = np.ones(3)
+        flip[axis] = -1.0
+        u = np.vstack([u, u[src[n:]] * flip])
+        s = np.vstack([s, s[src[n:]] * (flip[:, None] * flip[None, :])])
+        jbar = np.concatenate([jbar, jbar])
+    return mesh, u, s, jbar
+
+
+def write_solution_vtu(
+    sol: Solution, path: str | os.PathLike, *, deformed: bool = True, full: bool = True
+) -> Path:
     """Write the state as a VTU (quadratic tets) readable by ParaView and pyvista.
 
-    Point data: ``displacement_m``, ``stress_Pa`` (9 components, row-major Cauchy),
-    ``von_mises_Pa``, ``secondary_stress_difference_Pa`` (sqrt((sxx - syy)^2 + 4 sxy^2),
-    the quantity the camera sees along z). Cell data: ``region``, ``jbar``.
+    SI units throughout (m, Pa), in the sensor frame (x, y on the contact face, z up,
+    interface at z = 0). With ``full`` (default) a half or quarter model is unfolded onto
+    the whole sensor (:func:`unfold`); ``full=False`` writes the modelled part only.
+
+    Point data: ``displacement_m``; ``cauchy_stress_Pa`` (9 components, row-major
+    sigma_xx, sigma_xy, ... sigma_zz); ``von_mises_stress_Pa``;
+    ``secondary_principal_stress_difference_Pa`` = sqrt((sxx - syy)^2 + 4 sxy^2), what a
+    camera looking along z sees. Cell data: ``region`` (0 photoelastic sheet,
+    1 substrate) and ``volume_ratio_Jbar``, the element's mean dilatation (deformed over
+    undeformed volume, 1 = no volume change). Field data: ``model`` says which part of
+    the sensor was modelled and what the file holds.
     """
     import pyvista as pv
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    cells = sol.mesh.cells
+    if full:
+        mesh, u, s, jbar = unfold(sol)
+    else:
+        mesh, u, s, jbar = sol.mesh, sol.displacement, sol.stress_nodes, sol.jbar
+    cells = mesh.cells
     grid = pv.UnstructuredGrid(
         np.hstack([np.full((len(cells), 1), 10), cells]).ravel(),
         np.full(len(cells), pv.CellType.QUADRATIC_TETRA, dtype=np.uint8),
-        sol.points if deformed else sol.mesh.points,
+        mesh.points + u if deformed else mesh.points,
     )
-    s = sol.stress_nodes
-    grid.point_data["displacement_m"] = sol.displacement
-    grid.point_data["stress_Pa"] = s.reshape(-1, 9)
+    grid.point_data["displacement_m"] = u
+    grid.point_data["cauchy_stress_Pa"] = s.reshape(-1, 9)
     dev = s - np.trace(s, axis1=1, axis2=2)[:, None, None] / 3 * np.eye(3)
-    grid.point_data["von_mises_Pa"] = np.sqrt(1.5 * np.einsum("nij,nij->n", dev, dev))
-    grid.point_data["secondary_stress_difference_Pa"] = np.sqrt(
+    grid.point_data["von_mises_stress_Pa"] = np.sqrt(1.5 * np.einsum("nij,nij->n", dev, dev))
+    grid.point_data["secondary_principal_stress_difference_Pa"] = np.sqrt(
         (s[:, 0, 0] - s[:, 1, 1]) ** 2 + 4 * s[:, 0, 1] ** 2
     )
-    grid.cell_data["region"] = sol.mesh.regions.astype(np.int32)
-    grid.cell_data["jbar"] = sol.jbar
+    grid.cell_data["region"] = mesh.regions.astype(np.int32)
+    grid.cell_data["volume_ratio_Jbar"] = jbar
+    part = sol.mesh.spec.symmetry if sol.mesh.spec is not None else "full"
+    grid.field_data["model"] = [
+        f"{part} model"
+        + (", unfolded onto the full sensor" if full and part != "full" else "")
+        + f"; {'deformed' if deformed else 'undeformed'} coordinates in m; stresses in Pa"
+    ]
     tmp = path.with_name(path.name + ".part.vtu")
     grid.save(tmp)
     os.replace(tmp, path)

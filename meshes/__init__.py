@@ -4,7 +4,7 @@ from .build import generate_mesh
 from .cache import UNREADABLE, build_mesh, cache_path, default_cache_dir
 from .io import facet_grid, from_pyvista, load_npz, read_vtu, save_npz, to_pyvista, write_vtu
 from .mesh import FACET_SETS, REGION_NAMES, REGION_SHEET, REGION_SUBSTRATE, FacetSet, Mesh
-from .mirror import mirror
+from .mirror import mirror, mirror_with_sources
 from .quality import MeshQualityError, QualityReport, check_quality, quality_report
 from .spec import IndenterSite, Layers, MeshSpec, Sizing
 
@@ -31,6 +31,7 @@ __all__ = [
     "generate_mesh",
     "load_npz",
     "mirror",
+    "mirror_with_sources",
     "quality_report",
     "read_vtu",
     "save_npz",

@@ -9,7 +9,7 @@ import numpy as np
 from .mesh import FacetSet, Mesh
 from .topology import TET_FACES
 
-__all__ = ["mirror"]
+__all__ = ["mirror", "mirror_with_sources"]
 
 #: Swapping corners 1 and 2 of a VTK QUADRATIC_TETRA (and the mid-edge nodes with them)
 #: restores a positive orientation after a reflection.
@@ -25,12 +25,26 @@ _PLANES = {0: "symmetry_x0", 1: "symmetry_y0"}
 
 
 def mirror(mesh: Mesh, axis: int) -> Mesh:
+    """Mirror ``mesh`` about its symmetry plane (see :func:`mirror_with_sources`)."""
+    return mirror_with_sources(mesh, axis)[0]
+
+
+def mirror_with_sources(mesh: Mesh, axis: int) -> tuple[Mesh, np.ndarray]:
     """Mirror ``mesh`` about its symmetry plane ``x = 0`` (axis 0) or ``y = 0`` (axis 1).
 
     The result holds both halves with shared nodes on the plane and loses that plane's
     facet set: a quarter model mirrored about x = 0 is the half model of the same
-    discretisation, mirrored again about y = 0 the full model. Used to check symmetry
-    boundary conditions on identical meshes (fTetWild never gives the same mesh twice).
+    discretisation, mirrored again about y = 0 the full model. Used to write a symmetric
+    model's results on the full sensor and to check symmetry boundary conditions on
+    identical meshes.
+
+    Returns
+    -------
+    mirrored : Mesh
+    sources : (n_mirrored,) int64
+        The point of ``mesh`` each point of ``mirrored`` is (a copy or the mirror image
+        of): the first ``mesh.n_points`` are the identity, so nodal fields unfold as
+        ``field[sources]`` with the components that change sign flipped on the copies.
 
     Raises
     ------
@@ -70,4 +84,5 @@ def mirror(mesh: Mesh, axis: int) -> Mesh:
     if spec is not None:
         sym = {"quarter": "half", "half": "full"}.get(spec.symmetry, spec.symmetry)
         spec = replace(spec, symmetry=sym)
-    return Mesh(points, cells, regions, facets, spec)
+    sources = np.concatenate([np.arange(n), np.flatnonzero(~on_plane)])
+    return Mesh(points, cells, regions, facets, spec), sources

@@ -213,7 +213,7 @@ def test_predict_end_to_end(tiny_run):
     prof = np.loadtxt(d / "profile.csv", delimiter=",", skiprows=1)
     assert prof.shape == (32, 2) and np.isnan(prof[16, 1])  # the contact zone is masked
     grid = pv.read(d / "solution.vtu")
-    assert "stress_Pa" in grid.point_data and grid.n_cells > 0
+    assert "cauchy_stress_Pa" in grid.point_data and grid.n_cells > 0
     assert used_config(load_config(out / "config.toml")) == s["config"]
 
 

@@ -271,12 +271,43 @@ def test_stress_recovery_and_vtu(quarter_run, tmp_path):
     # under the indenter the sheet is in compression through the thickness
     top = np.argmin(np.linalg.norm(sol.points - [0, 0, sol.points[:, 2].max()], axis=1))
     assert s[top, 2, 2] < 0
-    path = write_solution_vtu(sol, tmp_path / "state.vtu")
+    path = write_solution_vtu(sol, tmp_path / "state.vtu", full=False)
     grid = pv.read(path)
     assert grid.n_points == sol.mesh.n_points
-    for name in ("displacement_m", "stress_Pa", "von_mises_Pa", "secondary_stress_difference_Pa"):
+    names = ("displacement_m", "cauchy_stress_Pa", "von_mises_stress_Pa",
+             "secondary_principal_stress_difference_Pa")  # fmt: skip
+    for name in names:
         assert name in grid.point_data
+    assert "volume_ratio_Jbar" in grid.cell_data and "quarter model" in str(
+        grid.field_data["model"]
+    )
     np.testing.assert_allclose(grid.points, sol.points)
+
+
+def test_vtu_holds_the_full_sensor_unfolded_from_the_quarter(quarter_run, tmp_path):
+    """The default VTU is the whole sensor: 4x the cells, mirror-image nodes whose
+    displacement and stress follow the mirror (u_x and sigma_xy, sigma_xz change sign
+    across x = 0; u_y and sigma_xy, sigma_yz across y = 0), and scalars that match."""
+    import pyvista as pv
+
+    sol = quarter_run[0][1]
+    grid = pv.read(write_solution_vtu(sol, tmp_path / "full.vtu", deformed=False))
+    assert grid.n_cells == 4 * sol.mesh.n_cells
+    assert "unfolded onto the full sensor" in str(grid.field_data["model"])
+    p = np.asarray(grid.points)
+    u = np.asarray(grid.point_data["displacement_m"])
+    s = np.asarray(grid.point_data["cauchy_stress_Pa"]).reshape(-1, 3, 3)
+    vm = np.asarray(grid.point_data["von_mises_stress_Pa"])
+    key = {tuple(np.round(x * 1e9).astype(np.int64)): i for i, x in enumerate(p)}
+    q = sol.mesh.points
+    off = np.flatnonzero((q[:, 0] > 0) & (q[:, 1] > 0))
+    for sx, sy in ((-1, 1), (1, -1), (-1, -1)):
+        img = np.array([key[tuple(np.round(q[i] * [sx, sy, 1] * 1e9).astype(np.int64))]
+                        for i in off])  # fmt: skip
+        f = np.array([sx, sy, 1.0])
+        np.testing.assert_allclose(u[img], sol.displacement[off] * f, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(s[img], sol.stress_nodes[off] * f[:, None] * f[None, :])
+        np.testing.assert_allclose(vm[img], vm[off])
 
 
 def test_polycarbonate_deflects_by_a_fraction_of_a_percent_of_the_depth(quarter_run):

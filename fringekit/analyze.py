@@ -94,7 +94,7 @@ def _analyse_phase(paths, dark, mask_args, min_modulation, anchor_order):
     resolution = resolve_ambiguity(res)
     fo = unwrap_fringe_order(res, resolution, anchor_order=anchor_order)
     maps = {
-        "isoclinic_rad": fo.isoclinic,
+        "isoclinic_rad": np.where(res.valid, fo.isoclinic, np.nan),
         "delta_eq3_rad": np.where(res.valid, res.delta_eq3, np.nan),
         "delta_axis_insensitive_rad": np.where(res.valid, res.delta_axis_insensitive, np.nan),
         "modulation": res.modulation,

@@ -14,12 +14,40 @@ from pathlib import Path
 import numpy as np
 
 __all__ = [
+    "NO_DATA_RGB",
+    "NO_DATA_IMAGE_LEVEL",
     "map_figure",
     "profile_figure",
     "comparison_figure",
     "calibration_figure",
     "sweep_plots",
 ]
+
+
+#: How pixels without data (the contact zone, masked or unreliable pixels, pixels off the
+#: sheet) look in every figure: flat light grey, with a legend entry "no data". In every
+#: map (maps.npz, analysis.npz) they are NaN.
+NO_DATA_RGB = (0.82, 0.82, 0.82)
+#: ... and in every image fringekit writes as a camera would (six-step PNGs, white light):
+#: this fraction of full scale in every channel, with mask.png (255 = data) beside them.
+NO_DATA_IMAGE_LEVEL = 0.5
+
+
+def _no_data(ax, fig, data, extent) -> None:
+    """Paint pixels without data (NaN in a map; NaN in any channel of an RGB float image)
+    in :data:`NO_DATA_RGB` and add the legend entry when there are any."""
+    from matplotlib.patches import Patch
+
+    bad = ~np.isfinite(np.asarray(data, float))
+    if bad.ndim == 3:
+        bad = bad.any(axis=-1)
+    if not bad.any():
+        return
+    overlay = np.zeros((*bad.shape, 4))
+    overlay[bad] = (*NO_DATA_RGB, 1.0)
+    ax.imshow(overlay, extent=extent, interpolation="nearest")
+    ax.legend(handles=[Patch(color=NO_DATA_RGB, label="no data")], loc="upper right",
+              fontsize=7, framealpha=0.8)  # fmt: skip
 
 
 def _figure(figsize, dpi=100, ncols: int = 1):
@@ -49,12 +77,15 @@ def map_figure(
 ) -> None:
     """PNG of a (rows, cols) map with a colour bar, or of an RGB image (no colour bar).
 
-    ``extent`` (left, right, bottom, top) in the axis units; None plots in pixels.
+    ``extent`` (left, right, bottom, top) in the axis units; None plots in pixels. NaN
+    pixels (for an RGB image: a float image with NaN) are drawn as "no data"
+    (:data:`NO_DATA_RGB`).
     """
     fig, ax = _figure((5.2, 4.4), dpi=120)
     im = ax.imshow(data, cmap=cmap, extent=extent, vmin=vmin, vmax=vmax, interpolation="nearest")
     if np.ndim(data) == 2:
         fig.colorbar(im, ax=ax, label=label)
+    _no_data(ax, fig, data, extent)
     ax.set_xlabel(axis_labels[0])
     ax.set_ylabel(axis_labels[1])
     ax.set_title(title)

@@ -28,7 +28,7 @@ from optics import (
 )
 
 from .config import ConfigError
-from .figures import map_figure, profile_figure
+from .figures import NO_DATA_IMAGE_LEVEL, map_figure, profile_figure
 from .inputs import OpticsSetup, optics_setup
 
 __all__ = ["fringe_order_map", "indenter_pixels", "mono_map", "render_state"]
@@ -108,7 +108,7 @@ def _write_maps(d: Path, sol, omap: OpticalMap, law) -> tuple[np.ndarray, np.nda
     grid = omap.grid
     rows, cols = grid.shape
     order = omap.fringe_order()
-    theta = omap.principal_angle()
+    theta = np.where(omap.mask, omap.principal_angle(), np.nan)
     xy = grid.xy().reshape(rows, cols, 2)
     np.savez_compressed(
         d / "maps.npz",
@@ -125,7 +125,7 @@ def _write_maps(d: Path, sol, omap: OpticalMap, law) -> tuple[np.ndarray, np.nda
     return order, theta
 
 
-def _white_light(d: Path, sol, cfg: dict, optics: OpticsSetup, samples) -> np.ndarray:
+def _white_light(d: Path, sol, cfg: dict, optics: OpticsSetup, samples, mask) -> np.ndarray:
     """Render and write the white-light image (dark-field circular); return it."""
     o, law, camera = cfg["optics"], optics.law, optics.camera
     rows, cols = optics.grid.shape
@@ -136,6 +136,7 @@ def _white_light(d: Path, sol, cfg: dict, optics: OpticsSetup, samples) -> np.nd
         qw.reshape(rows, cols, len(lam), 4), spec, camera, dark_field_circular(**optics.errors),
         seed=o["seed"],
     )  # fmt: skip
+    rgb = no_data_fill(rgb, mask)
     write_image(d / ("white_light.png" if camera.bit_depth == 8 else "white_light.tif"), rgb)
     return rgb
 
@@ -159,7 +160,17 @@ def _profile(d: Path, sol, order: np.ndarray, grid) -> None:
     profile_figure(d / "profile.png", x_prof * 1e3, prof.values, xlabel="x (mm)", title=title)
 
 
-def _figures(d: Path, sol, cfg: dict, grid, order, theta, rgb) -> None:
+def no_data_fill(img: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """``img`` (rows, cols[, 3], uint8 or uint16) with the pixels outside ``mask`` at the
+    documented no-data level (:data:`fringekit.figures.NO_DATA_IMAGE_LEVEL` of full scale
+    in every channel): the contact zone and pixels off the sheet look the same in every
+    image, and differ from a dark fringe."""
+    out = img.copy()
+    out[~mask] = round(NO_DATA_IMAGE_LEVEL * np.iinfo(img.dtype).max)
+    return out
+
+
+def _figures(d: Path, sol, cfg: dict, grid, order, theta, rgb, mask) -> None:
     o = cfg["optics"]
     _grid_figure(
         d / "fringe_order.png", order, grid, f"fringe order at {o['wavelength_nm']:g} nm",
@@ -167,7 +178,8 @@ def _figures(d: Path, sol, cfg: dict, grid, order, theta, rgb) -> None:
     )  # fmt: skip
     _grid_figure(d / "isoclinic.png", np.degrees(theta), grid, "isoclinic", "angle (deg)",
                  "twilight")  # fmt: skip
-    shown = rgb if rgb.dtype == np.uint8 else (rgb / 257).astype(np.uint8)
+    shown = rgb / float(np.iinfo(rgb.dtype).max)
+    shown[~mask] = np.nan  # drawn as "no data"
     _grid_figure(
         d / "fringe_image.png", shown, grid,
         f"white light ({o['light']}), dark-field circular", "", None,
@@ -207,19 +219,20 @@ def render_state(
 
     t0 = time.perf_counter()
     q_img = omap.q[:, :, 0]
+    write_image(d / "mask.png", np.where(omap.mask, 255, 0).astype(np.uint8))
     for a in six_step_arrangements(**optics.errors):
         img = monochrome_image(q_img, a, optics.camera, seed=o["seed"])
-        write_image(d / "six_step" / f"{a.name}.png", img)
+        write_image(d / "six_step" / f"{a.name}.png", no_data_fill(img, omap.mask))
     times["six_step_s"] = time.perf_counter() - t0
     progress("optics: six phase-stepped images")
 
     t0 = time.perf_counter()
-    rgb = _white_light(d, sol, cfg, optics, samples)
+    rgb = _white_light(d, sol, cfg, optics, samples, omap.mask)
     times["white_light_s"] = time.perf_counter() - t0
     progress("optics: white-light image")
 
     t0 = time.perf_counter()
-    _figures(d, sol, cfg, optics.grid, order, theta, rgb)
+    _figures(d, sol, cfg, optics.grid, order, theta, rgb, omap.mask)
     times["figures_s"] = time.perf_counter() - t0
     valid = np.isfinite(order)
     return {

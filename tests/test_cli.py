@@ -471,3 +471,35 @@ def test_predict_with_the_polycarbonate_in_the_light_path(tiny_run, capsys):
     bad = ["predict", "--set", "substrate.thickness_mm=0", "--set", "optics.include_substrate=true"]
     assert main([*bad, "--out", str(root / "x")]) == 2
     assert "needs a substrate" in capsys.readouterr().err
+
+
+def test_pixels_without_data_look_the_same_everywhere(tiny_images, tmp_path):
+    """The contact zone (and anything masked) is NaN in every map, the documented
+    no-data grey (half of full scale, every channel) in every image, with mask.png
+    beside them, and the "no data" grey in every figure (issue 20)."""
+    import imageio.v3 as iio
+
+    from fringekit.figures import NO_DATA_RGB, map_figure
+
+    root, out96, d, geo, border = tiny_images
+    mask = iio.imread(d / "mask.png") > 127
+    assert 0 < (~mask).sum() < mask.size  # the contact zone
+    maps = np.load(d / "maps.npz")
+    for name in ("fringe_order", "isoclinic_rad"):
+        assert np.array_equal(np.isnan(maps[name]), ~mask), name
+    for img in [d / "white_light.png", *sorted((d / "six_step").glob("step*.png"))]:
+        px = iio.imread(img)
+        assert np.all(px[~mask] == 128), img.name
+        assert not np.all(px[mask] == 128)
+    # figures: a map with NaN shows the no-data grey and says so
+    data = np.where(mask, 1.0, np.nan)
+    map_figure(tmp_path / "m.png", data, "t", "fringe order")
+    fig = iio.imread(tmp_path / "m.png")[..., :3]
+    grey = np.round(np.array(NO_DATA_RGB) * 255)
+    assert (np.abs(fig.astype(float) - grey).max(axis=-1) <= 1).sum() > 50
+    # analyze: the isoclinic of masked or unreliable pixels is NaN, not 0 deg
+    steps = [str(d / "six_step" / f"step{k}.png") for k in range(1, 7)]
+    an = tmp_path / "an"
+    assert main(["analyze", *steps, "--out", str(an), *geo, "--quiet"]) == 0
+    got = np.load(an / "maps.npz")
+    assert np.array_equal(np.isnan(got["isoclinic_rad"]), np.isnan(got["delta_eq3_rad"]))

@@ -40,17 +40,18 @@ from analysis import (
 )
 from optics import PSM4_ASSUMED, Camera, colour_chart, light_source
 
-from .figures import map_figure, profile_figure
+from .figures import map_figure, profile_figure, sensor_extent
 
 __all__ = ["run_analyze"]
 
 
-def _figure(path, data, title, label, cmap="turbo", pixel_size=0.0, vmin=None, vmax=None):
-    """:func:`map_figure` in mm from the image corner when the pixel size is known."""
-    rows, cols = data.shape[:2]
+def _figure(path, data, title, label, cmap="turbo", pixel_size=0.0, vmin=None, vmax=None,
+            origin_rc=(0.0, 0.0)):  # fmt: skip
+    """:func:`map_figure` in the sensor frame (mm, y up) when the pixel size is known,
+    else in pixels (the coordinates the options take)."""
     if pixel_size:
-        ext = (0, cols * pixel_size * 1e3, rows * pixel_size * 1e3, 0)
-        map_figure(path, data, title, label, cmap, extent=ext, axis_labels=("mm", "mm"),
+        ext = sensor_extent(data.shape, pixel_size, origin_rc)
+        map_figure(path, data, title, label, cmap, extent=ext, axis_labels=("x (mm)", "y (mm)"),
                    vmin=vmin, vmax=vmax)  # fmt: skip
     else:
         map_figure(path, data, title, label, cmap, vmin=vmin, vmax=vmax)
@@ -132,37 +133,75 @@ def _analyse_rgb(paths, dark, mask_args, calibration, chart, seeds, window):
     return rr.order, reliable, {"colour_error": rr.error}, part, mask
 
 
-def _write_figures(out: Path, method: str, maps: dict, pixel_size: float) -> None:
+def _write_figures(out: Path, method: str, maps: dict, pixel_size: float, origin_rc) -> None:
     """One PNG per map of ``maps`` (fringe order, the method's maps, stress)."""
-    _figure(out / "fringe_order.png", maps["fringe_order"], f"fringe order ({method})",
-            "fringe order", pixel_size=pixel_size)  # fmt: skip
+    two_pi = 2 * np.pi
+    figures = [("fringe_order", maps["fringe_order"], f"fringe order ({method})",
+                "fringe order", "turbo", None, None)]  # fmt: skip
     if method == "phase":
-        _figure(out / "isoclinic.png", np.degrees(maps["isoclinic_rad"]), "isoclinic",
-                "deg", "twilight", pixel_size)  # fmt: skip
-        _figure(out / "phasemap_eq3.png", maps["delta_eq3_rad"], "isochromatic phase (eq. 3)",
-                "rad", "gray", pixel_size, 0, 2 * np.pi)  # fmt: skip
-        _figure(out / "phasemap_axis_insensitive.png", maps["delta_axis_insensitive_rad"],
-                "axis-insensitive phase (eq. 4)", "rad", "gray", pixel_size, 0, np.pi)  # fmt: skip
-        _figure(out / "modulation.png", maps["modulation"], "modulation", "", "viridis",
-                pixel_size, 0, 1)  # fmt: skip
+        figures += [
+            ("isoclinic", np.degrees(maps["isoclinic_rad"]), "isoclinic", "deg", "twilight",
+             None, None),
+            ("phasemap_eq3", maps["delta_eq3_rad"], "isochromatic phase (eq. 3)", "rad",
+             "gray", 0, two_pi),
+            ("phasemap_axis_insensitive", maps["delta_axis_insensitive_rad"],
+             "axis-insensitive phase (eq. 4)", "rad", "gray", 0, np.pi),
+            ("modulation", maps["modulation"], "modulation", "", "viridis", 0, 1),
+        ]  # fmt: skip
     else:
-        _figure(out / "colour_error.png", maps["colour_error"], "colour distance to table", "",
-                "magma", pixel_size)  # fmt: skip
+        figures.append(("colour_error", maps["colour_error"], "colour distance to table", "",
+                        "magma", None, None))  # fmt: skip
     if "stress_difference_Pa" in maps:
-        _figure(out / "stress_difference.png", maps["stress_difference_Pa"] * 1e-6,
-                "principal stress difference", "MPa", "viridis", pixel_size)  # fmt: skip
+        figures.append(("stress_difference", maps["stress_difference_Pa"] * 1e-6,
+                        "principal stress difference", "MPa", "viridis", None, None))  # fmt: skip
+    for name, data, title, label, cmap, vmin, vmax in figures:
+        _figure(out / f"{name}.png", data, title, label, cmap, pixel_size, vmin, vmax, origin_rc)
 
 
-def _write_profile(out: Path, order, line, pixel_size: float) -> None:
-    """``profile.csv`` and ``profile.png`` along ``line`` (r0, c0, r1, c1) px."""
+def _write_profile(out: Path, order, line, pixel_size: float, origin_rc) -> None:
+    """``profile.csv`` and ``profile.png`` along ``line`` (r0, c0, r1, c1) px; with a pixel
+    size the table also gives each sample's x, y in the sensor frame (mm)."""
     prof = line_profile(order, line[:2], line[2:], pixel_size=pixel_size or None)
-    unit = "mm" if pixel_size else "px"
-    dist = prof.distance * (1e3 if pixel_size else 1.0)
-    np.savetxt(out / "profile.csv", np.column_stack([dist, prof.values]), delimiter=",",
-               header=f"distance_{unit},fringe_order", comments="")  # fmt: skip
-    title = f"profile ({line[0]:.0f}, {line[1]:.0f}) -> ({line[2]:.0f}, {line[3]:.0f})"
+    t = np.linspace(0.0, 1.0, len(prof.values))
+    rows = line[0] + t * (line[2] - line[0])
+    cols = line[1] + t * (line[3] - line[1])
+    if pixel_size:
+        dist = prof.distance * 1e3
+        x = (cols - origin_rc[1]) * pixel_size * 1e3
+        y = (origin_rc[0] - rows) * pixel_size * 1e3
+        table, head, unit = (
+            np.column_stack([dist, x, y, prof.values]),
+            "distance_mm,x_mm,y_mm",
+            "mm",
+        )
+    else:
+        dist = prof.distance
+        table, head, unit = (
+            np.column_stack([dist, rows, cols, prof.values]),
+            "distance_px,row,col",
+            "px",
+        )
+    np.savetxt(out / "profile.csv", table, delimiter=",", header=head + ",fringe_order",
+               comments="", fmt="%.6g")  # fmt: skip
+    title = f"profile ({line[0]:.0f}, {line[1]:.0f}) -> ({line[2]:.0f}, {line[3]:.0f}) px"
     profile_figure(out / "profile.png", dist, prof.values,
                    xlabel=f"distance along the line ({unit})", title=title)  # fmt: skip
+
+
+def _profile_line(line, exclude, shape) -> tuple[float, float, float, float]:
+    """The profile line (r0, c0, r1, c1) px: the given one, checked against the image, or
+    the row through the first excluded circle's centre, else through the image centre."""
+    rows, cols = shape
+    if line is None:
+        r = exclude[0][0] if exclude else (rows - 1) / 2
+        line = (r, 0.0, r, cols - 1.0)
+    for name, (r, c) in (("start", line[:2]), ("end", line[2:])):
+        if not (0 <= r <= rows - 1 and 0 <= c <= cols - 1):
+            raise ValueError(
+                f"--line {name} ({r:g}, {c:g}) is outside the image; allowed rows 0..{rows - 1}, "
+                f"columns 0..{cols - 1}"
+            )
+    return line
 
 
 def run_analyze(
@@ -183,6 +222,7 @@ def run_analyze(
     line: tuple[float, float, float, float] | None = None,
     f_sigma: float | None = None,
     thickness: float | None = None,
+    origin_px: tuple[float, float] | None = None,
 ) -> dict:
     """Analyse fringe images; write maps, figures and a summary to ``out``.
 
@@ -207,6 +247,9 @@ def run_analyze(
         first excluded circle's centre, else through the image centre.
     f_sigma, thickness : float (N/m, m) — give both for the principal stress difference
         (seed eq. 4, reflection).
+    origin_px : (row, col), optional — the pixel of the sensor origin; figures and
+        profile.csv use the sensor frame (x right, y up, mm) about it when the pixel size
+        is known. Default: the image centre.
     """
     paths = [str(p) for p in images]
     if not paths:
@@ -230,15 +273,8 @@ def run_analyze(
         )
     summary: dict = {"method": method, "images": paths, **part}
     rows, cols = order.shape
-    if line is None:
-        r = exclude[0][0] if exclude else (rows - 1) / 2
-        line = (r, 0.0, r, cols - 1.0)
-    for name, (r, c) in (("start", line[:2]), ("end", line[2:])):
-        if not (0 <= r <= rows - 1 and 0 <= c <= cols - 1):
-            raise ValueError(
-                f"--line {name} ({r:g}, {c:g}) is outside the image; allowed rows 0..{rows - 1}, "
-                f"columns 0..{cols - 1}"
-            )
+    origin_rc = tuple(origin_px) if origin_px is not None else ((rows - 1) / 2, (cols - 1) / 2)
+    line = _profile_line(line, exclude, (rows, cols))
     out.mkdir(parents=True, exist_ok=True)
     maps["fringe_order"] = order
     maps["reliable"] = reliable
@@ -246,9 +282,8 @@ def run_analyze(
     if f_sigma is not None:
         maps["stress_difference_Pa"] = principal_stress_difference(order, f_sigma, thickness)
     np.savez_compressed(out / "maps.npz", **maps)
-    _write_figures(out, method, maps, pixel_size)
-
-    _write_profile(out, order, line, pixel_size)
+    _write_figures(out, method, maps, pixel_size, origin_rc)
+    _write_profile(out, order, line, pixel_size, origin_rc)
 
     finite = np.isfinite(order)
     summary.update(
@@ -260,6 +295,7 @@ def run_analyze(
         if finite.any()
         else None,
         pixel_size_mm=pixel_size * 1e3,
+        origin_px=[float(v) for v in origin_rc],
         line_px=[float(v) for v in line],
     )
     (out / "summary.json").write_text(json.dumps(summary, indent=2, default=float))

@@ -101,6 +101,15 @@ def _add_analyze(sub) -> None:
                     help="(rgb) pixel of known order: refined search from it")  # fmt: skip
     an.add_argument("--window", type=positive, default=0.25, help="(rgb) refined window (fringe)")
     an.add_argument("--line", nargs=4, type=finite, metavar=("R0", "C0", "R1", "C1"))
+    an.add_argument(
+        "--origin-px",
+        nargs=2,
+        type=finite,
+        metavar=("ROW", "COL"),
+        default=None,
+        help="pixel of the sensor origin: figures and profile.csv use x right, "
+        "y up in mm about it (default: the image centre)",
+    )
     an.add_argument("--f-sigma-N-per-m", type=positive, default=None)
     an.add_argument("--thickness-mm", type=positive, default=None)
     an.add_argument("--quiet", action="store_true")

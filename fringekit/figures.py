@@ -10,13 +10,18 @@ from __future__ import annotations
 import json
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = [
     "NO_DATA_RGB",
     "NO_DATA_IMAGE_LEVEL",
     "map_figure",
+    "sensor_extent",
     "profile_figure",
     "comparison_figure",
     "calibration_figure",
@@ -50,6 +55,15 @@ def _no_data(ax, fig, data, extent) -> None:
               fontsize=7, framealpha=0.8)  # fmt: skip
 
 
+def sensor_extent(shape, pixel_size: float, origin_rc) -> tuple[float, float, float, float]:
+    """imshow extent (left, right, bottom, top) in mm of an image in the sensor frame:
+    x to the right and y up from the sensor origin at pixel ``origin_rc`` (row, col)."""
+    rows, cols = shape[:2]
+    p = pixel_size * 1e3
+    r0, c0 = origin_rc
+    return ((-0.5 - c0) * p, (cols - 0.5 - c0) * p, (r0 - rows + 0.5) * p, (r0 + 0.5) * p)
+
+
 def _figure(figsize, dpi=100, ncols: int = 1):
     from matplotlib.figure import Figure
 
@@ -74,7 +88,7 @@ def map_figure(
     axis_labels=("column (px)", "row (px)"),
     vmin=None,
     vmax=None,
-) -> None:
+) -> Figure:
     """PNG of a (rows, cols) map with a colour bar, or of an RGB image (no colour bar).
 
     ``extent`` (left, right, bottom, top) in the axis units; None plots in pixels. NaN
@@ -90,6 +104,7 @@ def map_figure(
     ax.set_ylabel(axis_labels[1])
     ax.set_title(title)
     _save(fig, path)
+    return fig
 
 
 def profile_figure(path, distance, values, *, xlabel: str, title: str) -> None:
@@ -103,7 +118,9 @@ def profile_figure(path, distance, values, *, xlabel: str, title: str) -> None:
     _save(fig, path)
 
 
-def comparison_figure(comp, path, *, line=None, title: str = "") -> None:
+def comparison_figure(
+    comp, path, *, line=None, title: str = "", pixel_size: float = 0.0, centre_xy_mm=(0.0, 0.0)
+) -> Figure:
     """PNG: measured, predicted, residual maps and an overlaid profile along ``line``.
 
     Parameters
@@ -113,37 +130,63 @@ def comparison_figure(comp, path, *, line=None, title: str = "") -> None:
     line : ((row, col), (row, col)), optional
         Default: the horizontal line through the registered centre.
     title : str
+    pixel_size : float
+        Measured pixel pitch (m); with it the maps are drawn in the sensor frame (x right,
+        y up, mm), else in pixels.
+    centre_xy_mm : (x, y)
+        Sensor coordinates (mm) of the registered centre (the prediction's indenter axis).
     """
     from analysis import line_profile
 
     if line is None:
         r = comp.centre_measured[0]
         line = ((r, 0.0), (r, comp.measured.shape[1] - 1.0))
+    p = pixel_size * 1e3
+    if p:
+        rc, cc = comp.centre_measured
+        origin = (rc + centre_xy_mm[1] / p, cc - centre_xy_mm[0] / p)
+        extent = sensor_extent(comp.measured.shape, pixel_size, origin)
+
+        def to_axes(r, c):
+            return (c - origin[1]) * p, (origin[0] - r) * p
+
+        labels, unit = ("x (mm)", "y (mm)"), "mm"
+    else:
+        extent, labels, unit = None, ("column (px)", "row (px)"), "px"
+
+        def to_axes(r, c):
+            return c, r
+
     fig, ax = _figure((16, 4), ncols=4)
     vmax = np.nanmax([np.nanmax(comp.measured), np.nanmax(comp.predicted)])
-    for a, data, name in (
-        (ax[0], comp.measured, "measured N"),
-        (ax[1], comp.predicted, "predicted N"),
-    ):
-        im = a.imshow(data, vmin=0, vmax=vmax, cmap="viridis")
-        a.set_title(name)
-        fig.colorbar(im, ax=a, shrink=0.8)
     lim = np.nanmax(np.abs(comp.residual)) or 1.0
-    im = ax[2].imshow(comp.residual, cmap="RdBu_r", vmin=-lim, vmax=lim)
-    ax[2].set_title(f"residual, fringe (RMS {comp.rms:.3g}, 95th percentile of |r| {comp.p95:.3g})")
-    fig.colorbar(im, ax=ax[2], shrink=0.8)
-    for a in ax[:3]:
-        a.plot([line[0][1], line[1][1]], [line[0][0], line[1][0]], "w--", lw=1)
-    pm = line_profile(comp.measured, *line)
-    pp = line_profile(comp.predicted, *line)
-    ax[3].plot(pm.distance, pm.values, label="measured")
-    ax[3].plot(pp.distance, pp.values, label="predicted")
-    ax[3].set_xlabel("distance along line (px)")
+    panels = (
+        (comp.measured, "measured fringe order", "viridis", 0, vmax),
+        (comp.predicted, "predicted fringe order", "viridis", 0, vmax),
+        (comp.residual, f"residual, fringe (RMS {comp.rms:.3g}, 95th percentile of |r| "
+         f"{comp.p95:.3g})", "RdBu_r", -lim, lim),
+    )  # fmt: skip
+    (x0, y0), (x1, y1) = to_axes(*line[0]), to_axes(*line[1])
+    for a, (data, name, cmap, lo, hi) in zip(ax[:3], panels, strict=True):
+        im = a.imshow(data, vmin=lo, vmax=hi, cmap=cmap, extent=extent, interpolation="nearest")
+        a.set_title(name, fontsize=9)
+        a.set_xlabel(labels[0])
+        a.set_ylabel(labels[1])
+        fig.colorbar(im, ax=a, shrink=0.8)
+        _no_data(a, fig, data, extent)
+        a.plot([x0, x1], [y0, y1], "w--", lw=1)
+    pm = line_profile(comp.measured, *line, pixel_size=pixel_size or None)
+    pp = line_profile(comp.predicted, *line, pixel_size=pixel_size or None)
+    scale = 1e3 if p else 1.0
+    ax[3].plot(pm.distance * scale, pm.values, label="measured")
+    ax[3].plot(pp.distance * scale, pp.values, label="predicted")
+    ax[3].set_xlabel(f"distance along the dashed line ({unit})")
     ax[3].set_ylabel("fringe order")
     ax[3].legend()
     if title:
         fig.suptitle(title)
     _save(fig, path)
+    return fig
 
 
 def calibration_figure(path, cal: dict, profiles) -> None:

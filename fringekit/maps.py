@@ -50,6 +50,8 @@ class OrderMap:
     pixel_size : float (m), the given one, else the stored one
     indenter_rc : (row, col) of the first indenter's axis, or None when not stored
     reliable : (rows, cols) bool, or None when not stored
+    indenter_xy_mm : (x, y) of that axis in the sensor frame (mm), or None when the map
+        stores no sensor coordinates (an analyze map)
     """
 
     path: Path
@@ -57,6 +59,7 @@ class OrderMap:
     pixel_size: float
     indenter_rc: tuple[float, float] | None
     reliable: np.ndarray | None
+    indenter_xy_mm: tuple[float, float] | None = None
 
 
 def read_order_map(path, *, pixel_size: float | None = None, hint: str = "--pixel-mm"):
@@ -78,11 +81,22 @@ def read_order_map(path, *, pixel_size: float | None = None, hint: str = "--pixe
         px = float(z["pixel_size_m"]) if "pixel_size_m" in z else 0.0
         rc = z["indenter_rc"][0] if "indenter_rc" in z and len(z["indenter_rc"]) else None
         rel = np.array(z["reliable"], bool) if "reliable" in z else None
+        xy = None
+        if rc is not None and "x_m" in z and "y_m" in z:
+            r, c = (
+                int(np.clip(round(float(v)), 0, n - 1))
+                for v, n in zip(rc, order.shape, strict=True)
+            )
+            x0, y0 = float(z["x_m"][r, c]), float(z["y_m"][r, c])
+            xy = (
+                x0 * 1e3 + (float(rc[1]) - c) * px * 1e3,
+                y0 * 1e3 - (float(rc[0]) - r) * px * 1e3,
+            )
     px = pixel_size or px
     if not px:
         raise ValueError(f"{f} stores no pixel size; give {hint}")
     rc = (float(rc[0]), float(rc[1])) if rc is not None else None
-    return OrderMap(f, order, px, rc, rel)
+    return OrderMap(f, order, px, rc, rel, xy)
 
 
 def run_compare(
@@ -113,7 +127,10 @@ def run_compare(
     )  # fmt: skip
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    comparison_figure(comp, out / "comparison.png", title=f"{pf.parent.name} vs {mf.parent.name}")
+    comparison_figure(
+        comp, out / "comparison.png", title=f"{pf.parent.name} vs {mf.parent.name}",
+        pixel_size=mp, centre_xy_mm=p.indenter_xy_mm or (0.0, 0.0),
+    )  # fmt: skip
     np.savez_compressed(
         out / "residual.npz", residual=comp.residual, predicted=comp.predicted, measured=meas
     )

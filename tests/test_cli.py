@@ -503,3 +503,45 @@ def test_pixels_without_data_look_the_same_everywhere(tiny_images, tmp_path):
     assert main(["analyze", *steps, "--out", str(an), *geo, "--quiet"]) == 0
     got = np.load(an / "maps.npz")
     assert np.array_equal(np.isnan(got["isoclinic_rad"]), np.isnan(got["delta_eq3_rad"]))
+
+
+def test_every_figure_and_table_uses_the_sensor_frame(tiny_images, tmp_path):
+    """x right, y up, mm, origin at the sensor origin: predict's and analyze's maps, the
+    comparison figure and analyze's profile.csv (issue 20)."""
+    from analysis import compare_maps
+    from fringekit.figures import comparison_figure, map_figure, sensor_extent
+
+    # the pixel of the origin has its centre at (0, 0); rows grow downwards, y upwards
+    left, right, bottom, top = sensor_extent((10, 20), 1e-4, (4.0, 8.0))
+    assert left + 8.5 * 0.1 == pytest.approx(0) and top - 4.5 * 0.1 == pytest.approx(0)
+    assert top > bottom and right > left and right - left == pytest.approx(2.0)
+    ext = (left, right, bottom, top)
+    fig = map_figure(tmp_path / "m.png", np.ones((10, 20)), "t", "l", extent=ext,
+                     axis_labels=("x (mm)", "y (mm)"))  # fmt: skip
+    ax = fig.axes[0]
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("x (mm)", "y (mm)")
+    assert ax.get_ylim()[1] > ax.get_ylim()[0]  # y up
+    # analyze: profile.csv in the sensor frame about --origin-px (default the image centre)
+    root, out96, d, geo, border = tiny_images
+    steps = [str(d / "six_step" / f"step{k}.png") for k in range(1, 7)]
+    an = tmp_path / "an"
+    assert main(["analyze", *steps, "--out", str(an), *geo, "--origin-px", "40", "50",
+                 "--line", "30", "0", "30", "95", "--quiet"]) == 0  # fmt: skip
+    head = (an / "profile.csv").read_text().splitlines()[0]
+    assert head == "distance_mm,x_mm,y_mm,fringe_order"
+    prof = np.loadtxt(an / "profile.csv", delimiter=",", skiprows=1)
+    px_mm = float(geo[-1])
+    np.testing.assert_allclose(prof[:, 2], (40 - 30) * px_mm, rtol=1e-5)  # y up from row 40
+    np.testing.assert_allclose(prof[[0, -1], 1], [-50 * px_mm, 45 * px_mm], rtol=1e-5)
+    # compare: the maps in mm about the sensor origin, labelled
+    maps = np.load(d / "maps.npz")
+    order = maps["fringe_order"]
+    comp = compare_maps(order, order, predicted_pixel_size=float(maps["pixel_size_m"]),
+                        measured_pixel_size=float(maps["pixel_size_m"]),
+                        centre_predicted=tuple(maps["indenter_rc"][0]))  # fmt: skip
+    fig = comparison_figure(comp, tmp_path / "c.png", pixel_size=float(maps["pixel_size_m"]))
+    maps_axes = [
+        a for a in fig.axes if a.get_title().startswith(("measured", "predicted", "resid"))
+    ]
+    assert len(maps_axes) == 3
+    assert all((a.get_xlabel(), a.get_ylabel()) == ("x (mm)", "y (mm)") for a in maps_axes)

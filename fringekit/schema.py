@@ -116,8 +116,9 @@ SCHEMA: dict[str, Any] = {
         ),
         "h_contact_mm": _f(
             0.6,
-            "edge length under each indenter (0.6 converges the depth; 0.4 for the fringe "
-            "order within 0.5 mm of the contact edge, bench/convergence.py)",
+            "edge length under each indenter (0.6 converges the depth to 0.2 % and the order "
+            "2.5 mm out to 0.07 fringe; near the contact edge expect +-0.2 at any size, "
+            "bench/convergence.py)",
             "mm",
             0,
             50,

@@ -255,9 +255,13 @@ def _reached(model: Model, s: float) -> str:
     parts = []
     for j, ind in enumerate(model.indenters):
         if ind.force_control:
-            parts.append(f"{-f[j, 2] / model.frac[j]:.4g} N")
+            text = f"{-f[j, 2] / model.frac[j]:.4g} N"
         else:
-            parts.append(f"depth {(model.c0[j, 2] - c[j, 2]) * 1e3:.4g} mm")
+            text = f"depth {(model.c0[j, 2] - c[j, 2]) * 1e3:.4g} mm"
+        if ind.shear_force is not None and np.any(f[j, :2] != 0):
+            fx, fy = f[j, :2] / model.frac[j]
+            text += f" with shear ({fx:.4g}, {fy:.4g}) N"
+        parts.append(text)
     return "indenter loads " + ", ".join(parts)
 
 

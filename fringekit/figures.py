@@ -38,21 +38,20 @@ NO_DATA_RGB = (0.82, 0.82, 0.82)
 NO_DATA_IMAGE_LEVEL = 0.5
 
 
-def _no_data(ax, fig, data, extent) -> None:
+def _no_data(ax, fig, data, extent) -> list:
     """Paint pixels without data (NaN in a map; NaN in any channel of an RGB float image)
-    in :data:`NO_DATA_RGB` and add the legend entry when there are any."""
+    in :data:`NO_DATA_RGB`; returns the legend entry when there are any."""
     from matplotlib.patches import Patch
 
     bad = ~np.isfinite(np.asarray(data, float))
     if bad.ndim == 3:
         bad = bad.any(axis=-1)
     if not bad.any():
-        return
+        return []
     overlay = np.zeros((*bad.shape, 4))
     overlay[bad] = (*NO_DATA_RGB, 1.0)
     ax.imshow(overlay, extent=extent, interpolation="nearest")
-    ax.legend(handles=[Patch(color=NO_DATA_RGB, label="no data")], loc="upper right",
-              fontsize=7, framealpha=0.8)  # fmt: skip
+    return [Patch(color=NO_DATA_RGB, label="no data")]
 
 
 def sensor_extent(shape, pixel_size: float, origin_rc) -> tuple[float, float, float, float]:
@@ -88,18 +87,29 @@ def map_figure(
     axis_labels=("column (px)", "row (px)"),
     vmin=None,
     vmax=None,
+    hatch=None,
+    hatch_label: str = "",
 ) -> Figure:
     """PNG of a (rows, cols) map with a colour bar, or of an RGB image (no colour bar).
 
     ``extent`` (left, right, bottom, top) in the axis units; None plots in pixels. NaN
     pixels (for an RGB image: a float image with NaN) are drawn as "no data"
-    (:data:`NO_DATA_RGB`).
+    (:data:`NO_DATA_RGB`). ``hatch`` (rows, cols) bool marks pixels whose value is one of
+    several (hatched, with ``hatch_label`` in the legend).
     """
     fig, ax = _figure((5.2, 4.4), dpi=120)
     im = ax.imshow(data, cmap=cmap, extent=extent, vmin=vmin, vmax=vmax, interpolation="nearest")
     if np.ndim(data) == 2:
         fig.colorbar(im, ax=ax, label=label)
-    _no_data(ax, fig, data, extent)
+    handles = _no_data(ax, fig, data, extent)
+    if hatch is not None and np.any(hatch):
+        from matplotlib.patches import Patch
+
+        ax.contourf(np.asarray(hatch, float), levels=[0.5, 1.5], colors="none", hatches=["////"],
+                    extent=extent, origin="upper")  # fmt: skip
+        handles.append(Patch(facecolor="none", edgecolor="k", hatch="////", label=hatch_label))
+    if handles:
+        ax.legend(handles=handles, loc="upper right", fontsize=7, framealpha=0.8)
     ax.set_xlabel(axis_labels[0])
     ax.set_ylabel(axis_labels[1])
     ax.set_title(title)
@@ -173,7 +183,8 @@ def comparison_figure(
         a.set_xlabel(labels[0])
         a.set_ylabel(labels[1])
         fig.colorbar(im, ax=a, shrink=0.8)
-        _no_data(a, fig, data, extent)
+        if handles := _no_data(a, fig, data, extent):
+            a.legend(handles=handles, loc="upper right", fontsize=7, framealpha=0.8)
         a.plot([x0, x1], [y0, y1], "w--", lw=1)
     pm = line_profile(comp.measured, *line, pixel_size=pixel_size or None)
     pp = line_profile(comp.predicted, *line, pixel_size=pixel_size or None)

@@ -96,23 +96,26 @@ def fringe_order_map(sol, cfg: dict, optics: OpticsSetup | None = None):
     return omap.fringe_order(), optics.grid, indenter_pixels(sol, optics.grid)
 
 
-def _grid_figure(path, data, grid, title, label, cmap) -> None:
+def _grid_figure(path, data, grid, title, label, cmap, **kw) -> None:
     """:func:`map_figure` on the sheet's x, y (mm) of ``grid``."""
     x0, y0 = grid.pixel_to_xy(np.array([0, grid.shape[0] - 1]), np.array([0, grid.shape[1] - 1]))
     extent = (x0[0] * 1e3, x0[1] * 1e3, y0[1] * 1e3, y0[0] * 1e3)
-    map_figure(path, data, title, label, cmap, extent=extent, axis_labels=("x (mm)", "y (mm)"))
+    map_figure(path, data, title, label, cmap, extent=extent, axis_labels=("x (mm)", "y (mm)"),
+               **kw)  # fmt: skip
 
 
-def _write_maps(d: Path, sol, omap: OpticalMap, law) -> tuple[np.ndarray, np.ndarray]:
-    """``maps.npz`` of one state; returns (fringe order, isoclinic (rad))."""
+def _write_maps(d: Path, sol, omap: OpticalMap, law) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``maps.npz`` of one state; returns (fringe order, isoclinic (rad), branch ambiguity)."""
     grid = omap.grid
     rows, cols = grid.shape
     order = omap.fringe_order()
+    ambiguous = omap.branch_ambiguous()
     theta = np.where(omap.mask, omap.principal_angle(), np.nan)
     xy = grid.xy().reshape(rows, cols, 2)
     np.savez_compressed(
         d / "maps.npz",
         fringe_order=order,
+        branch_ambiguous=ambiguous,
         simple_order=omap.simple_order,
         isoclinic_rad=theta,
         mask=omap.mask,
@@ -122,7 +125,7 @@ def _write_maps(d: Path, sol, omap: OpticalMap, law) -> tuple[np.ndarray, np.nda
         indenter_rc=indenter_pixels(sol, grid),
         wavelength_m=law.wavelength_ref,
     )
-    return order, theta
+    return order, theta, ambiguous
 
 
 def _white_light(d: Path, sol, cfg: dict, optics: OpticsSetup, samples, mask) -> np.ndarray:
@@ -170,11 +173,12 @@ def no_data_fill(img: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return out
 
 
-def _figures(d: Path, sol, cfg: dict, grid, order, theta, rgb, mask) -> None:
+def _figures(d: Path, sol, cfg: dict, grid, order, theta, rgb, mask, ambiguous) -> None:
     o = cfg["optics"]
     _grid_figure(
         d / "fringe_order.png", order, grid, f"fringe order at {o['wavelength_nm']:g} nm",
-        "fringe order", "turbo",
+        "fringe order", "turbo", hatch=ambiguous,
+        hatch_label="branch ambiguous (maps.npz branch_ambiguous)",
     )  # fmt: skip
     _grid_figure(d / "isoclinic.png", np.degrees(theta), grid, "isoclinic", "angle (deg)",
                  "twilight")  # fmt: skip
@@ -214,7 +218,7 @@ def render_state(
     progress("optics: rays located and integrated")
 
     t0 = time.perf_counter()
-    order, theta = _write_maps(d, sol, omap, optics.law)
+    order, theta, ambiguous = _write_maps(d, sol, omap, optics.law)
     times["maps_s"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
@@ -232,7 +236,7 @@ def render_state(
     progress("optics: white-light image")
 
     t0 = time.perf_counter()
-    _figures(d, sol, cfg, optics.grid, order, theta, rgb, omap.mask)
+    _figures(d, sol, cfg, optics.grid, order, theta, rgb, omap.mask, ambiguous)
     times["figures_s"] = time.perf_counter() - t0
     valid = np.isfinite(order)
     return {
@@ -241,5 +245,6 @@ def render_state(
         "max_fringe_order": float(np.nanmax(order)) if valid.any() else None,
         "max_simple_order": float(np.nanmax(omap.simple_order)) if valid.any() else None,
         "valid_pixel_fraction": float(valid.mean()),
+        "branch_ambiguous_fraction": float(ambiguous.sum() / max(valid.sum(), 1)),
         "times_s": times,
     }

@@ -12,7 +12,37 @@ from .grid import PixelGrid, RaySamples, sample_rays
 from .jones import characteristic, integrate_path, qmul, qtranspose, to_matrix
 from .stressoptic import StressOpticLaw, check_wavelengths
 
-__all__ = ["OpticalMap", "optical_map", "integrate_samples"]
+__all__ = [
+    "OpticalMap",
+    "optical_map",
+    "integrate_samples",
+    "BRANCH_DISTINCT",
+    "BRANCH_RATIO",
+    "BRANCH_JUMP",
+]
+
+#: Two order values closer than this (fringe) are one value for the branch test.
+BRANCH_DISTINCT = 0.05
+#: A pixel's branch is ambiguous when another value lies within this many times the
+#: distance between the chosen value and the simple order (see OpticalMap.branch_ambiguous).
+BRANCH_RATIO = 3.0
+#: ... or when the order steps to a neighbour by this much more than the simple order does
+#: (fringe): a switch of branch, not a gradient.
+BRANCH_JUMP = 0.25
+
+
+def _switches(chosen: np.ndarray, guide: np.ndarray) -> np.ndarray:
+    """Both pixels of every step between 4-neighbours that exceeds the guide's step there
+    by more than :data:`BRANCH_JUMP`: a switch of branch, not a gradient."""
+    out = np.zeros(chosen.shape, bool)
+    with np.errstate(invalid="ignore"):
+        down = np.abs(np.diff(chosen, axis=0) - np.diff(guide, axis=0)) > BRANCH_JUMP
+        right = np.abs(np.diff(chosen, axis=1) - np.diff(guide, axis=1)) > BRANCH_JUMP
+    out[:-1] |= down
+    out[1:] |= down
+    out[:, :-1] |= right
+    out[:, 1:] |= right
+    return out
 
 
 @dataclass(frozen=True)
@@ -85,6 +115,34 @@ class OpticalMap:
         do not rotate along the ray. NaN outside ``mask``.
         """
         return self._branch(k)[0]
+
+    def branch_ambiguous(self, k: int = 0) -> np.ndarray:
+        """(rows, cols) bool: pixels where the simple order cannot choose the branch.
+
+        The order is one of the values +-Delta*/(2 pi) + n. :meth:`fringe_order` takes
+        the one nearest the rotation-free simple order g (distance e1); where the axes
+        turn through the sheet, g is off by an unknown amount and the choice can jump
+        between values from pixel to pixel (terraces). A pixel is flagged when another
+        value, distinct by more than :data:`BRANCH_DISTINCT` fringe, lies within
+        :data:`BRANCH_RATIO` times e1 of g: the guide misses the chosen value by more
+        than a third of the way to the next candidate; or when the order steps to a 4-neighbour
+        by more than :data:`BRANCH_JUMP` beyond the simple order's step there (a switch of
+        branch: both pixels). Exact guides never flag. False outside ``mask``.
+        """
+        d = self.retardation[..., k] / (2 * np.pi)  # [0, 0.5]
+        guide = self.simple_order * self.law.relative_retardation(self.wavelengths[k])[0]
+        base = np.round(guide)
+        n = np.arange(-1, 2)[:, None, None]
+        cands = np.concatenate([d + base + n, -d + base + n])  # (6, rows, cols)
+        chosen = self.fringe_order(k)
+        dist = np.abs(cands - guide)
+        e1 = np.abs(chosen - guide)
+        other = np.abs(cands - chosen) > BRANCH_DISTINCT
+        e2 = np.min(np.where(other, dist, np.inf), axis=0)
+        with np.errstate(invalid="ignore"):
+            flagged = self.mask & (e2 < BRANCH_RATIO * e1)
+            flagged |= _switches(chosen, guide)
+        return flagged & self.mask
 
     def principal_angle(self, k: int = 0) -> np.ndarray:
         """(rows, cols) characteristic axis angle (rad) consistent with :meth:`fringe_order`.

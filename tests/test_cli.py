@@ -191,6 +191,8 @@ def test_predict_end_to_end(tiny_run):
     maps = np.load(d / "maps.npz")
     order = maps["fringe_order"]
     assert order.shape == (32, 32)
+    amb = maps["branch_ambiguous"]  # pixels whose branch the simple order cannot choose
+    assert amb.dtype == bool and not amb[np.isnan(order)].any() and amb.mean() < 0.05
     assert s["max_fringe_order"] == pytest.approx(np.nanmax(order), rel=1e-5)  # 6 digits
     # 8 N on this sheet gives ~3.5 fringes at the contact edge (bench/optics.py: 3.67)
     assert 2.5 < s["max_fringe_order"] < 5.0

@@ -347,3 +347,38 @@ def test_layers_of_two_materials_compose_in_light_order():
     np.testing.assert_allclose(simple, n_exact, rtol=1e-12)
     with pytest.raises(ValueError, match="one StressOpticLaw per layer"):
         integrate_layers([s_pc], laws, lam)
+
+
+def _retarder_map(order, theta, mask, guide):
+    from optics import PSM4_ASSUMED, OpticalMap, PixelGrid
+    from optics.jones import retarder
+
+    n = order.shape[0]
+    q = retarder(2 * np.pi * order, theta)[:, :, None, :]
+    return OpticalMap(
+        PixelGrid((n, n), 1e-4), np.array([PSM4_ASSUMED.wavelength_ref]), q,
+        np.where(mask, guide, np.nan), mask, True, PSM4_ASSUMED,
+    )  # fmt: skip
+
+
+def test_branch_ambiguity_marks_every_terrace_and_nothing_under_an_exact_guide():
+    """A smooth retarder field (order 0.3-2.9, radial axes) with the simple-order guide
+    pushed off by up to 0.45 fringe over a patch, as turning axes do under shear: the
+    per-pixel branch draws terraces there; 70 % of the wrong pixels are flagged (a wrong
+    value the guide lands right on cannot be told locally), none outside the patch, and
+    none at all with the exact guide."""
+    n = 64
+    r, c = np.mgrid[:n, :n].astype(float)
+    x, y = (c - n / 2 + 0.5) / n, (n / 2 - 0.5 - r) / n
+    rad = np.hypot(x, y)
+    order = 0.3 + 2.6 * np.exp(-((rad / 0.3) ** 2))
+    theta, mask = np.arctan2(y, x), rad > 0.06
+    exact = _retarder_map(order, theta, mask, order)
+    np.testing.assert_allclose(exact.fringe_order()[mask], order[mask], atol=1e-9)
+    assert not exact.branch_ambiguous().any()
+    patch = np.exp(-(((x + 0.15) / 0.08) ** 2 + ((y - 0.1) / 0.12) ** 2))
+    off = _retarder_map(order, theta, mask, order + 0.45 * patch)
+    wrong = mask & (np.abs(off.fringe_order() - order) > 0.05)
+    flagged = off.branch_ambiguous()
+    assert wrong.sum() > 20 and flagged[wrong].mean() > 0.65
+    assert flagged.sum() < 4 * wrong.sum() and not flagged[patch < 0.05].any()

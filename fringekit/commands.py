@@ -191,8 +191,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
     )
     if not args.quiet:
         print(
-            f"fringekit compare: residual RMS {s['rms_fringe']:.3f}, p95 {s['p95_fringe']:.3f} "
-            f"fringe over {s['pixels']} pixels; results in {out}/"
+            f"fringekit compare: residual RMS {s['rms_fringe']:.3g} fringe, 95th percentile of "
+            f"|residual| {s['p95_fringe']:.3g} fringe, over {s['pixels']} pixels; results in "
+            f"{out}/"
         )
     return 0
 

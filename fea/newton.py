@@ -22,7 +22,16 @@ from .linsolve import LinearSolver
 from .model import Model, State
 from .stats import SolveStats
 
-__all__ = ["BodyCache", "Run", "Watchdog", "evaluate", "newton", "solve_increment", "STALL_WARN_S"]
+__all__ = [
+    "BodyCache",
+    "Run",
+    "Watchdog",
+    "evaluate",
+    "is_cycling",
+    "newton",
+    "solve_increment",
+    "STALL_WARN_S",
+]
 
 log = logging.getLogger("fringekit.fea")
 
@@ -36,6 +45,9 @@ REUSE_BELOW = 1e-4
 #: ``p_curvature_cap``). Converged Hertzian peak pressures of the built-in cases are
 #: 0.3-0.8 E, where the tangent stays exact.
 CURVATURE_CAP = 1.0
+#: residual (relative to the load) below which a two-value cycle of the Newton iterates is
+#: broken by a multiplier update (see newton)
+CYCLE_AL = 1e-2
 
 
 class BodyCache:
@@ -302,6 +314,23 @@ def _line_search(run: Run, st: State, f_ind, dx, energy: float, rnorm: float, ta
     return None, alpha
 
 
+def is_cycling(history: list[float]) -> bool:
+    """The last four residuals alternate between two values (to 0.1 %): Newton is
+    bouncing between two active sets instead of converging."""
+    if len(history) < 4:
+        return False
+    a, b, c, d = history[-4:]
+    return abs(d - b) <= 1e-3 * d and abs(c - a) <= 1e-3 * c and abs(d - c) > 1e-3 * d
+
+
+def _update_multipliers(run: Run, st: State, results, f_ind):
+    """Uzawa step lambda <- p; returns the evaluation at the same displacements."""
+    for j, res in enumerate(results):
+        st.lam[j] = res.p.copy()
+    run.stats.al_updates += 1
+    return evaluate(run.model, st, f_ind, tangent=True, stats=run.stats, cache=run.cache)
+
+
 def newton(run: Run, st: State, f_ind: np.ndarray, fscale: float, iter_log: list):
     """Newton-Raphson with line search; multiplier updates once the residual is small.
 
@@ -316,6 +345,7 @@ def newton(run: Run, st: State, f_ind: np.ndarray, fscale: float, iter_log: list
     updates = 0
     e0 = None
     e_last = None
+    history: list[float] = []  # residual norms of this Newton run (N)
     whole = True  # the last step was taken whole: try the next one with its tangent
     prev = evaluate(model, st, f_ind, tangent=True, stats=stats, cache=run.cache)
     if prev is None:
@@ -327,6 +357,16 @@ def newton(run: Run, st: State, f_ind: np.ndarray, fscale: float, iter_log: list
             (float(np.abs(res.force[:, 6].sum(axis=0)).max()) for res in results), default=0.0
         )
         scale = max(fscale, contact_force, 1e-6)
+        history.append(rnorm)
+        if is_cycling(history) and rnorm <= CYCLE_AL * scale and updates < contact.max_updates:
+            # a contact point flips in and out of the active set from one iterate to the
+            # next: a multiplier update moves its trial pressure off the switch
+            prev = _update_multipliers(run, st, results, f_ind)
+            updates += 1
+            stats.cycle_breaks += 1
+            history.clear()
+            e_last = None
+            continue
         if rnorm <= AL_SWITCH * scale:
             ratio = penetration_ratio(model, st, results)
             if ratio > contact.penetration_tol:
@@ -337,11 +377,8 @@ def newton(run: Run, st: State, f_ind: np.ndarray, fscale: float, iter_log: list
                         "multiplier updates",
                         None,
                     )
-                for j, res in enumerate(results):
-                    st.lam[j] = res.p.copy()
+                prev = _update_multipliers(run, st, results, f_ind)
                 updates += 1
-                stats.al_updates += 1
-                prev = evaluate(model, st, f_ind, tangent=True, stats=stats, cache=run.cache)
                 e_last = None
                 continue
             if rnorm <= settings.force_tol * scale and (

@@ -30,6 +30,8 @@ class SolveStats:
     iteration_times: list = field(default_factory=list)
     cutbacks: int = 0
     al_updates: int = 0
+    #: multiplier updates made to break a two-value cycle of the Newton iterates
+    cycle_breaks: int = 0
     #: element-kernel evaluations of the body with its tangent, and without (energy and
     #: residual only: line-search trials, stress recovery)
     tangent_assemblies: int = 0

@@ -90,3 +90,15 @@ def test_a_long_increment_says_so_with_its_loads(small_meshes, monkeypatch, capl
     assert len(said) == 2  # once per increment
     assert "indenter loads 1 N" in said[0] and "indenter loads 2 N" in said[1]
     assert "indenter.load_N" in said[0]
+
+
+def test_a_two_value_cycle_of_the_residual_is_recognised():
+    """The shear case's Newton run bounced between residuals of 0.0528 and 0.0355 N for
+    16 iterations (a contact point flipping in and out), was cut back twice and took 59
+    iterations for its shear state; a multiplier update on the cycle takes it to 24."""
+    from fea.newton import is_cycling
+
+    assert is_cycling([0.58, 0.0528, 0.0355, 0.0528, 0.0355])
+    assert not is_cycling([0.0528, 0.0355, 0.0528])  # too short to tell
+    assert not is_cycling([4.0, 2.9, 2.5, 1.2])  # converging
+    assert not is_cycling([0.1, 0.1, 0.1, 0.1])  # stalled, not alternating

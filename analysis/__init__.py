@@ -28,7 +28,7 @@ from .phase import (
     wrap,
 )
 from .rgb import CalibrationTable, RGBResult, search, search_refined
-from .unwrap import FringeOrderMap, unwrap_fringe_order
+from .unwrap import FringeOrderMap, border_anchor, unwrap_fringe_order
 
 __all__ = [
     "RADII_MM",
@@ -43,6 +43,7 @@ __all__ = [
     "Comparison",
     "Frame",
     "FringeOrderMap",
+    "border_anchor",
     "Profile",
     "RGBResult",
     "Resolution",

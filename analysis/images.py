@@ -105,6 +105,11 @@ def load_image(path, *, dark=None) -> Frame:
         Missing file, unreadable format, a multi-page file (use :func:`load_six_step`),
         an empty (all-equal) image, or a dark frame of another shape.
     """
+    return _subtract_dark(_read_frame(path), dark)
+
+
+def _read_frame(path) -> Frame:
+    """One image file as a Frame, without the emptiness check (a dark frame may be flat)."""
     import imageio.v3 as iio
 
     path = Path(path)
@@ -119,21 +124,20 @@ def load_image(path, *, dark=None) -> Frame:
         raise ValueError(
             f"{path}: holds {img.shape[0]} pages; read phase-stepped stacks with load_six_step"
         )
-    frame = normalise(img, source=str(path))
-    return _subtract_dark(frame, dark)
+    return normalise(img, source=str(path))
 
 
 def _subtract_dark(frame: Frame, dark) -> Frame:
+    """``frame`` minus the dark frame (clipped at 0); a uniform dark frame is valid, an
+    empty (all-equal) result is not."""
     if dark is None:
         d = None
+    elif isinstance(dark, Frame):
+        d = dark
+    elif isinstance(dark, str | Path):
+        d = _read_frame(dark)
     else:
-        d = (
-            dark
-            if isinstance(dark, Frame)
-            else (
-                load_image(dark) if isinstance(dark, str | Path) else normalise(dark, source="dark")
-            )
-        )
+        d = normalise(dark, source="dark")
     if d is not None:
         if d.data.shape != frame.data.shape:
             raise ValueError(

@@ -19,7 +19,7 @@ from skimage.restoration import unwrap_phase
 from .masks import check_mask
 from .phase import TWO_PI, Resolution, SixStep, resolve_ambiguity, wrap
 
-__all__ = ["FringeOrderMap", "unwrap_fringe_order"]
+__all__ = ["FringeOrderMap", "border_anchor", "unwrap_fringe_order"]
 
 
 @dataclass(frozen=True)
@@ -46,7 +46,7 @@ class FringeOrderMap:
     info: dict = field(default_factory=dict)
 
 
-def _default_anchor(valid: np.ndarray) -> np.ndarray:
+def border_anchor(valid: np.ndarray) -> np.ndarray:
     """The valid pixels within 5 % of the image size from its border (the far field)."""
     rows, cols = valid.shape
     m = max(1, int(round(0.05 * min(rows, cols))))
@@ -64,7 +64,7 @@ def _anchors(valid, anchor_mask, anchor_order, reference_order):
     """(anchor pixels (rows, cols) bool, target order (rows, cols)) from the options."""
     if reference_order is None:
         anchor = (
-            _default_anchor(valid)
+            border_anchor(valid)
             if anchor_mask is None
             else check_mask(anchor_mask, valid.shape, "anchor_mask") & valid
         )

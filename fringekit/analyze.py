@@ -26,6 +26,7 @@ import numpy as np
 
 from analysis import (
     CalibrationTable,
+    border_anchor,
     circle_mask,
     exclude_circle,
     line_profile,
@@ -87,20 +88,47 @@ def _table(calibration, chart: dict | None) -> CalibrationTable:
     return CalibrationTable.from_chart(orders, rgb, "synthetic colour chart (optics)")
 
 
-def _analyse_phase(paths, dark, mask_args, min_modulation, anchor_order):
+#: Radius (px) of the anchor disc about ``--order-at ROW COL N``.
+ORDER_AT_RADIUS_PX = 3.0
+
+
+def _anchor(shape, valid, order_at):
+    """(anchor mask or None, anchor order) from ``--order-at`` (row, col, order), checked."""
+    if order_at is None:
+        return None, None
+    r, c, n = order_at
+    anchor = circle_mask(shape, (r, c), ORDER_AT_RADIUS_PX)
+    if not (anchor & valid).any():
+        raise ValueError(
+            f"--order-at {r:g} {c:g} {n:g}: no valid pixel within {ORDER_AT_RADIUS_PX:g} px of "
+            f"({r:g}, {c:g}); allowed: a point inside the image with fringe data (not masked, "
+            "modulation above --min-modulation)"
+        )
+    return anchor, n
+
+
+def _analyse_phase(paths, dark, mask_args, min_modulation, anchor_order, order_at=None):
     """Six-step images -> (order, reliable, extra maps, summary part, mask)."""
     frames = load_six_step(paths[0] if len(paths) == 1 else paths, dark=dark)
     mask = _mask(frames[0].shape, *mask_args)
     res = six_step(frames, mask=mask, min_modulation=min_modulation)
     resolution = resolve_ambiguity(res)
-    fo = unwrap_fringe_order(res, resolution, anchor_order=anchor_order)
+    anchor, n = _anchor(frames[0].shape, res.valid, order_at)
+    if anchor is None and not border_anchor(res.valid).any():
+        raise ValueError(
+            "no pixel with fringe data lies on the image border, where --anchor-order "
+            f"({anchor_order:g}) applies; give --order-at ROW COL N, a pixel of known order"
+        )
+    anchor_order = anchor_order if n is None else n
+    fo = unwrap_fringe_order(res, resolution, anchor_mask=anchor, anchor_order=anchor_order)
     maps = {
         "isoclinic_rad": np.where(res.valid, fo.isoclinic, np.nan),
         "delta_eq3_rad": np.where(res.valid, res.delta_eq3, np.nan),
         "delta_axis_insensitive_rad": np.where(res.valid, res.delta_axis_insensitive, np.nan),
         "modulation": res.modulation,
     }
-    part = {"phase": {"info": fo.info, "offset": fo.offset, "anchor_order": anchor_order}}
+    part = {"phase": {"info": fo.info, "offset": fo.offset, "anchor_order": anchor_order,
+                      "order_at_px": list(order_at[:2]) if order_at else None}}  # fmt: skip
     return fo.order, fo.reliable, maps, part, mask
 
 
@@ -223,6 +251,7 @@ def run_analyze(
     f_sigma: float | None = None,
     thickness: float | None = None,
     origin_px: tuple[float, float] | None = None,
+    order_at: tuple[float, float, float] | None = None,
 ) -> dict:
     """Analyse fringe images; write maps, figures and a summary to ``out``.
 
@@ -247,6 +276,10 @@ def run_analyze(
         first excluded circle's centre, else through the image centre.
     f_sigma, thickness : float (N/m, m) — give both for the principal stress difference
         (seed eq. 4, reflection).
+    order_at : (row, col, order), optional — (phase) a pixel of known fringe order in the
+        far field that anchors the unwrapped map instead of the image border at
+        ``anchor_order``. Like the border, it is taken as the lowest order of its region:
+        that fixes the sign (the order is a magnitude); one point cannot.
     origin_px : (row, col), optional — the pixel of the sensor origin; figures and
         profile.csv use the sensor frame (x right, y up, mm) about it when the pixel size
         is known. Default: the image centre.
@@ -265,7 +298,7 @@ def run_analyze(
     mask_args = (roi_circle, exclude)
     if method == "phase":
         order, reliable, maps, part, mask = _analyse_phase(
-            paths, dark, mask_args, min_modulation, anchor_order
+            paths, dark, mask_args, min_modulation, anchor_order, order_at
         )
     else:
         order, reliable, maps, part, mask = _analyse_rgb(

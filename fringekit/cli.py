@@ -102,6 +102,16 @@ def _add_analyze(sub) -> None:
     an.add_argument("--window", type=positive, default=0.25, help="(rgb) refined window (fringe)")
     an.add_argument("--line", nargs=4, type=finite, metavar=("R0", "C0", "R1", "C1"))
     an.add_argument(
+        "--order-at",
+        nargs=3,
+        type=finite,
+        metavar=("ROW", "COL", "N"),
+        default=None,
+        help="(phase) a pixel of known fringe order N in the far field (the lowest order of "
+        "its region: it also fixes the sign) that anchors the unwrapped map instead of the "
+        "image border at --anchor-order",
+    )
+    an.add_argument(
         "--origin-px",
         nargs=2,
         type=finite,

@@ -163,6 +163,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         line=tuple(args.line) if args.line else None,
         f_sigma=args.f_sigma_N_per_m,
         origin_px=tuple(args.origin_px) if args.origin_px else None,
+        order_at=tuple(args.order_at) if args.order_at else None,
         thickness=args.thickness_mm * 1e-3 if args.thickness_mm else None,
     )
     if not args.quiet:

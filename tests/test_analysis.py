@@ -352,3 +352,16 @@ def test_compare_registers_shift_and_scale(dent, tmp_path):
     assert (tmp_path / "cmp.png").stat().st_size > 10_000
     with pytest.raises(ValueError, match="measured_pixel_size = 0"):
         compare_maps(pred, meas, predicted_pixel_size=1e-4, measured_pixel_size=0)
+
+
+def test_a_uniform_dark_frame_is_a_valid_dark_frame(tmp_path):
+    """A camera's dark frame (lens cap on) is often perfectly uniform: it is subtracted,
+    not refused as an empty image (it was: "the image is empty")."""
+    img = (np.arange(64).reshape(8, 8) + 20).astype(np.uint8)
+    write_image(tmp_path / "img.png", img)
+    write_image(tmp_path / "dark.png", np.full((8, 8), 5, np.uint8))
+    got = load_image(tmp_path / "img.png", dark=tmp_path / "dark.png")
+    np.testing.assert_allclose(got.data, (img.astype(float) - 5) / 255)
+    frames = load_six_step([tmp_path / "img.png"] * 5 + [tmp_path / "img.png"],
+                           dark=str(tmp_path / "dark.png"))  # fmt: skip
+    assert len(frames) == 6

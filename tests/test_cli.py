@@ -547,3 +547,30 @@ def test_every_figure_and_table_uses_the_sensor_frame(tiny_images, tmp_path):
     ]
     assert len(maps_axes) == 3
     assert all((a.get_xlabel(), a.get_ylabel()) == ("x (mm)", "y (mm)") for a in maps_axes)
+
+
+def test_analyze_phase_anchored_at_a_point_of_known_order(tiny_images, tmp_path, capsys):
+    """A region of interest that leaves the image border out: the default anchor (the
+    border ring) has no pixel, and the error names the option that helps (it named the
+    Python argument anchor_mask); --order-at ROW COL N anchors the map instead."""
+    root, out96, d, geo, border = tiny_images
+    maps = np.load(d / "maps.npz")
+    order = maps["fringe_order"]
+    (rc, cc) = maps["indenter_rc"][0]
+    steps = [str(d / "six_step" / f"step{k}.png") for k in range(1, 7)]
+    roi = ["--roi-circle", str(rc), str(cc), "40"]
+    an = tmp_path / "an"
+    assert main(["analyze", *steps, *roi, *geo, "--out", str(an), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "--order-at ROW COL N" in err and "anchor_mask" not in err
+    assert not an.exists()
+    r, c = int(round(rc)), int(round(cc + 37))  # the far field inside the region
+    known = ["--order-at", str(r), str(c), f"{order[r, c]:.4f}"]
+    assert main(["analyze", *steps, *roi, *geo, *known, "--out", str(an), "--quiet"]) == 0
+    got = np.load(an / "maps.npz")
+    ok = got["reliable"] & np.isfinite(order)
+    assert ok.sum() > 500
+    assert np.median(np.abs(got["fringe_order"][ok] - order[ok])) < 0.02
+    bad = ["--order-at", "0", "0", "1.0"]  # outside the region of interest
+    assert main(["analyze", *steps, *roi, *geo, *bad, "--out", str(tmp_path / "x")]) == 2
+    assert "--order-at 0 0 1" in capsys.readouterr().err

@@ -11,13 +11,38 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["fringe_value_from_disc", "WARN_RESIDUAL", "REFUSE_RESIDUAL"]
+__all__ = ["disc_outline", "fringe_value_from_disc", "WARN_RESIDUAL", "REFUSE_RESIDUAL"]
 
 #: RMS residual of the fit, relative to the RMS measured order, above which the result
 #: carries a warning, and above which the map is refused as not a disc. A rendered disc
 #: fits to 1e-4; an indenter map (fitted as a disc) leaves 0.84 fringe.
 WARN_RESIDUAL = 0.05
 REFUSE_RESIDUAL = 0.25
+
+
+def disc_outline(valid: np.ndarray, pixel_size: float, diameter: float) -> tuple[float, float]:
+    """Centre (row, col) px of a disc map from the outline of its data region.
+
+    The region with data (finite order) must be the disc: its equivalent diameter
+    2 sqrt(A / pi) within 10 % of ``diameter`` (m) and 95 % of the circle of that diameter
+    about its centroid covered. A photograph analysed without a region of interest has
+    data everywhere; it is refused rather than fitted about the image centre.
+    """
+    n = int(valid.sum())
+    d_eq = 2 * np.sqrt(n / np.pi) * pixel_size
+    rows, cols = np.nonzero(valid)
+    centre = (float(rows.mean()), float(cols.mean())) if n else (0.0, 0.0)
+    rr, cc = np.mgrid[: valid.shape[0], : valid.shape[1]]
+    circle = np.hypot(rr - centre[0], cc - centre[1]) * pixel_size <= d_eq / 2
+    covered = float(valid[circle].mean()) if circle.any() else 0.0
+    if not n or abs(d_eq / diameter - 1) > 0.1 or covered < 0.95:
+        raise ValueError(
+            f"--centre is missing and the map's data region ({n} pixels, equivalent diameter "
+            f"{d_eq * 1e3:.3g} mm, {100 * covered:.0f} % round) does not outline a "
+            f"{diameter * 1e3:.3g} mm disc; give --centre ROW COL, the disc centre in pixels "
+            "(or analyze with --roi-circle on the disc)"
+        )
+    return centre
 
 
 def fringe_value_from_disc(

@@ -12,9 +12,11 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
+
 from analysis import estimate_load, fringe_features, load_calibration
 
-from .disc import fringe_value_from_disc
+from .disc import disc_outline, fringe_value_from_disc
 from .maps import read_order_map
 
 __all__ = ["run_estimate", "run_disc"]
@@ -52,8 +54,15 @@ def run_disc(maps, *, load_N, diameter_mm, thickness_mm, pixel_mm=None, centre=N
     """Fringe value from a diametral-disc fringe-order map at a known load."""
     m = read_order_map(maps, pixel_size=pixel_mm * 1e-3 if pixel_mm else None)
     f, order, px = m.path, m.order, m.pixel_size
-    rc = centre if centre is not None else ((order.shape[0] - 1) / 2, (order.shape[1] - 1) / 2)
+    if m.reliable is not None:  # analyze's reliable mask: fit only what it vouches for
+        order = np.where(m.reliable, order, np.nan)
+    D = diameter_mm * 1e-3
+    rc = centre if centre is not None else disc_outline(np.isfinite(m.order), px, D)
     res = fringe_value_from_disc(
         order, px, rc, load_N=load_N, diameter=diameter_mm * 1e-3, thickness=thickness_mm * 1e-3
     )
-    return {**res, "maps": str(f), "centre_rc": list(rc)}
+    return {
+        **res, "maps": str(f), "centre_rc": list(rc),
+        "centre_from": "--centre" if centre is not None else "the outline of the map's data",
+        "reliable_mask_used": m.reliable is not None,
+    }  # fmt: skip

@@ -141,3 +141,34 @@ def test_the_disc_fit_refuses_a_map_that_is_not_a_disc(tmp_path, capsys):
             "--diameter-mm", "40", "--thickness-mm", "5"]  # fmt: skip
     assert main(args) == 0
     assert "warning: Frocht's field leaves" in capsys.readouterr().err
+
+
+def test_the_disc_centre_comes_from_the_map_outline_or_is_refused(tmp_path, capsys):
+    """Without --centre the disc is found from its data region (it was taken at the image
+    centre, off the disc in a real photo); a map with data everywhere is refused, and
+    analyze's unreliable pixels are left out of the fit."""
+    D, t, P, n = 0.04, 5e-3, 300.0, 121
+    grid = PixelGrid((n, n), D / n)
+    m = optical_map(DiametralDisc(P=P, D=D, t=t), grid, PSM4_ASSUMED, n_samples=3,
+                    reflection=False)  # fmt: skip
+    order = m.fringe_order()
+    # the disc off the image centre: pad 30 columns on the left and 12 rows below
+    shifted = np.pad(order, ((0, 12), (30, 0)), constant_values=np.nan)
+    reliable = np.isfinite(shifted)
+    garbage = shifted.copy()
+    garbage[70:80, 80:90] = 9.0  # wrong values the analysis flagged as unreliable
+    reliable[70:80, 80:90] = False
+    np.savez(tmp_path / "m.npz", fringe_order=garbage, reliable=reliable,
+             pixel_size_m=grid.pixel_size)  # fmt: skip
+    args = ["calibrate", "--disc", str(tmp_path / "m.npz"), "--load-N", str(P),
+            "--diameter-mm", "40", "--thickness-mm", "5", "--out", str(tmp_path / "o")]  # fmt: skip
+    assert main(args) == 0
+    got = json.loads((tmp_path / "o" / "fringe_value.json").read_text())
+    assert got["f_sigma_N_per_m"] == pytest.approx(PSM4_ASSUMED.f_sigma, rel=2e-3)
+    assert got["centre_rc"] == pytest.approx([(n - 1) / 2, (n - 1) / 2 + 30], abs=0.5)
+    assert got["reliable_mask_used"] and "outline" in got["centre_from"]
+    full = np.where(np.isfinite(shifted), shifted, 0.1)  # data everywhere, like a photo
+    np.savez(tmp_path / "f.npz", fringe_order=full, pixel_size_m=grid.pixel_size)
+    args[2] = str(tmp_path / "f.npz")
+    assert main([*args[:-2], "--out", str(tmp_path / "f")]) == 2
+    assert "give --centre ROW COL" in capsys.readouterr().err

@@ -27,7 +27,14 @@ from .phase import (
     six_step,
     wrap,
 )
-from .rgb import CalibrationTable, RGBResult, search, search_refined
+from .rgb import (
+    MIN_COLOUR_SPREAD,
+    CalibrationTable,
+    RGBResult,
+    colour_spread,
+    search,
+    search_refined,
+)
 from .unwrap import FringeOrderMap, border_anchor, unwrap_fringe_order
 
 __all__ = [
@@ -40,6 +47,8 @@ __all__ = [
     "save_calibration",
     "SIX_STEP_ORDER",
     "CalibrationTable",
+    "MIN_COLOUR_SPREAD",
+    "colour_spread",
     "Comparison",
     "Frame",
     "FringeOrderMap",

@@ -25,9 +25,11 @@ import colour
 import numpy as np
 
 from analysis import (
+    MIN_COLOUR_SPREAD,
     CalibrationTable,
     border_anchor,
     circle_mask,
+    colour_spread,
     exclude_circle,
     line_profile,
     load_image,
@@ -87,6 +89,10 @@ def _table(calibration, chart: dict | None) -> CalibrationTable:
         rgb = np.clip(colour.cctf_encoding(rgb, function="sRGB"), 0, 1)
     return CalibrationTable.from_chart(orders, rgb, "synthetic colour chart (optics)")
 
+
+#: Share of the region of interest that must be reliable before analyze stops warning
+#: (and, with ``--strict``, exits 1).
+MIN_RELIABLE_SHARE = 0.5
 
 #: Radius (px) of the anchor disc about ``--order-at ROW COL N``.
 ORDER_AT_RADIUS_PX = 3.0
@@ -150,14 +156,24 @@ def _analyse_rgb(paths, dark, mask_args, calibration, chart, seeds, window):
     else:
         rr = search(frame.data, table, mask=mask)
     reliable = np.isfinite(rr.order) & (rr.error < 0.1)
+    spread = colour_spread(frame.data, mask)
     part = {
         "rgb": {
             "table": table.source,
             "rows": len(table),
             "orders": [float(table.orders[0]), float(table.orders[-1])],
             "refined": bool(seeds),
+            "colour_spread": spread,
         }
     }
+    if spread < MIN_COLOUR_SPREAD:  # single-colour light: colour cannot tell orders apart
+        reliable = np.zeros_like(reliable)
+        part["unreliable_reason"] = (
+            f"the image's colours lie on a line (colour spread {spread:.2g} < "
+            f"{MIN_COLOUR_SPREAD:g}): single-colour light or grey, where colour does not "
+            "tell fringe orders apart; the rgb method needs white light (six phase-stepped "
+            "images: --method phase)"
+        )
     return rr.order, reliable, {"colour_error": rr.error}, part, mask
 
 
@@ -331,5 +347,18 @@ def run_analyze(
         origin_px=[float(v) for v in origin_rc],
         line_px=[float(v) for v in line],
     )
+    roi = int(mask.sum())
+    share = float(np.sum(reliable & mask)) / roi if roi else 0.0
+    summary["reliable_fraction_of_roi"] = share
+    if share < MIN_RELIABLE_SHARE:
+        summary["warning"] = (
+            f"only {100 * share:.0f} % of the region of interest is reliable (fewer than "
+            f"{100 * MIN_RELIABLE_SHARE:.0f} %)"
+            + (
+                f": {part['unreliable_reason']}"
+                if "unreliable_reason" in part
+                else ": the order map is mostly a guess"
+            )
+        )
     (out / "summary.json").write_text(json.dumps(summary, indent=2, default=float))
     return summary

@@ -120,6 +120,11 @@ def _add_analyze(sub) -> None:
         help="pixel of the sensor origin: figures and profile.csv use x right, "
         "y up in mm about it (default: the image centre)",
     )
+    an.add_argument(
+        "--strict",
+        action="store_true",
+        help="exit 1 when less than half of the region of interest is reliable",
+    )
     an.add_argument("--f-sigma-N-per-m", type=positive, default=None)
     an.add_argument("--thickness-mm", type=positive, default=None)
     an.add_argument("--quiet", action="store_true")

@@ -174,6 +174,10 @@ def cmd_analyze(args: argparse.Namespace) -> int:
             + (f"{rng[0]:.2f}..{rng[1]:.2f}" if rng else "none")
             + f"; results in {out}/"
         )
+    if "warning" in summary:
+        print(f"fringekit analyze: warning: {summary['warning']}", file=sys.stderr)
+        if args.strict:
+            return 1
     return 0
 
 

@@ -365,3 +365,19 @@ def test_a_uniform_dark_frame_is_a_valid_dark_frame(tmp_path):
     frames = load_six_step([tmp_path / "img.png"] * 5 + [tmp_path / "img.png"],
                            dark=str(tmp_path / "dark.png"))  # fmt: skip
     assert len(frames) == 6
+
+
+def test_colour_spread_tells_white_light_from_single_colour_light():
+    """Grey (or one-colour) fringes have their colours on a line: spread ~0, below the
+    threshold; white-light fringes from the optics chart turn through all three
+    colour dimensions."""
+    from analysis import MIN_COLOUR_SPREAD, colour_spread
+    from optics import PSM4_ASSUMED, Camera, colour_chart, light_source
+
+    lam = PSM4_ASSUMED.wavenumber_grid(31)
+    _, rgb = colour_chart(PSM4_ASSUMED, light_source("LED", lam), Camera(), max_order=3.0, n=400)
+    white = rgb.reshape(20, 20, 3)
+    assert colour_spread(white) > 5 * MIN_COLOUR_SPREAD
+    grey = np.repeat(np.linspace(0, 1, 400).reshape(20, 20, 1), 3, axis=-1)
+    green = grey * np.array([0.1, 0.9, 0.2]) + 0.002 * np.random.default_rng(0).random((20, 20, 3))
+    assert colour_spread(grey) < 1e-12 and colour_spread(green) < MIN_COLOUR_SPREAD

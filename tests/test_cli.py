@@ -574,3 +574,25 @@ def test_analyze_phase_anchored_at_a_point_of_known_order(tiny_images, tmp_path,
     bad = ["--order-at", "0", "0", "1.0"]  # outside the region of interest
     assert main(["analyze", *steps, *roi, *geo, *bad, "--out", str(tmp_path / "x")]) == 2
     assert "--order-at 0 0 1" in capsys.readouterr().err
+
+
+def test_analyze_warns_when_most_of_the_map_is_a_guess(tiny_images, tmp_path, capsys):
+    """A monochrome photo analysed as RGB (grey fringes hold no colour): less than half
+    of the region is reliable, so analyze says so on stderr and in summary.json, and
+    --strict exits 1 (it exited 0 with a map)."""
+    import imageio.v3 as iio
+
+    root, out96, d, geo, border = tiny_images
+    grey = iio.imread(d / "six_step" / "step1.png")
+    iio.imwrite(tmp_path / "grey.png", np.stack([grey] * 3, axis=-1))
+    args = ["analyze", str(tmp_path / "grey.png"), "--method", "rgb", *geo]
+    assert main([*args, "--out", str(tmp_path / "a")]) == 0
+    err = capsys.readouterr().err
+    assert "warning: only" in err and "reliable" in err
+    s = json.loads((tmp_path / "a" / "summary.json").read_text())
+    assert s["reliable_fraction_of_roi"] < 0.5 and "warning" in s
+    assert main([*args, "--out", str(tmp_path / "b"), "--strict"]) == 1
+    # the rendered white-light image passes
+    ok = ["analyze", str(d / "white_light.png"), "--method", "rgb", *geo, "--strict",
+          "--seed", "0", "0", f"{border:.3f}", "--out", str(tmp_path / "c")]  # fmt: skip
+    assert main(ok) == 0

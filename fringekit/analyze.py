@@ -34,6 +34,7 @@ from analysis import (
     line_profile,
     load_image,
     load_six_step,
+    polygon_mask,
     principal_stress_difference,
     resolve_ambiguity,
     search,
@@ -60,13 +61,26 @@ def _figure(path, data, title, label, cmap="turbo", pixel_size=0.0, vmin=None, v
         map_figure(path, data, title, label, cmap, vmin=vmin, vmax=vmax)
 
 
-def _mask(shape, roi_circle, exclude) -> np.ndarray:
-    mask = np.ones(shape, bool)
+def _mask(shape, roi_circle, exclude, roi_polygon=None, exclude_polygons=()) -> np.ndarray:
+    """The region of interest (circle and/or polygon; default the whole image) without
+    the excluded circles and polygons (cracks, labels, load points); errors name the
+    option when nothing is left."""
+    mask = np.ones(shape[:2], bool)
     if roi_circle is not None:
         r, c, rad = roi_circle
-        mask = circle_mask(shape, (r, c), rad)
+        mask &= circle_mask(shape, (r, c), rad)
+    if roi_polygon is not None:
+        mask &= polygon_mask(shape[:2], roi_polygon)
     for r, c, rad in exclude or ():
         mask = exclude_circle(mask, (r, c), rad)
+    for poly in exclude_polygons or ():
+        mask &= ~polygon_mask(shape[:2], poly)
+    if not mask.any():
+        raise ValueError(
+            "the region of interest holds no pixel (--roi-circle, --roi-rect or --roi-polygon "
+            "minus --exclude-circle and --exclude-polygon); allowed: a region inside the "
+            f"{shape[0]} x {shape[1]} image"
+        )
     return mask
 
 
@@ -232,13 +246,15 @@ def _write_profile(out: Path, order, line, pixel_size: float, origin_rc) -> None
                    xlabel=f"distance along the line ({unit})", title=title)  # fmt: skip
 
 
-def _profile_line(line, exclude, shape) -> tuple[float, float, float, float]:
+def _profile_line(line, exclude, roi: np.ndarray) -> tuple[float, float, float, float]:
     """The profile line (r0, c0, r1, c1) px: the given one, checked against the image, or
-    the row through the first excluded circle's centre, else through the image centre."""
-    rows, cols = shape
+    the row through the first excluded circle's centre (the indenter), else through the
+    middle of the region of interest, across the region's columns."""
+    rows, cols = roi.shape
     if line is None:
-        r = exclude[0][0] if exclude else (rows - 1) / 2
-        line = (r, 0.0, r, cols - 1.0)
+        rr, cc = np.nonzero(roi)
+        r = exclude[0][0] if exclude else float(np.round(rr.mean()))
+        line = (r, float(cc.min()), r, float(cc.max()))
     for name, (r, c) in (("start", line[:2]), ("end", line[2:])):
         if not (0 <= r <= rows - 1 and 0 <= c <= cols - 1):
             raise ValueError(
@@ -268,6 +284,8 @@ def run_analyze(
     thickness: float | None = None,
     origin_px: tuple[float, float] | None = None,
     order_at: tuple[float, float, float] | None = None,
+    roi_polygon=None,
+    exclude_polygons=(),
 ) -> dict:
     """Analyse fringe images; write maps, figures and a summary to ``out``.
 
@@ -292,6 +310,10 @@ def run_analyze(
         first excluded circle's centre, else through the image centre.
     f_sigma, thickness : float (N/m, m) — give both for the principal stress difference
         (seed eq. 4, reflection).
+    roi_polygon : (k, 2) (row, col) px, optional — polygonal region of interest (a
+        rectangle is a 4-vertex polygon); intersected with ``roi_circle``.
+    exclude_polygons : sequence of (k, 2) (row, col) px — excluded polygons (cracks,
+        labels, load points).
     order_at : (row, col, order), optional — (phase) a pixel of known fringe order in the
         far field that anchors the unwrapped map instead of the image border at
         ``anchor_order``. Like the border, it is taken as the lowest order of its region:
@@ -311,7 +333,7 @@ def run_analyze(
     if (f_sigma is None) != (thickness is None):
         raise ValueError("give both the fringe value and the thickness for stress, or neither")
     out = Path(out)
-    mask_args = (roi_circle, exclude)
+    mask_args = (roi_circle, exclude, roi_polygon, exclude_polygons)
     if method == "phase":
         order, reliable, maps, part, mask = _analyse_phase(
             paths, dark, mask_args, min_modulation, anchor_order, order_at
@@ -323,7 +345,7 @@ def run_analyze(
     summary: dict = {"method": method, "images": paths, **part}
     rows, cols = order.shape
     origin_rc = tuple(origin_px) if origin_px is not None else ((rows - 1) / 2, (cols - 1) / 2)
-    line = _profile_line(line, exclude, (rows, cols))
+    line = _profile_line(line, exclude, mask)
     out.mkdir(parents=True, exist_ok=True)
     maps["fringe_order"] = order
     maps["reliable"] = reliable

@@ -36,7 +36,7 @@ from .commands import (
     cmd_sweep,
     fringekit_version,
 )
-from .options import Parser, at_least_one, finite, fraction, positive
+from .options import Parser, at_least_one, finite, fraction, pixel, positive
 
 __all__ = ["main"]
 
@@ -83,6 +83,13 @@ def _add_analyze(sub) -> None:
     an.add_argument("--out", default=None, help="output folder (default fringekit-out/analysis)")
     an.add_argument("--dark", default=None, help="dark frame subtracted from every image")
     an.add_argument("--roi-circle", nargs=3, type=finite, metavar=("ROW", "COL", "R"))
+    an.add_argument("--roi-rect", nargs=4, type=finite, metavar=("R0", "C0", "R1", "C1"),
+                    help="rectangular region of interest (corners, px)")  # fmt: skip
+    an.add_argument("--roi-polygon", nargs="+", type=pixel, metavar="ROW,COL",
+                    help="polygonal region of interest (3 or more vertices, px)")  # fmt: skip
+    an.add_argument("--exclude-polygon", nargs="+", type=pixel, action="append",
+                    metavar="ROW,COL", help="masked polygon (crack, label, load point); "
+                    "two vertices mask a line 3 px wide")  # fmt: skip
     an.add_argument(
         "--exclude-circle", nargs=3, type=finite, action="append", metavar=("ROW", "COL", "R"),
         help="masked circle, e.g. the indenter",

@@ -137,6 +137,40 @@ def cmd_config(args: argparse.Namespace) -> int:
     return 0
 
 
+def roi_polygon(args: argparse.Namespace):
+    """The polygonal region of interest of ``--roi-rect`` or ``--roi-polygon`` (px)."""
+    if args.roi_rect is not None and args.roi_polygon is not None:
+        raise ValueError("give --roi-rect or --roi-polygon, not both")
+    if args.roi_rect is not None:
+        r0, c0, r1, c1 = args.roi_rect
+        return [(r0, c0), (r0, c1), (r1, c1), (r1, c0)]
+    if args.roi_polygon is not None and len(args.roi_polygon) < 3:
+        raise ValueError(
+            f"--roi-polygon has {len(args.roi_polygon)} vertices; allowed: 3 or more ROW,COL"
+        )
+    return args.roi_polygon
+
+
+#: Half-width (px) of an excluded line (``--exclude-polygon`` with two vertices).
+LINE_HALF_WIDTH_PX = 1.5
+
+
+def exclusion_polygon(vertices):
+    """An ``--exclude-polygon``: 3 or more vertices as given; two vertices, the line
+    between them widened to a 3 px band (a crack)."""
+    if len(vertices) >= 3:
+        return vertices
+    if len(vertices) != 2 or vertices[0] == vertices[1]:
+        raise ValueError(
+            f"--exclude-polygon {' '.join(f'{r:g},{c:g}' for r, c in vertices)}: allowed: two "
+            "distinct vertices (a line) or three or more (a polygon)"
+        )
+    (r0, c0), (r1, c1) = vertices
+    length = ((r1 - r0) ** 2 + (c1 - c0) ** 2) ** 0.5
+    nr, nc = -(c1 - c0) / length * LINE_HALF_WIDTH_PX, (r1 - r0) / length * LINE_HALF_WIDTH_PX
+    return [(r0 + nr, c0 + nc), (r1 + nr, c1 + nc), (r1 - nr, c1 - nc), (r0 - nr, c0 - nc)]
+
+
 def cmd_analyze(args: argparse.Namespace) -> int:
     from .analyze import run_analyze
 
@@ -164,6 +198,8 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         f_sigma=args.f_sigma_N_per_m,
         origin_px=tuple(args.origin_px) if args.origin_px else None,
         order_at=tuple(args.order_at) if args.order_at else None,
+        roi_polygon=roi_polygon(args),
+        exclude_polygons=[exclusion_polygon(p) for p in args.exclude_polygon or []],
         thickness=args.thickness_mm * 1e-3 if args.thickness_mm else None,
     )
     if not args.quiet:

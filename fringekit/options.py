@@ -12,7 +12,15 @@ import argparse
 import math
 import sys
 
-__all__ = ["Parser", "finite", "positive", "nonnegative", "fraction", "at_least_one"]
+__all__ = [
+    "Parser",
+    "at_least_one",
+    "finite",
+    "fraction",
+    "nonnegative",
+    "pixel",
+    "positive",
+]
 
 
 class Parser(argparse.ArgumentParser):
@@ -36,6 +44,14 @@ def _number(text: str) -> float:
 def finite(text: str) -> float:
     """Any finite number."""
     return _number(text)
+
+
+def pixel(text: str) -> tuple[float, float]:
+    """A pixel "ROW,COL" (finite numbers), a polygon vertex."""
+    parts = text.split(",")
+    if len(parts) != 2:
+        raise argparse.ArgumentTypeError(f"{text} is not allowed; give ROW,COL (e.g. 10,20)")
+    return (_number(parts[0]), _number(parts[1]))
 
 
 def positive(text: str) -> float:

@@ -596,3 +596,29 @@ def test_analyze_warns_when_most_of_the_map_is_a_guess(tiny_images, tmp_path, ca
     ok = ["analyze", str(d / "white_light.png"), "--method", "rgb", *geo, "--strict",
           "--seed", "0", "0", f"{border:.3f}", "--out", str(tmp_path / "c")]  # fmt: skip
     assert main(ok) == 0
+
+
+def test_analyze_rectangle_polygon_and_line_masks(tiny_images, tmp_path, capsys):
+    """--roi-rect and --roi-polygon set the region, --exclude-polygon takes out polygons
+    and (two vertices) a crack 3 px wide; the default profile runs across the region;
+    a region with no pixel left, or a two-vertex region, is refused by option name."""
+    root, out96, d, geo, border = tiny_images
+    steps = [str(d / "six_step" / f"step{k}.png") for k in range(1, 7)]
+    an = tmp_path / "an"
+    args = ["analyze", *steps, *geo, "--roi-rect", "3", "3", "92", "92",
+            "--exclude-polygon", "60,60", "60,80", "80,70",
+            "--exclude-polygon", "10,10", "10,80", "--out", str(an), "--quiet"]  # fmt: skip
+    assert main(args) == 0
+    s = json.loads((an / "summary.json").read_text())
+    order = np.load(an / "maps.npz")["fringe_order"]
+    assert np.isnan(order[:3]).all() and np.isnan(order[:, 93:]).all()  # outside the rect
+    assert np.isnan(order[65, 70]) and np.isnan(order[10, 40])  # polygon and crack
+    assert np.isfinite(order[14, 40]) or np.isfinite(order[16, 40])  # beside the crack
+    assert s["line_px"][1] >= 3 and s["line_px"][3] <= 92  # across the region
+    bad = ["analyze", *steps, "--roi-polygon", "1,1", "5,5", "--out", str(tmp_path / "b")]
+    assert main(bad) == 2 and "--roi-polygon has 2 vertices" in capsys.readouterr().err
+    empty = ["analyze", *steps, "--roi-rect", "5", "5", "20", "20", "--exclude-polygon",
+             "0,0", "0,30", "30,30", "30,0", "--out", str(tmp_path / "e")]  # fmt: skip
+    assert main(empty) == 2 and "holds no pixel" in capsys.readouterr().err
+    assert main(["analyze", *steps, "--roi-polygon", "1;1", "--out", str(tmp_path / "x")]) == 2
+    assert "--roi-polygon" in capsys.readouterr().err

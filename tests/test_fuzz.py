@@ -157,6 +157,8 @@ OPTIONS = [
      "--diameter-mm", "positive"),
     (["sweep", "{cfg}"], "--workers", "at_least_one"),
     (["mesh"], "--h-contact-mm", "finite"),
+    (["analyze", "{img}"], "--roi-polygon", "pixel"),
+    (["analyze", "{img}"], "--exclude-polygon", "pixel"),
 ]  # fmt: skip
 
 _BAD_OPTION = {
@@ -165,6 +167,7 @@ _BAD_OPTION = {
                           st.floats(max_value=0, exclude_max=True, min_value=-1e9), _WORDS),
     "finite": st.one_of(st.sampled_from([math.nan, math.inf, -math.inf]), _WORDS),
     "at_least_one": st.one_of(st.integers(-1000, 0), st.floats(0.1, 5.9), _WORDS),
+    "pixel": st.one_of(_WORDS, st.sampled_from(["1;2", "nan,1", "1,inf", "1,2,3", ","])),
 }  # fmt: skip
 
 

@@ -264,6 +264,30 @@ def _profile_line(line, exclude, roi: np.ndarray) -> tuple[float, float, float, 
     return line
 
 
+def _counts(order, reliable, mask, part: dict) -> dict:
+    """Pixel counts, the order range and the reliability warning of an analysis."""
+    finite = np.isfinite(order)
+    roi = int(mask.sum())
+    share = float(np.sum(reliable & mask)) / roi if roi else 0.0
+    out = {
+        "shape": list(order.shape),
+        "valid_pixels": int(finite.sum()),
+        "reliable_pixels": int(np.sum(reliable)),
+        "masked_pixels": int((~mask).sum()),
+        "fringe_order_range": [float(np.nanmin(order)), float(np.nanmax(order))]
+        if finite.any()
+        else None,
+        "reliable_fraction_of_roi": share,
+    }
+    if share < MIN_RELIABLE_SHARE:
+        why = part.get("unreliable_reason", "the order map is mostly a guess")
+        out["warning"] = (
+            f"only {100 * share:.0f} % of the region of interest is reliable (fewer than "
+            f"{100 * MIN_RELIABLE_SHARE:.0f} %): {why}"
+        )
+    return out
+
+
 def run_analyze(
     images: Sequence[str | os.PathLike],
     out: str | os.PathLike,
@@ -356,31 +380,11 @@ def run_analyze(
     _write_figures(out, method, maps, pixel_size, origin_rc)
     _write_profile(out, order, line, pixel_size, origin_rc)
 
-    finite = np.isfinite(order)
+    summary.update(_counts(order, reliable, mask, part))
     summary.update(
-        shape=[rows, cols],
-        valid_pixels=int(finite.sum()),
-        reliable_pixels=int(np.sum(reliable)),
-        masked_pixels=int((~mask).sum()),
-        fringe_order_range=[float(np.nanmin(order)), float(np.nanmax(order))]
-        if finite.any()
-        else None,
         pixel_size_mm=pixel_size * 1e3,
         origin_px=[float(v) for v in origin_rc],
         line_px=[float(v) for v in line],
     )
-    roi = int(mask.sum())
-    share = float(np.sum(reliable & mask)) / roi if roi else 0.0
-    summary["reliable_fraction_of_roi"] = share
-    if share < MIN_RELIABLE_SHARE:
-        summary["warning"] = (
-            f"only {100 * share:.0f} % of the region of interest is reliable (fewer than "
-            f"{100 * MIN_RELIABLE_SHARE:.0f} %)"
-            + (
-                f": {part['unreliable_reason']}"
-                if "unreliable_reason" in part
-                else ": the order map is mostly a guess"
-            )
-        )
     (out / "summary.json").write_text(json.dumps(summary, indent=2, default=float))
     return summary

@@ -14,6 +14,7 @@ from .fields import Boussinesq, DiametralDisc, StressField, TwistedStress, Unifo
 from .grid import PixelGrid, RaySamples, sample_rays
 from .jones import characteristic, integrate_path, retarder, rotator, secondary_principal
 from .opticalmap import OpticalMap, integrate_layers, integrate_samples, optical_map
+from .photo import PhotoModel, photograph, residual_birefringence
 from .polariscope import (
     SIX_STEPS,
     Arrangement,
@@ -35,6 +36,7 @@ __all__ = [
     "DiametralDisc",
     "FEMStressField",
     "OpticalMap",
+    "PhotoModel",
     "PixelGrid",
     "RaySamples",
     "sample_rays",
@@ -54,6 +56,8 @@ __all__ = [
     "light_source",
     "monochrome_image",
     "optical_map",
+    "photograph",
+    "residual_birefringence",
     "plane_polariscope",
     "retarder",
     "rotator",

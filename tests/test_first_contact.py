@@ -81,9 +81,9 @@ def test_a_deep_first_placement_needs_few_shortened_steps(small_meshes, force):
 def test_a_long_increment_says_so_with_its_loads(small_meshes, monkeypatch, caplog):
     """An increment that runs past the watchdog's limit is reported once, naming the loads
     it is trying and what to change (the limit is 60 s; 0 here)."""
-    import fea.newton
+    import fea.watchdog
 
-    monkeypatch.setattr(fea.newton, "STALL_WARN_S", 0.0)
+    monkeypatch.setattr(fea.watchdog, "STALL_WARN_S", 0.0)
     with caplog.at_level("WARNING", logger="fringekit.fea"):
         solve(small_meshes["quarter"], [Indenter(normal_force=(1.0, 2.0))])
     said = [r.getMessage() for r in caplog.records if "has run" in r.getMessage()]

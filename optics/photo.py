@@ -1,0 +1,158 @@
+"""What a real photograph adds to an ideal polariscope image, for tests with known truth.
+
+A :class:`PhotoModel` turns the Jones quaternions of a specimen into camera images that
+look like laboratory photographs:
+
+- **residual birefringence**: a smooth random retarder (frozen-in stress of the sheet or
+  the polariscope's optics) in series with the specimen, so it adds to the retardation
+  vectorially, as it does in the light path;
+- **vignetting**: a radial fall-off of the illumination, ``1 - v (r / r_corner)^2`` (the
+  leading term of the cos^4 law, Ray, *Applied Photographic Optics*, 3rd ed., ch. 7);
+- **veiling glare**: a uniform fraction of full scale added to every pixel;
+- the camera's exposure, shot and read noise, saturation and quantisation
+  (:meth:`optics.camera.Camera.encode`);
+- a **Bayer mosaic** (RGGB) demosaiced by bilinear interpolation, for colour images;
+- **JPEG** compression at a given quality (imageio, in memory).
+
+Every effect is seeded: one model and seed give the same image bit for bit.
+"""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .camera import Camera
+from .jones import qmul, retarder
+from .polariscope import Arrangement, intensity
+
+__all__ = ["PhotoModel", "residual_birefringence", "photograph"]
+
+
+@dataclass(frozen=True)
+class PhotoModel:
+    """Imperfections of a photograph (all off by default).
+
+    Parameters
+    ----------
+    residual_rms_rad : float
+        RMS of the residual retardation field (rad); its axis angle is random and smooth
+        too.
+    residual_scale : float
+        Correlation length of the residual field, as a fraction of the image width.
+    vignetting : float
+        Relative illumination lost at the image corners (0 = none, 0.3 = 30 %).
+    glare : float
+        Veiling glare, fraction of full scale added everywhere.
+    bayer : bool
+        Colour images go through an RGGB mosaic and bilinear demosaicing.
+    jpeg_quality : int or None
+        JPEG quality 1-100; None writes no JPEG.
+    seed : int
+        Seed of the residual field (noise uses the ``seed`` of :func:`photograph`).
+    """
+
+    residual_rms_rad: float = 0.0
+    residual_scale: float = 0.25
+    vignetting: float = 0.0
+    glare: float = 0.0
+    bayer: bool = False
+    jpeg_quality: int | None = None
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        checks = {
+            "residual_rms_rad": self.residual_rms_rad >= 0,
+            "residual_scale": self.residual_scale > 0,
+            "vignetting": 0 <= self.vignetting < 1,
+            "glare": 0 <= self.glare < 1,
+        }
+        for name, ok in checks.items():
+            if not ok:
+                raise ValueError(f"PhotoModel.{name} = {getattr(self, name)!r} is not allowed")
+        if self.jpeg_quality is not None and not 1 <= self.jpeg_quality <= 100:
+            raise ValueError(
+                f"PhotoModel.jpeg_quality = {self.jpeg_quality!r} is not allowed; use 1-100"
+            )
+
+
+def _smooth_field(shape, scale_px: float, rng) -> np.ndarray:
+    """Zero-mean, unit-RMS Gaussian random field with correlation length ``scale_px``."""
+    from scipy.ndimage import gaussian_filter
+
+    f = gaussian_filter(rng.standard_normal(shape), scale_px, mode="wrap")
+    return (f - f.mean()) / (f.std() or 1.0)
+
+
+def residual_birefringence(shape, model: PhotoModel) -> np.ndarray:
+    """(rows, cols, 4) quaternions of the smooth residual retarder of ``model``."""
+    rng = np.random.default_rng(model.seed)
+    scale = model.residual_scale * shape[1]
+    delta = model.residual_rms_rad * _smooth_field(shape, scale, rng)
+    theta = np.pi * _smooth_field(shape, scale, rng)
+    return retarder(delta, theta)
+
+
+def _vignetting(shape, v: float) -> np.ndarray:
+    rows, cols = shape
+    r, c = np.mgrid[:rows, :cols]
+    y, x = r - (rows - 1) / 2, c - (cols - 1) / 2
+    rel = (x * x + y * y) / ((rows - 1) ** 2 / 4 + (cols - 1) ** 2 / 4)
+    return 1.0 - v * rel
+
+
+def _bayer(rgb: np.ndarray) -> np.ndarray:
+    """RGGB mosaic of a float (rows, cols, 3) image, demosaiced bilinearly."""
+    from scipy.ndimage import convolve
+
+    rows, cols, _ = rgb.shape
+    r, c = np.mgrid[:rows, :cols]
+    sites = [(r % 2 == 0) & (c % 2 == 0), (r + c) % 2 == 1, (r % 2 == 1) & (c % 2 == 1)]
+    kernel = np.array([[0.25, 0.5, 0.25], [0.5, 1.0, 0.5], [0.25, 0.5, 0.25]])
+    out = np.empty_like(rgb)
+    for k, site in enumerate(sites):
+        raw = np.where(site, rgb[..., k], 0.0)
+        weight = convolve(site.astype(float), kernel, mode="mirror")
+        out[..., k] = convolve(raw, kernel, mode="mirror") / weight
+    return out
+
+
+def _jpeg(img: np.ndarray, quality: int) -> np.ndarray:
+    import imageio.v3 as iio
+
+    buf = io.BytesIO()
+    iio.imwrite(buf, img, extension=".jpg", quality=quality)
+    return iio.imread(buf.getvalue(), extension=".jpg")
+
+
+def photograph(
+    q: np.ndarray,
+    arrangement: Arrangement,
+    camera: Camera,
+    model: PhotoModel,
+    *,
+    seed: int | None = 0,
+    tint=None,
+) -> np.ndarray:
+    """A monochrome-light photograph (8/16-bit) of specimen quaternions q (rows, cols, 4).
+
+    ``tint`` (3,) renders the monochrome light as a colour image (e.g. green light on a
+    colour camera: (0.1, 1.0, 0.2)); the Bayer mosaic then applies. Returns (rows, cols)
+    or (rows, cols, 3).
+    """
+    q = np.asarray(q, float)
+    if model.residual_rms_rad > 0:
+        q = qmul(q, residual_birefringence(q.shape[:2], model))
+    linear = intensity(q, arrangement) * _vignetting(q.shape[:2], model.vignetting)
+    linear = linear + model.glare
+    if tint is not None:
+        linear = linear[..., None] * np.asarray(tint, float)
+        if model.bayer:
+            linear = _bayer(linear)
+    img = replace(camera, sensitivities="mono").encode(linear, seed)
+    if model.jpeg_quality is not None:
+        img = _jpeg(img if img.dtype == np.uint8 else (img // 257).astype(np.uint8),
+                    model.jpeg_quality)  # fmt: skip
+    return img

@@ -1,0 +1,70 @@
+"""The photograph model: each effect does what it says, and the six-step analysis holds
+up on images that look like laboratory photographs, against a known order field."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from analysis import resolve_ambiguity, six_step, unwrap_fringe_order
+from optics import (
+    Camera,
+    PhotoModel,
+    dark_field_circular,
+    photograph,
+    retarder,
+    six_step_arrangements,
+)
+
+CAMERA = Camera(exposure=0.9, full_well=20000.0, read_noise=10.0)
+
+
+def _field(n=96):
+    """A smooth indent-like order field (0.3 at the border, 2.9 in the middle), radial
+    axes, a contact zone without data."""
+    r, c = np.mgrid[:n, :n].astype(float)
+    x, y = (c - n / 2 + 0.5) / n, (n / 2 - 0.5 - r) / n
+    rad = np.hypot(x, y)
+    order = 0.3 + 2.6 * np.exp(-((rad / 0.3) ** 2))
+    return order, retarder(2 * np.pi * order, np.arctan2(y, x)), rad > 0.06
+
+
+def test_each_effect_of_the_photograph_model():
+    flat = retarder(np.full((40, 60), np.pi / 2), np.full((40, 60), np.pi / 8))
+    a = dark_field_circular()
+    ideal = Camera(bit_depth=16)
+    base = photograph(flat, a, ideal, PhotoModel()).astype(float)
+    vig = photograph(flat, a, ideal, PhotoModel(vignetting=0.3)).astype(float)
+    assert vig[0, 0] / base[0, 0] == pytest.approx(0.7, abs=0.005)
+    assert vig[20, 30] / base[20, 30] == pytest.approx(1.0, abs=0.005)
+    glare = photograph(flat, a, ideal, PhotoModel(glare=0.05)).astype(float)
+    assert (glare - base).mean() / 65535 == pytest.approx(0.05 * 0.9, rel=0.01)
+    tint = (0.1, 1.0, 0.2)
+    rgb = photograph(flat, a, ideal, PhotoModel(bayer=True), tint=tint).astype(float)
+    plain = photograph(flat, a, ideal, PhotoModel(), tint=tint).astype(float)
+    np.testing.assert_allclose(rgb, plain, atol=1)  # demosaicing a flat field is exact
+    res = PhotoModel(residual_rms_rad=0.1, seed=3)
+    one, two = photograph(flat, a, CAMERA, res, seed=1), photograph(flat, a, CAMERA, res, seed=1)
+    assert np.array_equal(one, two)  # seeded: the same image every time
+    assert not np.array_equal(one, photograph(flat, a, CAMERA, PhotoModel(), seed=1))
+    jpg = photograph(flat, a, CAMERA, PhotoModel(jpeg_quality=85), seed=1).astype(float)
+    raw = photograph(flat, a, CAMERA, PhotoModel(), seed=1).astype(float)
+    assert 0 < np.abs(jpg - raw).mean() < 3
+
+
+def test_six_step_analysis_of_realistic_photographs():
+    """Residual birefringence 0.05 rad RMS, 30 % vignetting, 2 % glare, shot and read
+    noise, JPEG at quality 90: the unwrapped order stays within 0.02 fringe RMS of the
+    truth (measured 0.006, against 0.0012 for ideal images; 0.05 rad alone is 0.008
+    fringe), on at least 95 % of the pixels with data (measured 100 %)."""
+    order, q, mask = _field()
+    model = PhotoModel(residual_rms_rad=0.05, vignetting=0.3, glare=0.02, jpeg_quality=90,
+                       seed=7)  # fmt: skip
+    frames = [photograph(q, a, CAMERA, model, seed=k).astype(float) / 255
+              for k, a in enumerate(six_step_arrangements())]  # fmt: skip
+    res = six_step(frames, mask=mask)
+    fo = unwrap_fringe_order(res, resolve_ambiguity(res), anchor_order=0.3)
+    ok = fo.reliable & mask
+    assert ok.sum() >= 0.95 * mask.sum()
+    rms = float(np.sqrt(np.mean((fo.order[ok] - order[ok]) ** 2)))
+    assert rms < 0.02, rms

@@ -10,11 +10,12 @@ The sheet sits on a rigid base (``substrate.thickness_mm = 0``): the 2.3 GPa
 polycarbonate is ~600 times stiffer than the sheet, and on the reference case with one
 mesh, a glass or steel plate instead (30 and 90 times stiffer) moves the sheet surface
 under the indenter by 0.05 % and 0.08 % of the depth and the fringe order by 0.003 and
-0.001 RMS, less than the 0.5 % that separates two fTetWild meshes of the same spec.
+0.001 RMS, less than the 0.5 % that separated two fTetWild meshes of the same spec.
 Dropping its cells more than halves the model at a given mesh (132k to 56k DOF at
-1.2 mm under the heads), which buys both a finer mesh (0.8 mm, 82-96k DOF) and a run of
-2-3 minutes on 2 cores. ``--polycarbonate`` puts the 15 mm plate back at the
-1.2 mm mesh (132k DOF, about 9 minutes).
+1.2 mm under the heads), which buys both a finer mesh (0.8 mm, 90k DOF) and a run of
+under a minute on 2 cores (48 s, 32 s of it the solve). ``--polycarbonate`` puts the
+15 mm plate back at the 1.2 mm mesh (132k DOF; about 9 minutes before the contact
+tangent's cap, not measured since).
 
 ``--coarse`` uses two indenters on a 20 x 12 mm block. Writes ``fig10_11_foot.png``
 (white light, phasemap, profiles) and ``fig10_11.json``.

@@ -103,14 +103,14 @@ def used_config(cfg: dict) -> dict:
 #: Measured solver cost on 2 cores (bench/fea.py, 2026-11-23): seconds per Newton iteration
 #: at 34.5k DOF, the exponent of its growth with DOF (34.5k: 0.58 s, 70k: 1.5 s, 144k:
 #: 5-6 s), and Newton iterations for the first load state (reference 22, four-head plate
-#: 23) and each later one (4-5 on the 1..8 N path).
+#: 23, six-head foot at 90k DOF 32 s) and each later one (4-5 on the 1..8 N path).
 _S_PER_ITERATION, _DOF_REF, _GROWTH, _FIRST_ITS, _LATER_ITS = 0.58, 34.5e3, 1.5, 20, 5
 
 
 def estimate_text(mesh, indenters) -> str:
     """One line before solving: model size and a rough time estimate from measured rates."""
     states = indenters[0].n_states
-    its = _FIRST_ITS * len(indenters) + _LATER_ITS * (states - 1)
+    its = _FIRST_ITS + _LATER_ITS * (states - 1)  # indenters share their increments
     t = its * _S_PER_ITERATION * (mesh.n_dofs / _DOF_REF) ** _GROWTH
     return (
         f"{mesh.n_dofs:,} DOF, {mesh.n_cells:,} cells, {states} load state(s); about "

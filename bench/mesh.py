@@ -1,9 +1,10 @@
 """Meshing benchmark: reference quarter, half, full meshes and the four-indenter plate.
 
 Prints node, element and DOF counts, meshing time, quality and peak memory of each
-case (always regenerated, never from the cache).
+case (always regenerated, never from the cache), with the deterministic layered mesher
+or, with ``--mesher tetwild``, fTetWild.
 
-    python bench/mesh.py [--json FILE] [--threads N]
+    python bench/mesh.py [--json FILE] [--mesher layered|tetwild] [--threads N]
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ import json
 import resource
 import time
 import tracemalloc
+from dataclasses import replace
 
 from meshes import IndenterSite, MeshSpec, generate_mesh, quality_report
 
@@ -32,9 +34,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--json", help="write the figures to this JSON file")
     ap.add_argument("--threads", type=int, default=0, help="fTetWild threads (0 = all cores)")
+    ap.add_argument("--mesher", choices=("layered", "tetwild"), default="layered")
     args = ap.parse_args()
     rows = []
     for name, spec in _cases():
+        spec = replace(spec, mesher=args.mesher)
         tracemalloc.start()
         t0 = time.perf_counter()
         mesh = generate_mesh(spec, num_threads=args.threads)

@@ -23,6 +23,7 @@ import math
 import numpy as np
 from scipy.spatial import Delaunay
 
+from .sizing import target_size
 from .spec import MeshSpec
 
 __all__ = ["plane_size", "triangulate_plane", "PlaneMeshError"]
@@ -49,19 +50,11 @@ class PlaneMeshError(RuntimeError):
 
 
 def plane_size(spec: MeshSpec, xy: np.ndarray) -> np.ndarray:
-    """Target edge length (m) on the sheet plane at points xy (n, 2) (m).
-
-    ``h = min_i (h_contact + growth * max(0, r_i - refine_radius))`` with ``r_i`` the
-    distance to indenter i (every indenter of the full sheet, mirror images included),
-    clipped to ``h_sheet``: the size the 3-D sizing field gives at the contact face.
-    """
-    siz = spec.sizing
-    h = np.full(len(xy), siz.h_sheet)
-    for ind in spec.indenters:  # the few indenters; vectorised over points
-        dx, dy = xy[:, 0] - ind.x, xy[:, 1] - ind.y
-        r = np.sqrt(dx * dx + dy * dy)
-        h = np.minimum(h, siz.h_contact + siz.growth * np.maximum(0.0, r - siz.refine_radius))
-    return h
+    """Target edge length (m) on the sheet plane at points xy (n, 2) (m): the sizing field
+    (:func:`meshes.sizing.target_size`) on the contact face, where it is
+    ``min_i (h_contact + growth * max(0, r_i - refine_radius))`` clipped to ``h_sheet``."""
+    top = np.full((len(xy), 1), spec.layers.z_top)
+    return target_size(spec, np.hstack([xy, top]))
 
 
 def _initial_points(spec: MeshSpec, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:

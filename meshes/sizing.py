@@ -19,15 +19,19 @@ def target_size(spec: MeshSpec, points: np.ndarray) -> np.ndarray:
     axis through the whole sheet; clipped to ``h_far`` everywhere and to ``h_sheet``
     inside the sheet (z >= 0). Every indenter of the full sheet counts, including
     mirror images outside a symmetric model, so sizing is symmetric too.
+
+    Only correctly rounded operations (no ``hypot``), so the layered mesher, which
+    evaluates it on the contact face, is reproducible bit for bit
+    (:mod:`meshes.plane`).
     """
     siz, lay = spec.sizing, spec.layers
     x, y, z = points[:, 0], points[:, 1], points[:, 2]
     dz = np.maximum(0.0, np.maximum(-z, z - lay.z_top))
     h = np.full(len(points), siz.h_far)
     for ind in spec.indenters:  # loop over the few indenters, vectorised over points
-        r = np.hypot(x - ind.x, y - ind.y)
-        d = np.hypot(np.maximum(0.0, r - siz.refine_radius), dz)
-        h = np.minimum(h, siz.h_contact + siz.growth * d)
+        dx, dy = x - ind.x, y - ind.y
+        a = np.maximum(0.0, np.sqrt(dx * dx + dy * dy) - siz.refine_radius)
+        h = np.minimum(h, siz.h_contact + siz.growth * np.sqrt(a * a + dz * dz))
     return np.where(z >= 0.0, np.minimum(h, siz.h_sheet), h)
 
 

@@ -123,7 +123,7 @@ def _reach_state(run: Run, st: State, s_done: float, k: int, ds: float, n_done: 
                 S = model.indenters[0].n_states
                 raise SolverError(
                     f"the solver could not reach load state {k} of {S} "
-                    f"({_describe(model.indenters, k)}): {reason}; it reached "
+                    f"({_reached(model, float(k))}): {reason}; it reached "
                     f"{_reached(model, s_done)} ({n_done} load state(s) converged); try more "
                     "load states on the way, a finer contact mesh or more cut-backs",
                     [],
@@ -207,7 +207,7 @@ def solve(
             except KeyboardInterrupt:
                 raise SolveInterrupted(
                     f"interrupted by the user on the way to load state {k} of {S} "
-                    f"({_describe(model.indenters, k)}), at {_reached(model, s_done)}",
+                    f"({_reached(model, float(k))}), at {_reached(model, s_done)}",
                     solutions,
                 ) from None
             sol = make_solution(model, st, s_done, iter_log, stats, run.cache)
@@ -264,16 +264,6 @@ def _reached(model: Model, s: float) -> str:
             text += f" with shear ({fx:.4g}, {fy:.4g}) N"
         parts.append(text)
     return "indenter loads " + ", ".join(parts)
-
-
-def _describe(indenters, k: int) -> str:
-    parts = []
-    for j, ind in enumerate(indenters):
-        v = ind.normal_targets()[k - 1]
-        parts.append(
-            f"indenter {j}: " + (f"{v:.4g} N" if ind.force_control else f"depth {v * 1e3:.4g} mm")
-        )
-    return ", ".join(parts)
 
 
 def _predict(model: Model, st: State, s_new: float) -> None:

@@ -38,7 +38,13 @@ NO_DATA_RGB = (0.82, 0.82, 0.82)
 NO_DATA_IMAGE_LEVEL = 0.5
 
 
-def _no_data(ax, fig, data, extent) -> list:
+def _legend(ax, handles) -> None:
+    """The small legend of the "no data" and hatched markings, when there are any."""
+    if handles:
+        ax.legend(handles=handles, loc="upper right", fontsize=7, framealpha=0.8)
+
+
+def _no_data(ax, data, extent) -> list:
     """Paint pixels without data (NaN in a map; NaN in any channel of an RGB float image)
     in :data:`NO_DATA_RGB`; returns the legend entry when there are any."""
     from matplotlib.patches import Patch
@@ -101,15 +107,14 @@ def map_figure(
     im = ax.imshow(data, cmap=cmap, extent=extent, vmin=vmin, vmax=vmax, interpolation="nearest")
     if np.ndim(data) == 2:
         fig.colorbar(im, ax=ax, label=label)
-    handles = _no_data(ax, fig, data, extent)
+    handles = _no_data(ax, data, extent)
     if hatch is not None and np.any(hatch):
         from matplotlib.patches import Patch
 
         ax.contourf(np.asarray(hatch, float), levels=[0.5, 1.5], colors="none", hatches=["////"],
                     extent=extent, origin="upper")  # fmt: skip
         handles.append(Patch(facecolor="none", edgecolor="k", hatch="////", label=hatch_label))
-    if handles:
-        ax.legend(handles=handles, loc="upper right", fontsize=7, framealpha=0.8)
+    _legend(ax, handles)
     ax.set_xlabel(axis_labels[0])
     ax.set_ylabel(axis_labels[1])
     ax.set_title(title)
@@ -183,8 +188,7 @@ def comparison_figure(
         a.set_xlabel(labels[0])
         a.set_ylabel(labels[1])
         fig.colorbar(im, ax=a, shrink=0.8)
-        if handles := _no_data(a, fig, data, extent):
-            a.legend(handles=handles, loc="upper right", fontsize=7, framealpha=0.8)
+        _legend(a, _no_data(a, data, extent))
         a.plot([x0, x1], [y0, y1], "w--", lw=1)
     pm = line_profile(comp.measured, *line, pixel_size=pixel_size or None)
     pp = line_profile(comp.predicted, *line, pixel_size=pixel_size or None)

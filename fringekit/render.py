@@ -28,7 +28,7 @@ from optics import (
 )
 
 from .config import ConfigError
-from .figures import NO_DATA_IMAGE_LEVEL, map_figure, profile_figure
+from .figures import NO_DATA_IMAGE_LEVEL, map_figure, profile_figure, sensor_extent
 from .inputs import OpticsSetup, optics_setup
 
 __all__ = ["fringe_order_map", "indenter_pixels", "mono_map", "render_state"]
@@ -97,9 +97,10 @@ def fringe_order_map(sol, cfg: dict, optics: OpticsSetup | None = None):
 
 
 def _grid_figure(path, data, grid, title, label, cmap, **kw) -> None:
-    """:func:`map_figure` on the sheet's x, y (mm) of ``grid``."""
-    x0, y0 = grid.pixel_to_xy(np.array([0, grid.shape[0] - 1]), np.array([0, grid.shape[1] - 1]))
-    extent = (x0[0] * 1e3, x0[1] * 1e3, y0[1] * 1e3, y0[0] * 1e3)
+    """:func:`map_figure` on the sheet's x, y (mm) of ``grid``: the sensor frame about
+    the pixel where the sensor origin falls, pixel edges on the axes."""
+    origin = tuple(float(v) for v in grid.xy_to_pixel(0.0, 0.0))
+    extent = sensor_extent(grid.shape, grid.pixel_size, origin)
     map_figure(path, data, title, label, cmap, extent=extent, axis_labels=("x (mm)", "y (mm)"),
                **kw)  # fmt: skip
 

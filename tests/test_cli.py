@@ -155,13 +155,20 @@ def test_config_show_and_user_errors(tmp_path, capsys):
     assert "unknown key sheet.bogus" in capsys.readouterr().err
 
 
-@pytest.fixture(scope="module")
-def tiny_run(tmp_path_factory, cache_dir):
-    root = tmp_path_factory.mktemp("predict")
+def tiny_predict(root, cache_dir) -> tuple:
+    """The tiny config written into ``root``: (its path, the output folder, quiet
+    ``predict`` arguments through the shared cache)."""
     cfg = root / "tiny.toml"
     cfg.write_text(TINY)
     out = root / "out"
-    args = ["predict", str(cfg), "--out", str(out), "--cache-dir", str(cache_dir), "--quiet"]
+    return cfg, out, ["predict", str(cfg), "--out", str(out), "--cache-dir", str(cache_dir),
+                      "--quiet"]  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory, cache_dir):
+    root = tmp_path_factory.mktemp("predict")
+    _, out, args = tiny_predict(root, cache_dir)
     assert main(args) == 0
     return root, out, args
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 
 import pytest
-from test_cli import TINY
+from test_cli import tiny_predict
 
 from fringekit.cli import main
 
@@ -14,15 +14,10 @@ from fringekit.cli import main
 @pytest.fixture(scope="module")
 def folder(tmp_path_factory, cache_dir):
     root = tmp_path_factory.mktemp("folders")
-    cfg = root / "tiny.toml"
-    cfg.write_text(TINY)
-    out = root / "out"
+    _, out, args = tiny_predict(root, cache_dir)
 
     def run(*sets: str) -> int:
-        args = ["predict", str(cfg), "--out", str(out), "--cache-dir", str(cache_dir), "--quiet"]
-        for s in sets:
-            args += ["--set", s]
-        return main(args)
+        return main(args + [a for s in sets for a in ("--set", s)])
 
     return root, out, run
 

@@ -18,6 +18,7 @@ from .calibrate import (
 )
 from .compare import Comparison, Profile, compare_maps, line_profile
 from .images import SIX_STEP_ORDER, Frame, load_image, load_six_step, normalise
+from .mono import MonoResult, grey_channel, mono_order
 from .masks import check_mask, circle_mask, exclude_circle, polygon_mask
 from .phase import (
     Resolution,
@@ -39,6 +40,9 @@ from .unwrap import FringeOrderMap, border_anchor, unwrap_fringe_order
 
 __all__ = [
     "RADII_MM",
+    "MonoResult",
+    "grey_channel",
+    "mono_order",
     "calibrate_from_maps",
     "estimate_load",
     "fringe_features",

@@ -1,0 +1,200 @@
+"""Normalising one monochrome fringe photograph: intensity -> sin^2 of the retardation.
+
+Behind a circular polariscope in monochromatic light the dark-field intensity is
+I = I_b + I_0 sin^2(pi N) and the bright-field one I = I_b + I_0 cos^2(pi N) (Dally and
+Riley, *Experimental Stress Analysis*, 4th ed., ch. 6). ``I_0`` carries the illumination
+(vignetting, uneven lighting) and ``I_b`` the background (glare, stray light); both vary
+slowly over a photograph, and fringe contrast ``I_0`` fades where the light is weak. The
+normalised intensity u = (I - I_b) / I_0 = sin^2(pi N) (dark field) is what the order
+follows from.
+
+Two ways to get I_b and I_0 (:func:`normalised_intensity`):
+
+- a **flat field**: an image of the same light without the specimen's retardation (a
+  bright-field image of the unloaded specimen, or the sum of the dark- and bright-field
+  images) gives I_0 pixel by pixel;
+- the **envelope** of the fringes themselves, the usual way when only one photograph
+  exists (Ramesh, *Digital Photoelasticity*, Springer 2000, ch. 4: fringe-centre intensities
+  as local extremes): the intensity on the centre lines of dark fringes samples I_b, on
+  bright fringes I_b + I_0, and a smooth surface through each set (uniform light,
+  a tilt and the radial fall-off of vignetting) gives both everywhere.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+__all__ = ["Envelope", "band_labels", "fit_envelope", "flat_field_envelope", "smooth_surface"]
+
+
+@dataclass(frozen=True)
+class Envelope:
+    """Background and fringe amplitude of a photograph.
+
+    Attributes
+    ----------
+    low : (rows, cols) float - I_b, the intensity of a whole-order dark fringe (0-1 scale)
+    high : (rows, cols) float - I_b + I_0, the intensity of a half-order bright fringe
+    method : str - "flat field", "fringe envelope" or "percentiles" (too few fringes)
+    samples : int - fringe-centre pixels the envelope was fitted to (0 for a flat field)
+    residual : float - RMS misfit of the fringe-centre intensities to the surfaces,
+        relative to the amplitude (0 for a flat field)
+    reach : (rows, cols) float or None - distance to the nearest fringe-centre sample
+        over the half diagonal of the image: where the surfaces extrapolate
+    """
+
+    low: np.ndarray
+    high: np.ndarray
+    method: str
+    samples: int = 0
+    residual: float = 0.0
+    reach: np.ndarray | None = None
+
+    def sd(self) -> np.ndarray | float:
+        """1-sigma error of u from the envelope: the misfit at the samples, growing
+        linearly to 5 times that at half the image diagonal from the nearest sample."""
+        if self.reach is None:
+            return self.residual
+        return self.residual * (1.0 + 8.0 * self.reach)
+
+    def normalise(self, image: np.ndarray) -> np.ndarray:
+        """u = (I - low) / (high - low), clipped to [0, 1]; NaN where the amplitude is 0."""
+        amp = self.high - self.low
+        with np.errstate(invalid="ignore", divide="ignore"):
+            u = (image - self.low) / np.where(amp > 0, amp, np.nan)
+        return np.clip(u, 0.0, 1.0)
+
+
+#: Largest bright or dark island (px) removed as noise.
+MIN_BAND_PX = 12
+
+
+def band_labels(u: np.ndarray, mask: np.ndarray, min_px: int = MIN_BAND_PX):
+    """Bright (u > 0.5) and dark bands of a normalised image, islands < ``min_px`` removed.
+
+    Returns (labels (rows, cols) int, 0 outside ``mask``; bright (n_bands + 1,) bool per
+    label, index 0 unused). Dark bands are 4-connected and bright bands 8-connected (the
+    usual pairing of digital topology), so two bands that meet are always one bright and
+    one dark.
+    """
+    from skimage.morphology import remove_small_holes, remove_small_objects
+
+    bright = np.nan_to_num(u, nan=0.0) > 0.5
+    bright = remove_small_objects(bright & mask, max_size=min_px) | (bright & ~mask)
+    bright = remove_small_holes(bright | ~mask, max_size=min_px) & mask
+    dark = mask & ~bright
+    lab_b, nb = ndimage.label(bright, structure=np.ones((3, 3)))
+    lab_d, nd = ndimage.label(dark)
+    labels = np.where(bright, lab_b + nd, lab_d)
+    is_bright = np.zeros(nb + nd + 1, bool)
+    is_bright[nd + 1 :] = True
+    return labels, is_bright
+
+
+def band_neighbours(labels: np.ndarray) -> np.ndarray:
+    """(k, 2) int: the distinct pairs (a < b) of labels that touch (4-neighbours)."""
+    pairs = []
+    for a, b in ((labels[:, :-1], labels[:, 1:]), (labels[:-1, :], labels[1:, :])):
+        touch = (a != b) & (a > 0) & (b > 0)
+        pairs.append(np.stack([np.minimum(a, b)[touch], np.maximum(a, b)[touch]], -1))
+    p = np.concatenate(pairs)
+    return np.unique(p, axis=0) if len(p) else np.zeros((0, 2), int)
+
+
+def smooth_surface(rows, cols, values, shape, degree: int = 2) -> tuple[np.ndarray, float]:
+    """Least-squares illumination surface through scattered samples.
+
+    ``degree`` 2: a + b x + c y + e (x^2 + y^2) about the image centre - uniform light, a
+    tilt, and the radial fall-off of vignetting (the leading term of the cos^4 law); a
+    general quadratic ran away where it extrapolated beyond the fringe centres, which
+    often cluster about the load. ``degree`` 0: a constant. Two passes: samples more than
+    3 robust standard deviations off the first fit (a fringe centre mislocated by noise)
+    are dropped. Returns (surface (rows, cols), RMS residual of the kept samples)."""
+    h, w = shape
+    scale = max(h, w) / 2
+
+    def design(r, c):
+        y, x = (np.asarray(r, float) - h / 2) / scale, (np.asarray(c, float) - w / 2) / scale
+        if degree == 0:
+            return np.ones((x.size, 1))
+        return np.stack([np.ones_like(x), x, y, x * x + y * y], -1)
+
+    A, v = design(rows, cols), np.asarray(values, float)
+    keep = np.ones(len(v), bool)
+    for _ in range(2):
+        coef = np.linalg.lstsq(A[keep], v[keep], rcond=None)[0]
+        res = v - A @ coef
+        mad = 1.4826 * np.median(np.abs(res[keep] - np.median(res[keep]))) + 1e-12
+        keep = np.abs(res) <= 3 * mad
+    rr, cc = np.mgrid[:h, :w]
+    surface = (design(rr.ravel(), cc.ravel()) @ coef).reshape(h, w)
+    return surface, float(np.sqrt(np.mean(res[keep] ** 2)))
+
+
+def _centre_samples(image, labels, is_bright, two_sided):
+    """(rows, cols, values) of the fringe-centre pixels (skeletons) of the bands in
+    ``two_sided``, each valued at the band's local extreme (3 x 3 max or min)."""
+    from skimage.morphology import skeletonize
+
+    out = {True: ([], [], []), False: ([], [], [])}
+    hi = ndimage.maximum_filter(image, 3)
+    lo = ndimage.minimum_filter(image, 3)
+    for lab, sl in enumerate(ndimage.find_objects(labels), start=1):
+        if sl is None or not two_sided[lab]:
+            continue
+        skel = skeletonize(labels[sl] == lab)
+        r, c = np.nonzero(skel)
+        b = bool(is_bright[lab])
+        vals = (hi if b else lo)[sl][r, c]
+        out[b][0].append(r + sl[0].start)
+        out[b][1].append(c + sl[1].start)
+        out[b][2].append(vals)
+    return {k: tuple(np.concatenate(x) if x else np.zeros(0) for x in v) for k, v in out.items()}
+
+
+def fit_envelope(image: np.ndarray, mask: np.ndarray, *, passes: int = 2) -> Envelope:
+    """The fringe envelope of a dark-field-like image (see module doc).
+
+    Bands come from a first normalisation between the 1st and 99th percentiles; bands
+    that touch at least two others hold a whole fringe centre (a band touching one is a
+    cap or the far field, whose extreme need not be a fringe centre), and their skeleton
+    pixels sample the envelope. With samples from at least three bands of a kind the
+    surface is quadratic, else constant; with none of a kind the percentile stays.
+    """
+    vals = image[mask]
+    low0, high0 = np.percentile(vals, [1.0, 99.0])
+    env = Envelope(np.full(image.shape, low0), np.full(image.shape, high0), "percentiles")
+    for _ in range(passes):
+        labels, is_bright = band_labels(env.normalise(image), mask)
+        pairs = band_neighbours(labels)
+        count = np.bincount(pairs.ravel(), minlength=len(is_bright))
+        samples = _centre_samples(image, labels, is_bright, count >= 2)
+        surfaces, n, res = {}, 0, []
+        seen = np.zeros(image.shape, bool)
+        for kind, (rr, cc, v) in samples.items():
+            seen[rr.astype(int), cc.astype(int)] = True
+            if len(v) == 0:
+                continue
+            bands = len(np.unique(labels[rr.astype(int), cc.astype(int)]))
+            surf, r = smooth_surface(rr, cc, v, image.shape, degree=2 if bands >= 3 else 0)
+            surfaces[kind], n = surf, n + len(v)
+            res.append(r)
+        if not surfaces:
+            return env
+        low = np.clip(surfaces.get(False, env.low), 0.0, None)  # no light below black
+        high = surfaces.get(True, env.high)
+        amp = float(np.median((high - low)[mask]))
+        reach = ndimage.distance_transform_edt(~seen) / (0.5 * np.hypot(*image.shape))
+        rel = max(res) / amp if amp > 0 else np.inf
+        env = Envelope(low, high, "fringe envelope", n, rel, reach)
+    return env
+
+
+def flat_field_envelope(flat: np.ndarray, background: float | np.ndarray = 0.0) -> Envelope:
+    """Envelope from a flat-field image of the light (I_b + I_0 everywhere)."""
+    flat = np.asarray(flat, float)
+    low = np.broadcast_to(np.asarray(background, float), flat.shape).copy()
+    return Envelope(low, ndimage.gaussian_filter(flat, 2.0), "flat field")

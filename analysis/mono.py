@@ -1,0 +1,318 @@
+"""Fringe order from ONE monochrome photograph (circular polariscope, dark or bright field).
+
+The classical method of counting fringes (Frocht, *Photoelasticity* Vol. 1, Wiley 1941,
+ch. 8; Ramesh, *Digital Photoelasticity*, Springer 2000, ch. 4), made automatic:
+
+1. **Normalise** (:mod:`analysis.envelope`): u = sin^2(pi N) in dark field (the bright
+   field is turned into it by u -> 1 - u), from a flat field or the fringe envelope.
+2. **Bands**: the image splits at u = 1/2 into dark bands, each around a whole order k
+   (|N - k| <= 1/4), and bright bands around a half order (|N - k - 1/2| <= 1/4).
+3. **Ordering**: neighbouring bands differ by half a fringe. From the anchor bands (those
+   on the border of the region of interest, the far field, or the band of ``--order-at``)
+   the bands are numbered by breadth-first search, counting up away from the anchor - the
+   rule for fringes that rise towards a load (contact, load point). Bands out of reach of
+   the anchor have no order; two touching bands whose numbers do not differ by 1/2 (a
+   count that went round a hill both ways) are flagged.
+4. **Fringe centres and sides**: in each band the centre line (the extreme of u) splits
+   the pixels on the side of its lower neighbours from those on the side of its higher
+   ones - a watershed of |u - 1/2| seeded on the two boundaries (scikit-image). Within the
+   band N = n_band -/+ d with d = asin(sqrt u)/pi (dark bands) or acos(sqrt u)/pi (bright).
+5. **Uncertainty**: the intensity noise (Immerkaer's estimate) and the envelope's error
+   (its misfit at the fringe centres, growing away from them where it extrapolates)
+   propagated through d(u); near a fringe centre d = sqrt(u)/pi to first order, so the
+   noise enters as its square root.
+
+A band whose neighbours are all lower (a cap: the top of a hill, or a band cut off by
+the region of interest) has no higher boundary to seed: its centre line is the set of
+pixels nearest its extreme intensity, and the parts it cuts off from the lower
+neighbours lie beyond it. Where the count cannot tell, the pixels are flagged, not
+guessed: in a cap whose extreme does not cut it (the hill's top may pass the fringe
+centre or stop short of it) the pixels within :data:`CAP_AMBIGUOUS` fringe of the band's
+centre value are unreliable; so are bands the anchor does not reach, pixels of low
+fringe contrast, and pixels whose uncertainty exceeds ``max_sd``. The count cannot see a
+local *minimum* of the order that is not the anchor (a pit); that needs a second anchor.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import ndimage
+
+from .envelope import Envelope, band_labels, band_neighbours, fit_envelope, flat_field_envelope
+from .masks import check_mask
+
+__all__ = ["CAP_AMBIGUOUS", "MonoResult", "mono_order", "grey_channel"]
+
+#: In a cap band whose fringe centre was not seen, pixels closer than this (fringe) to
+#: the band's centre value may lie beyond it: unreliable.
+CAP_AMBIGUOUS = 0.1
+
+#: A cap band's pixels within this (fringe) of its most extreme d hold its centre line.
+CAP_EXTREME = 0.1
+
+#: Width (px) of the edge of the region where a cap's side is not trusted.
+EDGE_PX = 2
+
+
+@dataclass(frozen=True)
+class MonoResult:
+    """Fringe order of one monochrome image.
+
+    Attributes
+    ----------
+    order : (rows, cols) float - total fringe order; NaN outside the mask or unordered
+    order_sd : (rows, cols) float - 1-sigma uncertainty (fringe)
+    reliable : (rows, cols) bool - ordered, unambiguous, contrast and sd within limits
+    normalised : (rows, cols) float - u = sin^2(pi N) (dark-field sense)
+    band_order : (rows, cols) float - the whole or half order of each pixel's band
+    centres : (rows, cols) bool - fringe-centre pixels (dark: whole, bright: half orders)
+    envelope : Envelope
+    info : dict - counts for reports
+    """
+
+    order: np.ndarray
+    order_sd: np.ndarray
+    reliable: np.ndarray
+    normalised: np.ndarray
+    band_order: np.ndarray
+    centres: np.ndarray
+    envelope: Envelope
+    info: dict = field(default_factory=dict)
+
+
+def grey_channel(image: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
+    """A colour photograph of monochromatic light as one channel: the channel with the
+    widest 1-99 % range in ``mask`` (green light on a colour camera: green)."""
+    img = np.asarray(image, float)
+    if img.ndim == 2:
+        return img
+    m = np.ones(img.shape[:2], bool) if mask is None else mask
+    spread = [np.subtract(*np.percentile(img[..., k][m], [99, 1])) for k in range(3)]
+    return img[..., int(np.argmax(spread))]
+
+
+#: A band holding at least this share of the anchor pixels is an anchor band.
+ANCHOR_SHARE = 0.02
+
+
+def _order_bands(labels, is_bright, pairs, anchor_mask, anchor_order):
+    """Breadth-first numbering of the bands from the anchor bands (see module doc).
+
+    Every band holding at least :data:`ANCHOR_SHARE` of the anchor pixels starts at the
+    whole (dark) or half (bright) order nearest ``anchor_order`` from above - the anchor
+    region spans the lowest orders; the count goes up by 1/2 per band away from them.
+    Returns (nominal order per label (NaN = unreached), anchor labels (bool per label),
+    conflicting labels: a band and a neighbour whose orders do not differ by 1/2)."""
+    n = len(is_bright)
+    hits = np.bincount(labels[anchor_mask], minlength=n)
+    hits[0] = 0
+    if not hits.any():
+        raise ValueError("the anchor region lies on no fringe band (all masked)")
+    sources = hits >= max(1.0, ANCHOR_SHARE * hits.sum())
+    nominal = np.full(n, np.nan)
+    base = np.where(is_bright, np.floor(anchor_order) + 0.5, np.round(anchor_order))
+    nominal[sources] = base[sources]
+    adj = [[] for _ in range(n)]
+    for a, b in pairs:
+        adj[a].append(b)
+        adj[b].append(a)
+    queue = deque(np.flatnonzero(sources)[np.argsort(nominal[sources], kind="stable")])
+    while queue:  # a graph of bands (tens to hundreds), not of pixels
+        a = queue.popleft()
+        for b in adj[a]:
+            if np.isnan(nominal[b]):
+                nominal[b] = nominal[a] + 0.5
+                queue.append(b)
+    conflict = np.zeros(n, bool)
+    if len(pairs):
+        bad = np.abs(nominal[pairs[:, 0]] - nominal[pairs[:, 1]]) != 0.5
+        bad &= np.isfinite(nominal[pairs]).all(axis=1)
+        conflict[pairs[bad].ravel()] = True
+    return nominal, sources, conflict
+
+
+def _neighbours(a: np.ndarray, fill):
+    """The four 4-neighbour arrays of ``a`` (right, left, down, up), ``fill`` off the edge."""
+    out = []
+    for axis in (0, 1):
+        for step in (1, -1):
+            b = np.full_like(a, fill)
+            src = [slice(None)] * 2
+            dst = [slice(None)] * 2
+            src[axis] = slice(step, None) if step > 0 else slice(None, step)
+            dst[axis] = slice(None, -step) if step > 0 else slice(-step, None)
+            b[tuple(dst)] = a[tuple(src)]
+            out.append(b)
+    return out
+
+
+def _cap_sides(band, d_band, lower_band, elevation):
+    """Sides in a cap band (no higher neighbour): the pixels within :data:`CAP_EXTREME` of
+    the band's most extreme d hold its centre line if they cut the band; parts cut off
+    from the lower neighbours lie beyond it and seed the higher side of a watershed as the
+    higher neighbours do in other bands. Returns (watershed labels 1 (lower) / 2 (higher)
+    in the band's box, whether the centre line was seen)."""
+    from skimage.segmentation import watershed
+
+    near = band & (d_band <= np.nanmin(d_band[band]) + CAP_EXTREME)
+    parts, _ = ndimage.label(band & ~near)
+    touching = np.unique(parts[lower_band & (parts > 0)])
+    beyond = (parts > 0) & ~np.isin(parts, touching)
+    markers = np.where(lower_band, 1, 0) + np.where(beyond, 2, 0)
+    return watershed(elevation, markers, mask=band), bool(beyond.any())
+
+
+def _sides(u, d, labels, nominal, anchor_mask, start):
+    """+1 (higher side of the band's centre line), -1 (lower), 0 (unknown) per pixel, the
+    fringe-centre pixels, which labels are caps whose centre line was not seen, and which
+    are caps."""
+    from skimage.segmentation import watershed
+
+    nom = np.where(labels > 0, nominal[labels], np.nan)
+    lower = np.zeros(labels.shape, bool)
+    higher = np.zeros(labels.shape, bool)
+    for nb in _neighbours(nom, np.nan):
+        lower |= nb < nom
+        higher |= nb > nom
+    lower |= anchor_mask & start[labels]
+    has_higher = np.bincount(labels[higher], minlength=len(nominal)) > 0
+    blind = np.zeros(len(nominal), bool)
+    side = np.zeros(labels.shape, np.int8)
+    centres = np.zeros(labels.shape, bool)
+    elevation = np.abs(u - 0.5)
+    for lab, sl in enumerate(ndimage.find_objects(labels), start=1):
+        if sl is None or np.isnan(nominal[lab]):
+            continue
+        band = labels[sl] == lab
+        if not has_higher[lab] and not start[lab]:
+            ws, seen = _cap_sides(band, d[sl], lower[sl] & band, elevation[sl])
+            blind[lab] = not seen
+        else:
+            markers = np.where(band & lower[sl], 1, 0) + np.where(band & higher[sl], 2, 0)
+            markers[markers == 3] = 0  # a pixel touching both: let the flood decide
+            if not markers.any():
+                continue
+            ws = watershed(elevation[sl], markers, mask=band)
+        side[sl][band] = np.where(ws[band] == 2, 1, -1).astype(np.int8)
+        if (ws == 2).any() and nominal[lab] > 0:
+            meets = np.zeros(band.shape, bool)
+            for nb in _neighbours(ws, 0):
+                meets |= nb == 2
+            centres[sl] |= (ws == 1) & meets
+    caps = ~has_higher & np.isfinite(nominal)
+    caps[0] = False
+    caps &= ~start
+    return side, centres, blind, caps
+
+
+def _noise_sd(image: np.ndarray, mask: np.ndarray, smooth_px: float) -> float:
+    """Per-pixel noise of the smoothed image.
+
+    The image's noise by Immerkaer's operator (J. Immerkaer, "Fast noise variance
+    estimation", Comput. Vis. Image Underst. 64, 1996): the difference of two Laplacians
+    cancels intensity varying linearly or quadratically, and its response to white noise
+    has sd 6 sigma; here through the median absolute response, robust to fringe edges.
+    Times the Gaussian filter's noise gain 1 / (2 sqrt(pi) sigma)."""
+    kernel = np.array([[1.0, -2.0, 1.0], [-2.0, 4.0, -2.0], [1.0, -2.0, 1.0]])
+    resp = ndimage.convolve(image, kernel, mode="reflect")[ndimage.binary_erosion(mask)]
+    raw = 1.4826 * float(np.median(np.abs(resp))) / 6.0 if resp.size else 0.0
+    return raw / max(2 * np.sqrt(np.pi) * smooth_px, 1.0)
+
+
+def _order_sd(u, sd_u):
+    """sd of d(u) (fringe): first order sd_u / |du/dd|, and sqrt(sd_u)/pi at the extremes
+    where u is quadratic in d - whichever is smaller."""
+    uu = np.clip(u, 1e-9, 1 - 1e-9)
+    first = sd_u / (2 * np.pi * np.sqrt(uu * (1 - uu)))
+    return np.minimum(first, np.sqrt(sd_u) / np.pi)
+
+
+def mono_order(
+    image: np.ndarray,
+    *,
+    mask: np.ndarray | None = None,
+    field: str = "dark",
+    anchor_mask: np.ndarray | None = None,
+    anchor_order: float = 0.0,
+    flat: np.ndarray | None = None,
+    smooth_px: float = 0.5,
+    min_contrast: float = 0.05,
+    max_sd: float = 0.1,
+) -> MonoResult:
+    """Total fringe order of one monochrome image (see module doc).
+
+    Parameters
+    ----------
+    image : (rows, cols) float in [0, 1] - dark- or bright-field photograph (a colour one
+        is reduced by :func:`grey_channel`)
+    mask : (rows, cols) bool, optional - region of interest (default all)
+    field : {"dark", "bright"} - the polariscope's field: whole orders are dark fringes in
+        dark field and bright ones in bright field
+    anchor_mask : (rows, cols) bool, optional - pixels of known order ``anchor_order``;
+        default the region's border ring (:func:`analysis.border_anchor`)
+    flat : (rows, cols) float, optional - flat-field image (I_0 of the light); default
+        the fringe envelope
+    smooth_px : float - Gaussian smoothing before normalising (px)
+    min_contrast : float - fringe amplitude I_0 (fraction of full scale) below which
+        pixels are unreliable
+    max_sd : float - order uncertainty (fringe) above which pixels are unreliable
+    """
+    from .unwrap import border_anchor
+
+    if field not in ("dark", "bright"):
+        raise ValueError(f"field = {field!r} is not allowed; use 'dark' or 'bright'")
+    img = np.asarray(image, float)
+    mask = check_mask(mask, img.shape)
+    img = grey_channel(img, mask)
+    if not (np.isfinite(smooth_px) and smooth_px >= 0):
+        raise ValueError(f"smooth_px = {smooth_px!r} is not allowed; must be >= 0")
+    smooth = ndimage.gaussian_filter(img, smooth_px) if smooth_px > 0 else img
+    sign_img = smooth if field == "dark" else 1.0 - smooth
+    if flat is not None:
+        env = flat_field_envelope(flat if field == "dark" else np.ones_like(img))
+        if field == "bright":  # bright field: 1 - I / flat is the dark-field u
+            sign_img = 1.0 - smooth / np.where(flat > 0, flat, np.nan)
+            env = Envelope(np.zeros_like(img), np.ones_like(img), "flat field")
+    else:
+        env = fit_envelope(sign_img, mask)
+    u = np.where(mask, env.normalise(sign_img), np.nan)
+    anchor = border_anchor(mask) if anchor_mask is None else check_mask(anchor_mask, img.shape)
+    anchor &= mask
+    labels, is_bright = band_labels(u, mask)
+    pairs = band_neighbours(labels)
+    nominal, start, conflict = _order_bands(labels, is_bright, pairs, anchor, anchor_order)
+    su = np.sqrt(np.clip(np.nan_to_num(u), 0, 1))
+    # d > 1/4 only on islands too small to be bands (merged into their surroundings)
+    d = np.minimum(np.where(is_bright[labels], np.arccos(su), np.arcsin(su)) / np.pi, 0.25)
+    side, centres, blind, caps = _sides(u, d, labels, nominal, anchor, start)
+    nom = np.where(labels > 0, nominal[labels], np.nan)
+    order = np.where(side >= 0, nom + d, nom - d)
+    order = np.abs(order)  # the anchor band of order 0 has no lower side: N = d
+    order = np.where(mask & (side != 0), order, np.nan)
+    amp = env.high - env.low
+    sd_u = np.hypot(_noise_sd(img, mask, smooth_px) / np.maximum(amp, 1e-6), env.sd())
+    sd = np.where(np.isfinite(order), _order_sd(u, sd_u), np.nan)
+    cap_px = blind[labels] & (labels > 0) & (d < CAP_AMBIGUOUS)
+    # where a cap's centre line runs into the edge of the region, the slivers beyond it
+    # can reach the lower side along the edge: cap pixels on the edge off the line
+    edge = mask & ~ndimage.binary_erosion(mask, iterations=EDGE_PX, border_value=1)
+    cap_px |= caps[labels] & (labels > 0) & edge & (d >= CAP_EXTREME / 2)
+    # a pixel clearly on the other side of u = 1/2 than its band: an island merged as noise
+    island = ((u > 0.5) != is_bright[labels]) & (np.abs(u - 0.5) > 3 * sd_u)
+    reliable = np.isfinite(order) & ~cap_px & ~island & ~conflict[labels]
+    reliable &= (amp >= min_contrast) & (sd <= max_sd)
+    info = {
+        "bands": int(len(is_bright) - 1),
+        "ordered_bands": int(np.isfinite(nominal[1:]).sum()),
+        "blind_cap_bands": int(np.sum(blind[1:])),
+        "anchor_bands": int(start.sum()),
+        "conflicting_bands": int(conflict.sum()),
+        "envelope": env.method,
+        "envelope_samples": env.samples,
+        "envelope_residual": env.residual,
+        "sd_u_median": float(np.nanmedian(sd_u[mask])),
+    }
+    return MonoResult(order, sd, reliable, u, nom, centres & mask, env, info)

@@ -1,15 +1,18 @@
 """``fringekit analyze``: image files -> maps, profiles, figures.
 
-``run_analyze`` reads a six-step set (phase) or one colour image (RGB), builds the masks,
-runs the six-step or RGB methods of :mod:`analysis`, and writes to an output folder:
+``run_analyze`` reads a six-step set (phase), one colour image (RGB) or one monochrome
+image (mono, :mod:`fringekit.analyze_mono`), builds the masks, runs the method of
+:mod:`analysis`, and writes to an output folder:
 
 - ``maps.npz`` - ``fringe_order`` (NaN where unknown), ``reliable`` (bool), and for the
   phase method ``isoclinic_rad``, ``delta_eq3_rad``, ``delta_axis_insensitive_rad``,
-  ``modulation``; for RGB ``colour_error``; ``stress_difference_Pa`` when a fringe value
+  ``modulation``; for RGB ``colour_error``; for mono ``order_sd``,
+  ``normalised_intensity``, ``fringe_centres``; ``stress_difference_Pa`` when a fringe value
   and thickness are given; ``pixel_size_m`` (0 when not given);
 - ``fringe_order.png`` and the method's other maps as PNG figures;
 - ``profile.csv`` / ``profile.png`` - the order along a line (the seed paper's a-b line);
-- ``summary.json`` - method, inputs, counts of valid and reliable pixels, order range.
+- ``summary.json`` - method, inputs, counts of valid and reliable pixels, order range;
+- ``points.csv`` - with ``points``: the order at the given points.
 
 Stored maps are read back by :mod:`fringekit.maps` (``compare``, ``estimate``).
 """
@@ -28,13 +31,10 @@ from analysis import (
     MIN_COLOUR_SPREAD,
     CalibrationTable,
     border_anchor,
-    circle_mask,
     colour_spread,
-    exclude_circle,
     line_profile,
     load_image,
     load_six_step,
-    polygon_mask,
     principal_stress_difference,
     resolve_ambiguity,
     search,
@@ -44,7 +44,9 @@ from analysis import (
 )
 from optics import PSM4_ASSUMED, Camera, colour_chart, light_source
 
+from .analyze_mono import analyse_mono, read_points, write_points
 from .figures import map_figure, profile_figure, sensor_extent
+from .regions import order_at_anchor, region_mask
 
 __all__ = ["run_analyze"]
 
@@ -59,29 +61,6 @@ def _figure(path, data, title, label, cmap="turbo", pixel_size=0.0, vmin=None, v
                    vmin=vmin, vmax=vmax)  # fmt: skip
     else:
         map_figure(path, data, title, label, cmap, vmin=vmin, vmax=vmax)
-
-
-def _mask(shape, roi_circle, exclude, roi_polygon=None, exclude_polygons=()) -> np.ndarray:
-    """The region of interest (circle and/or polygon; default the whole image) without
-    the excluded circles and polygons (cracks, labels, load points); errors name the
-    option when nothing is left."""
-    mask = np.ones(shape[:2], bool)
-    if roi_circle is not None:
-        r, c, rad = roi_circle
-        mask &= circle_mask(shape, (r, c), rad)
-    if roi_polygon is not None:
-        mask &= polygon_mask(shape[:2], roi_polygon)
-    for r, c, rad in exclude or ():
-        mask = exclude_circle(mask, (r, c), rad)
-    for poly in exclude_polygons or ():
-        mask &= ~polygon_mask(shape[:2], poly)
-    if not mask.any():
-        raise ValueError(
-            "the region of interest holds no pixel (--roi-circle, --roi-rect or --roi-polygon "
-            "minus --exclude-circle and --exclude-polygon); allowed: a region inside the "
-            f"{shape[0]} x {shape[1]} image"
-        )
-    return mask
 
 
 def _table(calibration, chart: dict | None) -> CalibrationTable:
@@ -108,32 +87,14 @@ def _table(calibration, chart: dict | None) -> CalibrationTable:
 #: (and, with ``--strict``, exits 1).
 MIN_RELIABLE_SHARE = 0.5
 
-#: Radius (px) of the anchor disc about ``--order-at ROW COL N``.
-ORDER_AT_RADIUS_PX = 3.0
-
-
-def _anchor(shape, valid, order_at):
-    """(anchor mask or None, anchor order) from ``--order-at`` (row, col, order), checked."""
-    if order_at is None:
-        return None, None
-    r, c, n = order_at
-    anchor = circle_mask(shape, (r, c), ORDER_AT_RADIUS_PX)
-    if not (anchor & valid).any():
-        raise ValueError(
-            f"--order-at {r:g} {c:g} {n:g}: no valid pixel within {ORDER_AT_RADIUS_PX:g} px of "
-            f"({r:g}, {c:g}); allowed: a point inside the image with fringe data (not masked, "
-            "modulation above --min-modulation)"
-        )
-    return anchor, n
-
 
 def _analyse_phase(paths, dark, mask_args, min_modulation, anchor_order, order_at=None):
     """Six-step images -> (order, reliable, extra maps, summary part, mask)."""
     frames = load_six_step(paths[0] if len(paths) == 1 else paths, dark=dark)
-    mask = _mask(frames[0].shape, *mask_args)
+    mask = region_mask(frames[0].shape, *mask_args)
     res = six_step(frames, mask=mask, min_modulation=min_modulation)
     resolution = resolve_ambiguity(res)
-    anchor, n = _anchor(frames[0].shape, res.valid, order_at)
+    anchor, n = order_at_anchor(frames[0].shape, res.valid, order_at)
     if anchor is None and not border_anchor(res.valid).any():
         raise ValueError(
             "no pixel with fringe data lies on the image border, where --anchor-order "
@@ -162,7 +123,7 @@ def _analyse_rgb(paths, dark, mask_args, calibration, chart, seeds, window):
     # one channel at full scale still constrains the order (vivid fringe colours leave
     # the sRGB gamut and clip, in the chart exactly as in the image); a pixel with
     # every channel at full scale does not
-    mask = _mask(frame.shape, *mask_args) & ~np.all(frame.data >= 1.0, axis=-1)
+    mask = region_mask(frame.shape, *mask_args) & ~np.all(frame.data >= 1.0, axis=-1)
     table = _table(calibration, chart)
     if seeds:
         seed_list = [((r, c), o) for r, c, o in seeds]
@@ -205,6 +166,14 @@ def _write_figures(out: Path, method: str, maps: dict, pixel_size: float, origin
             ("phasemap_axis_insensitive", maps["delta_axis_insensitive_rad"],
              "axis-insensitive phase (eq. 4)", "rad", "gray", 0, np.pi),
             ("modulation", maps["modulation"], "modulation", "", "viridis", 0, 1),
+        ]  # fmt: skip
+    elif method == "mono":
+        figures += [
+            ("order_sd", maps["order_sd"], "fringe order uncertainty (1 sd)", "fringe",
+             "magma", 0, None),
+            ("normalised_intensity", np.where(maps["fringe_centres"], np.nan,
+             maps["normalised_intensity"]), "sin^2(pi N), fringe centres blank", "", "gray",
+             0, 1),
         ]  # fmt: skip
     else:
         figures.append(("colour_error", maps["colour_error"], "colour distance to table", "",
@@ -310,6 +279,8 @@ def run_analyze(
     order_at: tuple[float, float, float] | None = None,
     roi_polygon=None,
     exclude_polygons=(),
+    mono: dict | None = None,
+    points=None,
 ) -> dict:
     """Analyse fringe images; write maps, figures and a summary to ``out``.
 
@@ -345,15 +316,19 @@ def run_analyze(
     origin_px : (row, col), optional — the pixel of the sensor origin; figures and
         profile.csv use the sensor frame (x right, y up, mm) about it when the pixel size
         is known. Default: the image centre.
+    mono : dict, optional — (mono) ``field`` ("dark"/"bright"), ``flat`` (flat-field
+        image path), ``smooth_px``; ``order_at`` and ``anchor_order`` anchor the count.
+    points : path, optional — CSV of points (header ``row,col`` or ``x_mm,y_mm``):
+        ``points.csv`` gives their order, sd and reliability.
     """
     paths = [str(p) for p in images]
     if not paths:
         raise ValueError("analyze needs at least one image")
     if method is None:
         single = len(paths) == 1 and not paths[0].lower().endswith((".tif", ".tiff"))
-        method = "rgb" if single else "phase"
-    if method not in ("phase", "rgb"):
-        raise ValueError(f"method = {method!r} is not allowed; use 'phase' or 'rgb'")
+        method = ("rgb" if load_image(paths[0]).data.ndim == 3 else "mono") if single else "phase"
+    if method not in ("phase", "rgb", "mono"):
+        raise ValueError(f"--method {method!r} is not allowed; use phase, rgb or mono")
     if (f_sigma is None) != (thickness is None):
         raise ValueError("give both the fringe value and the thickness for stress, or neither")
     out = Path(out)
@@ -361,6 +336,10 @@ def run_analyze(
     if method == "phase":
         order, reliable, maps, part, mask = _analyse_phase(
             paths, dark, mask_args, min_modulation, anchor_order, order_at
+        )
+    elif method == "mono":
+        order, reliable, maps, part, mask = analyse_mono(
+            paths, dark, mask_args, anchor_order, order_at, mono or {}
         )
     else:
         order, reliable, maps, part, mask = _analyse_rgb(
@@ -370,6 +349,7 @@ def run_analyze(
     rows, cols = order.shape
     origin_rc = tuple(origin_px) if origin_px is not None else ((rows - 1) / 2, (cols - 1) / 2)
     line = _profile_line(line, exclude, mask)
+    pts = None if points is None else read_points(points, order.shape, pixel_size, origin_rc)
     out.mkdir(parents=True, exist_ok=True)
     maps["fringe_order"] = order
     maps["reliable"] = reliable
@@ -379,6 +359,9 @@ def run_analyze(
     np.savez_compressed(out / "maps.npz", **maps)
     _write_figures(out, method, maps, pixel_size, origin_rc)
     _write_profile(out, order, line, pixel_size, origin_rc)
+    if pts is not None:
+        write_points(out, pts, maps, pixel_size, origin_rc)
+        summary["points"] = str(points)
 
     summary.update(_counts(order, reliable, mask, part))
     summary.update(

@@ -36,7 +36,7 @@ from .commands import (
     cmd_sweep,
     fringekit_version,
 )
-from .options import Parser, at_least_one, finite, fraction, pixel, positive
+from .options import Parser, at_least_one, finite, fraction, nonnegative, pixel, positive
 
 __all__ = ["main"]
 
@@ -76,10 +76,25 @@ def _add_config(sub) -> None:
 
 
 def _add_analyze(sub) -> None:
-    an = sub.add_parser("analyze", help="fringe order from six phase-stepped or RGB images")
-    an.add_argument("images", nargs="+", help="six step images (or a 6-page TIFF), or one RGB")
-    an.add_argument("--method", choices=("phase", "rgb"), default=None,
-                    help="default: rgb for one PNG/JPEG, phase otherwise")  # fmt: skip
+    an = sub.add_parser(
+        "analyze", help="fringe order from six phase-stepped, one RGB or one monochrome image"
+    )
+    an.add_argument("images", nargs="+",
+                    help="six step images (or a 6-page TIFF), one RGB or one monochrome image")
+    an.add_argument("--method", choices=("phase", "rgb", "mono"), default=None,
+                    help="default: rgb for one colour PNG/JPEG, mono for one grey image, "
+                    "phase otherwise")
+    an.add_argument("--field", choices=("dark", "bright"), default="dark",
+                    help="(mono) polariscope field: whole orders are dark fringes in dark "
+                    "field, bright ones in bright field")
+    an.add_argument("--flat", default=None,
+                    help="(mono) flat-field image: the light without the specimen's "
+                    "retardation (bright field, unloaded); default: the fringe envelope")
+    an.add_argument("--smooth-px", type=nonnegative, default=0.5,
+                    help="(mono) Gaussian smoothing before normalising (px)")
+    an.add_argument("--points", default=None, metavar="FILE.csv",
+                    help="CSV with header row,col or x_mm,y_mm: writes points.csv with "
+                    "row,col,x_mm,y_mm,order,order_sd,reliable")  # fmt: skip
     an.add_argument("--out", default=None, help="output folder (default fringekit-out/analysis)")
     an.add_argument("--dark", default=None, help="dark frame subtracted from every image")
     an.add_argument("--roi-circle", nargs=3, type=finite, metavar=("ROW", "COL", "R"))
@@ -96,7 +111,7 @@ def _add_analyze(sub) -> None:
     )  # fmt: skip
     an.add_argument("--pixel-mm", type=positive, default=None, help="pixel pitch on the sheet (mm)")
     an.add_argument("--anchor-order", type=finite, default=0.0,
-                    help="(phase) fringe order of the image border ring")  # fmt: skip
+                    help="(phase, mono) fringe order of the image border ring")  # fmt: skip
     an.add_argument("--min-modulation", type=fraction, default=0.1)
     an.add_argument("--calibration", default=None, help="(rgb) table CSV: order,R,G,B")
     an.add_argument("--light", default="LED", help="(rgb) light of the synthetic chart")
@@ -114,7 +129,7 @@ def _add_analyze(sub) -> None:
         type=finite,
         metavar=("ROW", "COL", "N"),
         default=None,
-        help="(phase) a pixel of known fringe order N in the far field (the lowest order of "
+        help="(phase, mono) a pixel of known fringe order N in the far field (the lowest order of "
         "its region: it also fixes the sign) that anchors the unwrapped map instead of the "
         "image border at --anchor-order",
     )

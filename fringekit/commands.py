@@ -201,6 +201,8 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         roi_polygon=roi_polygon(args),
         exclude_polygons=[exclusion_polygon(p) for p in args.exclude_polygon or []],
         thickness=args.thickness_mm * 1e-3 if args.thickness_mm else None,
+        mono={"field": args.field, "flat": args.flat, "smooth_px": args.smooth_px},
+        points=args.points,
     )
     if not args.quiet:
         rng = summary["fringe_order_range"]

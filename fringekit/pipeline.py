@@ -10,7 +10,8 @@ Output folder layout (``<out>/<case>/``):
   ``solution.vtu`` (deformed quadratic tets, stresses in Pa), ``maps.npz`` (fringe order,
   simple order, isoclinic, mask, pixel x/y in m), ``fringe_order.png`` and
   ``isoclinic.png`` (figures with a colour bar), ``six_step/step1..6.png`` (monochrome,
-  the six-step table of ``docs/theory.md``), ``white_light.png`` (dark-field circular, the
+  the six-step table of ``docs/theory.md``), ``dark_field.png`` (monochrome, dark-field
+  circular: the image of ``analyze --method mono``), ``white_light.png`` (dark-field circular, the
   light and camera of the config), ``fringe_image.png`` (the white-light image with axes
   in mm) and ``profile.png`` / ``profile.csv`` (fringe order along x through the first
   indenter).

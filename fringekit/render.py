@@ -228,8 +228,11 @@ def render_state(
     for a in six_step_arrangements(**optics.errors):
         img = monochrome_image(q_img, a, optics.camera, seed=o["seed"])
         write_image(d / "six_step" / f"{a.name}.png", no_data_fill(img, omap.mask))
+    dark = monochrome_image(q_img, dark_field_circular(**optics.errors), optics.camera,
+                            seed=o["seed"])  # fmt: skip
+    write_image(d / "dark_field.png", no_data_fill(dark, omap.mask))
     times["six_step_s"] = time.perf_counter() - t0
-    progress("optics: six phase-stepped images")
+    progress("optics: six phase-stepped and dark-field images")
 
     t0 = time.perf_counter()
     rgb = _white_light(d, sol, cfg, optics, samples, omap.mask)

@@ -629,3 +629,19 @@ def test_analyze_rectangle_polygon_and_line_masks(tiny_images, tmp_path, capsys)
     assert main(empty) == 2 and "holds no pixel" in capsys.readouterr().err
     assert main(["analyze", *steps, "--roi-polygon", "1;1", "--out", str(tmp_path / "x")]) == 2
     assert "--roi-polygon" in capsys.readouterr().err
+
+
+def test_analyze_mono_reads_predicts_dark_field_image(tiny_images, tmp_path):
+    """predict writes dark_field.png (monochrome, dark-field circular); analyze --method
+    mono orders it back to the predicted map."""
+    root, out96, d, geo, border = tiny_images
+    an = tmp_path / "mono"
+    args = ["analyze", str(d / "dark_field.png"), *geo, "--anchor-order", f"{border:.3f}",
+            "--out", str(an), "--quiet"]  # fmt: skip
+    assert main(args) == 0
+    got = np.load(an / "maps.npz")
+    truth = np.load(d / "maps.npz")["fringe_order"]
+    ok = got["reliable"] & np.isfinite(truth)
+    assert ok.sum() > 0.8 * np.isfinite(got["fringe_order"]).sum()
+    err = np.abs(got["fringe_order"] - truth)[ok]
+    assert np.percentile(err, 95) < 0.1, np.percentile(err, 95)

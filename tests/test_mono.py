@@ -1,12 +1,16 @@
-"""One monochrome photograph -> fringe order (analysis.mono), against exact fields made to
-look like laboratory photographs (optics.photograph)."""
+"""One monochrome photograph -> fringe order (analysis.mono, ``analyze --method mono``,
+``--points``), against exact fields made to look like laboratory photographs."""
 
 from __future__ import annotations
+
+import csv
+import json
 
 import numpy as np
 import pytest
 
 from analysis import circle_mask, mono_order, normalise
+from fringekit.cli import main
 from optics import (
     PSM4_ASSUMED,
     Boussinesq,
@@ -17,6 +21,7 @@ from optics import (
     dark_field_circular,
     optical_map,
     photograph,
+    write_image,
 )
 
 #: 8-bit camera, 10k e- full well, 5 e- read noise
@@ -110,3 +115,84 @@ def test_mono_order_with_a_flat_field(dent):
     assert res.envelope.method == "flat field"
     assert ok.sum() >= 0.8 * roi.sum()
     assert np.percentile(err[ok], 99) <= 0.1
+
+
+# -- the command line ------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def photo(dent, tmp_path_factory):
+    """The realistic dark-field indentation photograph as an 8-bit PNG, 0.05 mm/px."""
+    q, truth, roi = dent
+    root = tmp_path_factory.mktemp("mono")
+    write_image(root / "dark.png", photograph(q, dark_field_circular(), CAMERA, REALISTIC, seed=1))
+    return root, truth
+
+
+def _points(path, text):
+    path.write_text(text)
+    return str(path)
+
+
+def test_analyze_mono_writes_points_at_the_true_order(photo, tmp_path):
+    """One grey PNG defaults to mono; points.csv has exactly the issue's columns, one row
+    per point in input order, the order within 0.1 of the truth where reliable, and
+    empty order / false where the point is masked."""
+    root, truth = photo
+    pts = _points(tmp_path / "p.csv", "row,col\n60,119.5\n10,10\n119.5,150\n200,119\n")
+    out = tmp_path / "a"
+    args = ["analyze", str(root / "dark.png"), "--exclude-circle", "119.5", "119.5", "32",
+            "--pixel-mm", "0.05", "--points", pts, "--out", str(out), "--quiet", "--strict"]  # fmt: skip
+    assert main(args) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["method"] == "mono" and s["reliable_fraction_of_roi"] > 0.9
+    rows = list(csv.reader((out / "points.csv").open()))
+    assert rows[0] == ["row", "col", "x_mm", "y_mm", "order", "order_sd", "reliable"]
+    assert [r[:2] for r in rows[1:]] == [["60", "119.5"], ["10", "10"], ["119.5", "150"],
+                                         ["200", "119"]]  # fmt: skip
+    for r in (rows[1], rows[2], rows[4]):
+        rr, cc = int(round(float(r[0]))), int(round(float(r[1])))
+        assert r[6] == "true" and abs(float(r[4]) - truth[rr, cc]) < 0.1
+        assert 0 < float(r[5]) < 0.1
+    assert rows[3][4] == "" and rows[3][6] == "false"  # inside the excluded circle
+    x, y = float(rows[2][2]), float(rows[2][3])  # (10, 10) px about the centre 119.5
+    assert x == pytest.approx(-5.475) and y == pytest.approx(5.475)
+    maps = np.load(out / "maps.npz")
+    assert {"order_sd", "normalised_intensity", "fringe_centres"} <= set(maps.files)
+    # the same points in the sensor frame (mm) give the same rows
+    mm = _points(tmp_path / "q.csv", f"x_mm,y_mm\n0,{59.5 * 0.05}\n-5.475,5.475\n")
+    assert main([*args[:-6], "--points", mm, "--out", str(tmp_path / "b"), "--quiet"]) == 0
+    got = list(csv.reader((tmp_path / "b" / "points.csv").open()))
+    assert [g[4] for g in got[1:]] == [rows[1][4], rows[2][4]]
+
+
+@pytest.mark.parametrize(
+    "text,needs",
+    [
+        ("r,c\n1,2\n", "header 'r,c' is not allowed; use row,col or x_mm,y_mm"),
+        ("row,col\n1,two\n", "every line after the header must be two numbers"),
+        ("row,col\n", "no points"),
+        ("row,col\n5,500\n", "point 1 (5, 500) is outside the 240 x 240 image"),
+        ("x_mm,y_mm\n1,2\n", "x_mm,y_mm points need --pixel-mm"),
+    ],
+)
+def test_bad_points_files_are_refused_by_option_name(photo, tmp_path, capsys, text, needs):
+    root, _ = photo
+    pts = _points(tmp_path / "p.csv", text)
+    out = tmp_path / "o"
+    assert main(["analyze", str(root / "dark.png"), "--points", pts, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "--points" in err and needs in err, err
+    assert not out.exists()
+
+
+def test_mono_refuses_an_image_without_fringes(tmp_path):
+    """A dark-field image of a flat retardation field (noise only) has no fringes to
+    count: less than half reliable, a warning, exit 1 with --strict - not a confident map."""
+    img = np.full((64, 64), 20, np.uint8) + (np.arange(64) % 2).astype(np.uint8)[None, :]
+    write_image(tmp_path / "flat.png", img)
+    out = tmp_path / "o"
+    code = main(["analyze", str(tmp_path / "flat.png"), "--out", str(out), "--strict", "--quiet"])
+    assert code == 1
+    s = json.loads((out / "summary.json").read_text())
+    assert "warning" in s and s["reliable_fraction_of_roi"] < 0.5

@@ -18,6 +18,7 @@ from .calibrate import (
 )
 from .compare import Comparison, Profile, compare_maps, line_profile
 from .images import SIX_STEP_ORDER, Frame, load_image, load_six_step, normalise
+from .circles import Circle, disc_by_symmetry, find_discs
 from .mono import MonoResult, grey_channel, mono_order
 from .masks import check_mask, circle_mask, exclude_circle, polygon_mask
 from .phase import (
@@ -40,6 +41,9 @@ from .unwrap import FringeOrderMap, border_anchor, unwrap_fringe_order
 
 __all__ = [
     "RADII_MM",
+    "Circle",
+    "disc_by_symmetry",
+    "find_discs",
     "MonoResult",
     "grey_channel",
     "mono_order",

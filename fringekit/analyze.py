@@ -215,6 +215,16 @@ def _write_profile(out: Path, order, line, pixel_size: float, origin_rc) -> None
                    xlabel=f"distance along the line ({unit})", title=title)  # fmt: skip
 
 
+def _write_outputs(out: Path, method, maps, pixel_size, origin_rc, line, pts) -> None:
+    """maps.npz, the figures, the profile and (with points) points.csv."""
+    out.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(out / "maps.npz", **maps)
+    _write_figures(out, method, maps, pixel_size, origin_rc)
+    _write_profile(out, maps["fringe_order"], line, pixel_size, origin_rc)
+    if pts is not None:
+        write_points(out, pts, maps, pixel_size, origin_rc)
+
+
 def _profile_line(line, exclude, roi: np.ndarray) -> tuple[float, float, float, float]:
     """The profile line (r0, c0, r1, c1) px: the given one, checked against the image, or
     the row through the first excluded circle's centre (the indenter), else through the
@@ -305,10 +315,8 @@ def run_analyze(
         first excluded circle's centre, else through the image centre.
     f_sigma, thickness : float (N/m, m) — give both for the principal stress difference
         (seed eq. 4, reflection).
-    roi_polygon : (k, 2) (row, col) px, optional — polygonal region of interest (a
-        rectangle is a 4-vertex polygon); intersected with ``roi_circle``.
-    exclude_polygons : sequence of (k, 2) (row, col) px — excluded polygons (cracks,
-        labels, load points).
+    roi_polygon, exclude_polygons : (k, 2) (row, col) px — polygonal region of interest
+        (with ``roi_circle``) and excluded polygons (cracks, labels, load points).
     order_at : (row, col, order), optional — (phase) a pixel of known fringe order in the
         far field that anchors the unwrapped map instead of the image border at
         ``anchor_order``. Like the border, it is taken as the lowest order of its region:
@@ -316,10 +324,8 @@ def run_analyze(
     origin_px : (row, col), optional — the pixel of the sensor origin; figures and
         profile.csv use the sensor frame (x right, y up, mm) about it when the pixel size
         is known. Default: the image centre.
-    mono : dict, optional — (mono) ``field`` ("dark"/"bright"), ``flat`` (flat-field
-        image path), ``smooth_px``; ``order_at`` and ``anchor_order`` anchor the count.
-    points : path, optional — CSV of points (header ``row,col`` or ``x_mm,y_mm``):
-        ``points.csv`` gives their order, sd and reliability.
+    mono : dict, optional — (mono) ``field`` ("dark"/"bright"), ``flat`` (image path),
+        ``smooth_px``. points : path, optional — CSV (``row,col`` or ``x_mm,y_mm``).
     """
     paths = [str(p) for p in images]
     if not paths:
@@ -333,36 +339,24 @@ def run_analyze(
         raise ValueError("give both the fringe value and the thickness for stress, or neither")
     out = Path(out)
     mask_args = (roi_circle, exclude, roi_polygon, exclude_polygons)
-    if method == "phase":
-        order, reliable, maps, part, mask = _analyse_phase(
-            paths, dark, mask_args, min_modulation, anchor_order, order_at
-        )
-    elif method == "mono":
-        order, reliable, maps, part, mask = analyse_mono(
-            paths, dark, mask_args, anchor_order, order_at, mono or {}
-        )
-    else:
-        order, reliable, maps, part, mask = _analyse_rgb(
-            paths, dark, mask_args, calibration, chart, seeds, window
-        )
+    runs = {
+        "phase": lambda: _analyse_phase(paths, dark, mask_args, min_modulation, anchor_order,
+                                        order_at),
+        "mono": lambda: analyse_mono(paths, dark, mask_args, anchor_order, order_at, mono or {}),
+        "rgb": lambda: _analyse_rgb(paths, dark, mask_args, calibration, chart, seeds, window),
+    }  # fmt: skip
+    order, reliable, maps, part, mask = runs[method]()
     summary: dict = {"method": method, "images": paths, **part}
     rows, cols = order.shape
     origin_rc = tuple(origin_px) if origin_px is not None else ((rows - 1) / 2, (cols - 1) / 2)
     line = _profile_line(line, exclude, mask)
     pts = None if points is None else read_points(points, order.shape, pixel_size, origin_rc)
-    out.mkdir(parents=True, exist_ok=True)
-    maps["fringe_order"] = order
-    maps["reliable"] = reliable
-    maps["pixel_size_m"] = np.array(pixel_size)
+    maps.update(fringe_order=order, reliable=reliable, pixel_size_m=np.array(pixel_size))
     if f_sigma is not None:
         maps["stress_difference_Pa"] = principal_stress_difference(order, f_sigma, thickness)
-    np.savez_compressed(out / "maps.npz", **maps)
-    _write_figures(out, method, maps, pixel_size, origin_rc)
-    _write_profile(out, order, line, pixel_size, origin_rc)
+    _write_outputs(out, method, maps, pixel_size, origin_rc, line, pts)
     if pts is not None:
-        write_points(out, pts, maps, pixel_size, origin_rc)
         summary["points"] = str(points)
-
     summary.update(_counts(order, reliable, mask, part))
     summary.update(
         pixel_size_mm=pixel_size * 1e3,

@@ -177,14 +177,27 @@ def _add_calibrate(sub) -> None:
     )  # fmt: skip
     _run_options(ca)
     ca.add_argument(
-        "--disc", default=None, metavar="MAPS",
-        help="fringe-order map of a diametral disc (transmission): fit f_sigma",
+        "--disc", nargs="+", default=None, metavar="IMAGE_OR_MAPS",
+        help="photographs of a disc in diametral compression (monochromatic light, circular "
+        "polariscope, transmission), or one fringe-order map (maps.npz / analyze folder): "
+        "fit f_sigma",
     )  # fmt: skip
-    ca.add_argument("--load-N", type=positive, default=None, help="(disc) diametral load")
+    ca.add_argument("--load-N", nargs="+", type=positive, default=None,
+                    help="(disc) diametral load of each photograph (N)")  # fmt: skip
     ca.add_argument("--diameter-mm", type=positive, default=None, help="(disc) diameter")
     ca.add_argument("--thickness-mm", type=positive, default=None, help="(disc) thickness")
+    ca.add_argument("--wavelength-nm", type=positive, default=None,
+                    help="(disc) wavelength of the light, recorded with f_sigma")  # fmt: skip
+    ca.add_argument("--reference", default=None, metavar="IMAGE",
+                    help="(disc) the unloaded disc, same light and exposure: fixes the "
+                    "residual order")  # fmt: skip
+    ca.add_argument("--field", choices=("dark", "bright"), default="dark",
+                    help="(disc) polariscope field of the photographs")  # fmt: skip
+    ca.add_argument("--dark", default=None, help="(disc) dark frame subtracted from every photo")
     ca.add_argument("--pixel-mm", type=positive, default=None)
     ca.add_argument("--centre", nargs=2, type=finite, metavar=("ROW", "COL"))
+    ca.add_argument("--radius-px", type=positive, default=None,
+                    help="(disc) disc radius in the photographs (px)")  # fmt: skip
     ca.set_defaults(func=cmd_calibrate)
 
 

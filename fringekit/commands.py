@@ -241,34 +241,62 @@ def cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def _disc_photos(args: argparse.Namespace) -> int:
+    from .disc_calibrate import run_disc_photos
+
+    out = Path(args.out or "fringekit-out/disc")
+    res = run_disc_photos(
+        args.disc, args.load_N, diameter_mm=args.diameter_mm, thickness_mm=args.thickness_mm,
+        out=out, wavelength_nm=args.wavelength_nm, reference=args.reference, field=args.field,
+        centre=tuple(args.centre) if args.centre else None, radius_px=args.radius_px,
+        pixel_mm=args.pixel_mm, dark=args.dark, echo=(lambda s: None) if args.quiet else print,
+    )  # fmt: skip
+    print(
+        f"fringe value f_sigma = {res['f_sigma_N_per_m']:.5g} +- {res['f_sigma_sd_N_per_m']:.2g} "
+        f"N/m per fringe from {len(args.disc)} photograph(s), offset "
+        f"{res['offset_order']:.3f} fringe; results in {out}/"
+    )
+    for w in res["summary"]["warnings"]:
+        print(f"fringekit calibrate: warning: {w}", file=sys.stderr)
+    return 0
+
+
+def _disc_map(args: argparse.Namespace) -> int:
+    from .estimate import run_disc
+
+    if len(args.disc) != 1 or len(args.load_N) != 1:
+        raise ValueError("--disc with a fringe-order map takes one map and one --load-N")
+    res = run_disc(
+        args.disc[0], load_N=args.load_N[0], diameter_mm=args.diameter_mm,
+        thickness_mm=args.thickness_mm, pixel_mm=args.pixel_mm,
+        centre=tuple(args.centre) if args.centre else None,
+    )  # fmt: skip
+    if args.out:
+        Path(args.out).mkdir(parents=True, exist_ok=True)
+        (Path(args.out) / "fringe_value.json").write_text(json.dumps(res, indent=2))
+    print(
+        f"fringe value f_sigma = {res['f_sigma_N_per_m']:.4g} N/m per fringe (whole-field "
+        f"fit over {res['pixels']} pixels, residual {res['rms_residual_fringe']:.3f} fringe"
+        + (
+            f"; centre only {res['f_sigma_centre_N_per_m']:.4g}"
+            if res["f_sigma_centre_N_per_m"]
+            else ""
+        )
+        + ")"
+    )
+    if "warning" in res:
+        print(f"fringekit calibrate: warning: {res['warning']}", file=sys.stderr)
+    return 0
+
+
 def cmd_calibrate(args: argparse.Namespace) -> int:
     if args.disc:
-        from .estimate import run_disc
+        from .disc_calibrate import is_photo
 
         for name in ("load_N", "diameter_mm", "thickness_mm"):
             if getattr(args, name) is None:
                 raise ValueError(f"--disc needs --{name.replace('_', '-')}")
-        res = run_disc(
-            args.disc, load_N=args.load_N, diameter_mm=args.diameter_mm,
-            thickness_mm=args.thickness_mm, pixel_mm=args.pixel_mm,
-            centre=tuple(args.centre) if args.centre else None,
-        )  # fmt: skip
-        if args.out:
-            Path(args.out).mkdir(parents=True, exist_ok=True)
-            (Path(args.out) / "fringe_value.json").write_text(json.dumps(res, indent=2))
-        print(
-            f"fringe value f_sigma = {res['f_sigma_N_per_m']:.4g} N/m per fringe (whole-field "
-            f"fit over {res['pixels']} pixels, residual {res['rms_residual_fringe']:.3f} fringe"
-            + (
-                f"; centre only {res['f_sigma_centre_N_per_m']:.4g}"
-                if res["f_sigma_centre_N_per_m"]
-                else ""
-            )
-            + ")"
-        )
-        if "warning" in res:
-            print(f"fringekit calibrate: warning: {res['warning']}", file=sys.stderr)
-        return 0
+        return _disc_photos(args) if is_photo(args.disc[0]) else _disc_map(args)
     from .calibration import default_calibration_config, run_calibrate
 
     base = default_calibration_config() if args.config is None else None

@@ -278,3 +278,27 @@ def sweep_plots(rows: list[dict], keys: list[str], folder: Path) -> None:
         if len(groups) > 1:
             ax[0].legend(fontsize=7)
         _save(fig, folder / f"{re.sub(r'[^A-Za-z0-9_.-]', '_', key)}.png")
+
+
+def disc_fit_figure(path, photos, orders, titles) -> None:
+    """One panel per photograph of a disc: the photo in grey with the fitted fringe
+    centres drawn over it - whole orders (cyan) and half orders (orange) of the fitted
+    order map (NaN outside the disc).
+
+    photos : list of (rows, cols) float; orders : list of (rows, cols) float (fringe);
+    titles : list of str.
+    """
+    n = len(photos)
+    fig, axes = _figure((3.2 * n, 3.4), dpi=110, ncols=n)
+    for ax, img, N, title in zip(np.atleast_1d(axes), photos, orders, titles, strict=True):
+        ax.imshow(img, cmap="gray", vmin=0, vmax=max(float(np.nanmax(img)), 1e-6))
+        top = float(np.nanmax(N)) if np.isfinite(N).any() else 0.0
+        whole = np.arange(np.ceil(np.nanmin(N)), top + 1e-9) if top > 0 else []
+        halves = np.arange(np.ceil(np.nanmin(N) - 0.5) + 0.5, top + 1e-9) if top > 0 else []
+        if len(whole):
+            ax.contour(N, levels=whole, colors="cyan", linewidths=0.7)
+        if len(halves):
+            ax.contour(N, levels=halves, colors="orange", linewidths=0.7)
+        ax.set_title(title, fontsize=8)
+        ax.set_axis_off()
+    _save(fig, path)

@@ -16,11 +16,11 @@ from .calibrate import (
     radial_profile,
     save_calibration,
 )
+from .circles import Circle, disc_by_symmetry, find_discs
 from .compare import Comparison, Profile, compare_maps, line_profile
 from .images import SIX_STEP_ORDER, Frame, load_image, load_six_step, normalise
-from .circles import Circle, disc_by_symmetry, find_discs
-from .mono import MonoResult, grey_channel, mono_order
 from .masks import check_mask, circle_mask, exclude_circle, polygon_mask
+from .mono import MonoResult, grey_channel, mono_order
 from .phase import (
     Resolution,
     SixStep,
@@ -37,7 +37,7 @@ from .rgb import (
     search,
     search_refined,
 )
-from .unwrap import FringeOrderMap, border_anchor, unwrap_fringe_order
+from .unwrap import FringeOrderMap, border_anchor, count_fringe_order, unwrap_fringe_order
 
 __all__ = [
     "RADII_MM",
@@ -61,6 +61,7 @@ __all__ = [
     "Frame",
     "FringeOrderMap",
     "border_anchor",
+    "count_fringe_order",
     "Profile",
     "RGBResult",
     "Resolution",

@@ -108,8 +108,8 @@ def find_discs(
     radii = np.arange(max(3, int(lo * scale)), int(np.ceil(hi * scale)) + 1)
     acc = hough_circle(edges_small, radii)
     spacing = max(3, int(lo * scale))
-    _, cx, cy, rad = hough_circle_peaks(acc, radii, min_xdistance=spacing,
-                                        min_ydistance=spacing, total_num_peaks=8 * count)  # fmt: skip
+    peaks = {"min_xdistance": spacing, "min_ydistance": spacing, "total_num_peaks": 8 * count}
+    _, cx, cy, rad = hough_circle_peaks(acc, radii, **peaks)
     edges = canny(img, sigma=max(1.0, sigma / scale / 2), low_threshold=0.8,
                   high_threshold=0.9, use_quantiles=True)  # fmt: skip
     candidates = []

@@ -267,6 +267,8 @@ def mono_order(
     img = np.asarray(image, float)
     mask = check_mask(mask, img.shape)
     img = grey_channel(img, mask)
+    mask = mask & np.isfinite(img)
+    img = np.where(mask, img, 0.0)
     if not (np.isfinite(smooth_px) and smooth_px >= 0):
         raise ValueError(f"smooth_px = {smooth_px!r} is not allowed; must be >= 0")
     smooth = ndimage.gaussian_filter(img, smooth_px) if smooth_px > 0 else img

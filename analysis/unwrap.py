@@ -19,7 +19,7 @@ from skimage.restoration import unwrap_phase
 from .masks import check_mask
 from .phase import TWO_PI, Resolution, SixStep, resolve_ambiguity, wrap
 
-__all__ = ["FringeOrderMap", "border_anchor", "unwrap_fringe_order"]
+__all__ = ["FringeOrderMap", "border_anchor", "count_fringe_order", "unwrap_fringe_order"]
 
 
 @dataclass(frozen=True)
@@ -175,3 +175,35 @@ def unwrap_fringe_order(
         "regions_without_anchor": int((~has_anchor[present]).sum()),
     }
     return FringeOrderMap(order, reliable, iso, offset, flipped, info)
+
+
+def count_fringe_order(
+    result: SixStep, *, anchor_mask=None, anchor_order: float = 0.0
+) -> FringeOrderMap:
+    """Total fringe order from the six-step data by counting fringes instead of following
+    the isoclinic.
+
+    The axis-insensitive phase d in [0, pi] folds the order: cos d = cos 2 pi N, which is
+    the normalised intensity u = sin^2(d / 2) of one dark-field image without its noise
+    and illumination. :func:`analysis.mono_order` counts its bands from the anchor and
+    resolves each pixel's side of its fringe centre; the isoclinic then takes the branch
+    that agrees with the sign of sin 2 pi N. Unlike :func:`unwrap_fringe_order` this does
+    not hinge on the sign relations across fringe contours (sin d ~ 0), which become
+    bands many pixels wide, and noise-driven, where the order changes slowly per pixel
+    (far fields at camera resolution); it assumes the order rises away from the anchor.
+    """
+    from .mono import mono_order
+
+    valid = result.valid
+    u = np.where(valid, np.sin(0.5 * result.delta_axis_insensitive) ** 2, 0.0)
+    anchor = border_anchor(valid) if anchor_mask is None else anchor_mask
+    mo = mono_order(u, mask=valid, flat=np.ones_like(u), smooth_px=0.0, anchor_mask=anchor,
+                    anchor_order=anchor_order)  # fmt: skip
+    flip = np.sin(TWO_PI * np.nan_to_num(mo.order)) < 0
+    iso = np.where(flip, result.isoclinic + np.pi / 2, result.isoclinic)
+    iso = (iso + np.pi / 2) % np.pi - np.pi / 2
+    reliable = mo.reliable & valid
+    info = {"valid_pixels": int(valid.sum()), "reliable_pixels": int(reliable.sum()),
+            "fold": "count", **mo.info}  # fmt: skip
+    offset = int(np.floor(np.nanmin(mo.order))) if np.isfinite(mo.order).any() else 0
+    return FringeOrderMap(mo.order, reliable, iso, offset, 0, info)

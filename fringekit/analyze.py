@@ -24,29 +24,17 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
-import colour
 import numpy as np
 
 from analysis import (
-    MIN_COLOUR_SPREAD,
-    CalibrationTable,
-    border_anchor,
-    colour_spread,
     line_profile,
     load_image,
-    load_six_step,
     principal_stress_difference,
-    resolve_ambiguity,
-    search,
-    search_refined,
-    six_step,
-    unwrap_fringe_order,
 )
-from optics import PSM4_ASSUMED, Camera, colour_chart, light_source
 
+from .analyze_methods import analyse_phase, analyse_rgb
 from .analyze_mono import analyse_mono, read_points, write_points
 from .figures import map_figure, profile_figure, sensor_extent
-from .regions import order_at_anchor, region_mask
 
 __all__ = ["run_analyze"]
 
@@ -63,93 +51,9 @@ def _figure(path, data, title, label, cmap="turbo", pixel_size=0.0, vmin=None, v
         map_figure(path, data, title, label, cmap, vmin=vmin, vmax=vmax)
 
 
-def _table(calibration, chart: dict | None) -> CalibrationTable:
-    if calibration is not None:
-        return CalibrationTable.from_csv(calibration)
-    chart = chart or {}
-    lam = PSM4_ASSUMED.wavenumber_grid(31)  # the grid predict renders white light on
-    orders, rgb = colour_chart(
-        PSM4_ASSUMED,
-        light_source(chart.get("light", "LED"), lam),
-        Camera(sensitivities=chart.get("camera", "CIE1931")),
-        max_order=chart.get("max_order", 4.0),
-        n=2001,
-    )
-    # the chart is linear RGB at exposure 1; images carry the camera's exposure and, for
-    # the CIE observer (fringekit's PNGs, most cameras' JPEGs), the sRGB encoding
-    rgb = np.clip(rgb * chart.get("exposure", 0.9), 0, 1)
-    if chart.get("camera", "CIE1931") == "CIE1931":
-        rgb = np.clip(colour.cctf_encoding(rgb, function="sRGB"), 0, 1)
-    return CalibrationTable.from_chart(orders, rgb, "synthetic colour chart (optics)")
-
-
 #: Share of the region of interest that must be reliable before analyze stops warning
 #: (and, with ``--strict``, exits 1).
 MIN_RELIABLE_SHARE = 0.5
-
-
-def _analyse_phase(paths, dark, mask_args, min_modulation, anchor_order, order_at=None):
-    """Six-step images -> (order, reliable, extra maps, summary part, mask)."""
-    frames = load_six_step(paths[0] if len(paths) == 1 else paths, dark=dark)
-    mask = region_mask(frames[0].shape, *mask_args)
-    res = six_step(frames, mask=mask, min_modulation=min_modulation)
-    resolution = resolve_ambiguity(res)
-    anchor, n = order_at_anchor(frames[0].shape, res.valid, order_at)
-    if anchor is None and not border_anchor(res.valid).any():
-        raise ValueError(
-            "no pixel with fringe data lies on the image border, where --anchor-order "
-            f"({anchor_order:g}) applies; give --order-at ROW COL N, a pixel of known order"
-        )
-    anchor_order = anchor_order if n is None else n
-    fo = unwrap_fringe_order(res, resolution, anchor_mask=anchor, anchor_order=anchor_order)
-    maps = {
-        "isoclinic_rad": np.where(res.valid, fo.isoclinic, np.nan),
-        "delta_eq3_rad": np.where(res.valid, res.delta_eq3, np.nan),
-        "delta_axis_insensitive_rad": np.where(res.valid, res.delta_axis_insensitive, np.nan),
-        "modulation": res.modulation,
-    }
-    part = {"phase": {"info": fo.info, "offset": fo.offset, "anchor_order": anchor_order,
-                      "order_at_px": list(order_at[:2]) if order_at else None}}  # fmt: skip
-    return fo.order, fo.reliable, maps, part, mask
-
-
-def _analyse_rgb(paths, dark, mask_args, calibration, chart, seeds, window):
-    """One colour image -> (order, reliable, extra maps, summary part, mask)."""
-    if len(paths) != 1:
-        raise ValueError(f"the rgb method takes one colour image, got {len(paths)}")
-    frame = load_image(paths[0], dark=dark)
-    if frame.data.ndim != 3:
-        raise ValueError(f"{paths[0]}: a grey image; the rgb method needs colour")
-    # one channel at full scale still constrains the order (vivid fringe colours leave
-    # the sRGB gamut and clip, in the chart exactly as in the image); a pixel with
-    # every channel at full scale does not
-    mask = region_mask(frame.shape, *mask_args) & ~np.all(frame.data >= 1.0, axis=-1)
-    table = _table(calibration, chart)
-    if seeds:
-        seed_list = [((r, c), o) for r, c, o in seeds]
-        rr = search_refined(frame.data, table, seed_list, mask=mask, window=window)
-    else:
-        rr = search(frame.data, table, mask=mask)
-    reliable = np.isfinite(rr.order) & (rr.error < 0.1)
-    spread = colour_spread(frame.data, mask)
-    part = {
-        "rgb": {
-            "table": table.source,
-            "rows": len(table),
-            "orders": [float(table.orders[0]), float(table.orders[-1])],
-            "refined": bool(seeds),
-            "colour_spread": spread,
-        }
-    }
-    if spread < MIN_COLOUR_SPREAD:  # single-colour light: colour cannot tell orders apart
-        reliable = np.zeros_like(reliable)
-        part["unreliable_reason"] = (
-            f"the image's colours lie on a line (colour spread {spread:.2g} < "
-            f"{MIN_COLOUR_SPREAD:g}): single-colour light or grey, where colour does not "
-            "tell fringe orders apart; the rgb method needs white light (six phase-stepped "
-            "images: --method phase)"
-        )
-    return rr.order, reliable, {"colour_error": rr.error}, part, mask
 
 
 def _write_figures(out: Path, method: str, maps: dict, pixel_size: float, origin_rc) -> None:
@@ -258,13 +162,28 @@ def _counts(order, reliable, mask, part: dict) -> dict:
         else None,
         "reliable_fraction_of_roi": share,
     }
+    warnings = []
     if share < MIN_RELIABLE_SHARE:
         why = part.get("unreliable_reason", "the order map is mostly a guess")
-        out["warning"] = (
+        warnings.append(
             f"only {100 * share:.0f} % of the region of interest is reliable (fewer than "
             f"{100 * MIN_RELIABLE_SHARE:.0f} %): {why}"
         )
+    if "extra_warning" in part:
+        warnings.append(part["extra_warning"])
+    if warnings:
+        out["warning"] = "; ".join(warnings)
     return out
+
+
+def _method(method, paths) -> str:
+    """The method asked for, or the default for the images given (checked)."""
+    if method is None:
+        single = len(paths) == 1 and not paths[0].lower().endswith((".tif", ".tiff"))
+        method = ("rgb" if load_image(paths[0]).data.ndim == 3 else "mono") if single else "phase"
+    if method not in ("phase", "rgb", "mono"):
+        raise ValueError(f"--method {method!r} is not allowed; use phase, rgb or mono")
+    return method
 
 
 def run_analyze(
@@ -291,6 +210,7 @@ def run_analyze(
     exclude_polygons=(),
     mono: dict | None = None,
     points=None,
+    fold: str = "count",
 ) -> dict:
     """Analyse fringe images; write maps, figures and a summary to ``out``.
 
@@ -315,6 +235,8 @@ def run_analyze(
         first excluded circle's centre, else through the image centre.
     f_sigma, thickness : float (N/m, m) — give both for the principal stress difference
         (seed eq. 4, reflection).
+    fold : {"count", "isoclinic"} — (phase) how the folded phase is resolved: by counting
+        fringes from the anchor, or by the isoclinic's continuity; the other checks it.
     roi_polygon, exclude_polygons : (k, 2) (row, col) px — polygonal region of interest
         (with ``roi_circle``) and excluded polygons (cracks, labels, load points).
     order_at : (row, col, order), optional — (phase) a pixel of known fringe order in the
@@ -330,23 +252,20 @@ def run_analyze(
     paths = [str(p) for p in images]
     if not paths:
         raise ValueError("analyze needs at least one image")
-    if method is None:
-        single = len(paths) == 1 and not paths[0].lower().endswith((".tif", ".tiff"))
-        method = ("rgb" if load_image(paths[0]).data.ndim == 3 else "mono") if single else "phase"
-    if method not in ("phase", "rgb", "mono"):
-        raise ValueError(f"--method {method!r} is not allowed; use phase, rgb or mono")
+    method = _method(method, paths)
     if (f_sigma is None) != (thickness is None):
         raise ValueError("give both the fringe value and the thickness for stress, or neither")
     out = Path(out)
     mask_args = (roi_circle, exclude, roi_polygon, exclude_polygons)
     runs = {
-        "phase": lambda: _analyse_phase(paths, dark, mask_args, min_modulation, anchor_order,
-                                        order_at),
+        "phase": lambda: analyse_phase(paths, dark, mask_args, min_modulation, anchor_order,
+                                        order_at, fold),
         "mono": lambda: analyse_mono(paths, dark, mask_args, anchor_order, order_at, mono or {}),
-        "rgb": lambda: _analyse_rgb(paths, dark, mask_args, calibration, chart, seeds, window),
+        "rgb": lambda: analyse_rgb(paths, dark, mask_args, calibration, chart, seeds, window),
     }  # fmt: skip
     order, reliable, maps, part, mask = runs[method]()
-    summary: dict = {"method": method, "images": paths, **part}
+    summary: dict = {"method": method, "images": paths}
+    summary.update((k, v) for k, v in part.items() if k != "extra_warning")
     rows, cols = order.shape
     origin_rc = tuple(origin_px) if origin_px is not None else ((rows - 1) / 2, (cols - 1) / 2)
     line = _profile_line(line, exclude, mask)

@@ -79,19 +79,36 @@ def _add_analyze(sub) -> None:
     an = sub.add_parser(
         "analyze", help="fringe order from six phase-stepped, one RGB or one monochrome image"
     )
-    an.add_argument("images", nargs="+",
-                    help="six step images (or a 6-page TIFF), one RGB or one monochrome image")
-    an.add_argument("--method", choices=("phase", "rgb", "mono"), default=None,
-                    help="default: rgb for one colour PNG/JPEG, mono for one grey image, "
-                    "phase otherwise")
-    an.add_argument("--field", choices=("dark", "bright"), default="dark",
-                    help="(mono) polariscope field: whole orders are dark fringes in dark "
-                    "field, bright ones in bright field")
-    an.add_argument("--flat", default=None,
-                    help="(mono) flat-field image: the light without the specimen's "
-                    "retardation (bright field, unloaded); default: the fringe envelope")
-    an.add_argument("--smooth-px", type=nonnegative, default=0.5,
-                    help="(mono) Gaussian smoothing before normalising (px)")
+    an.add_argument(
+        "images",
+        nargs="+",
+        help="six step images (or a 6-page TIFF), one RGB or one monochrome image",
+    )
+    an.add_argument(
+        "--method",
+        choices=("phase", "rgb", "mono"),
+        default=None,
+        help="default: rgb for one colour PNG/JPEG, mono for one grey image, phase otherwise",
+    )
+    an.add_argument(
+        "--field",
+        choices=("dark", "bright"),
+        default="dark",
+        help="(mono) polariscope field: whole orders are dark fringes in dark "
+        "field, bright ones in bright field",
+    )
+    an.add_argument(
+        "--flat",
+        default=None,
+        help="(mono) flat-field image: the light without the specimen's "
+        "retardation (bright field, unloaded); default: the fringe envelope",
+    )
+    an.add_argument(
+        "--smooth-px",
+        type=nonnegative,
+        default=0.5,
+        help="(mono) Gaussian smoothing before normalising (px)",
+    )
     an.add_argument("--points", default=None, metavar="FILE.csv",
                     help="CSV with header row,col or x_mm,y_mm: writes points.csv with "
                     "row,col,x_mm,y_mm,order,order_sd,reliable")  # fmt: skip
@@ -113,6 +130,9 @@ def _add_analyze(sub) -> None:
     an.add_argument("--anchor-order", type=finite, default=0.0,
                     help="(phase, mono) fringe order of the image border ring")  # fmt: skip
     an.add_argument("--min-modulation", type=fraction, default=0.1)
+    an.add_argument("--fold", choices=("count", "isoclinic"), default="count",
+                    help="(phase) resolve the folded phase by counting fringes from the "
+                    "anchor, or by the isoclinic's continuity; the other checks it")  # fmt: skip
     an.add_argument("--calibration", default=None, help="(rgb) table CSV: order,R,G,B")
     an.add_argument("--light", default="LED", help="(rgb) light of the synthetic chart")
     an.add_argument("--camera", default="CIE1931", help="(rgb) camera of the synthetic chart")

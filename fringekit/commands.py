@@ -203,6 +203,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         thickness=args.thickness_mm * 1e-3 if args.thickness_mm else None,
         mono={"field": args.field, "flat": args.flat, "smooth_px": args.smooth_px},
         points=args.points,
+        fold=args.fold,
     )
     if not args.quiet:
         rng = summary["fringe_order_range"]

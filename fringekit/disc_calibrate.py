@@ -98,12 +98,16 @@ def run_disc_photos(
         all_loads.append(0.0)
     shapes = {p.shape for p in photos}
     if len(shapes) > 1:
-        raise ValueError(f"--disc: the photographs differ in size ({sorted(shapes)}); allowed: one size")
+        raise ValueError(
+            f"--disc: the photographs differ in size ({sorted(shapes)}); allowed: one size"
+        )
     D, t = diameter_mm * 1e-3, thickness_mm * 1e-3
     strongest = photos[int(np.argmax(all_loads))]
     geometry, how = _geometry(strongest, centre, radius_px, pixel_mm, diameter_mm)
-    echo(f"disc: centre ({geometry.row:.1f}, {geometry.col:.1f}) px, radius "
-         f"{geometry.radius_px:.1f} px from the {how}; fitting {len(photos)} photograph(s)")  # fmt: skip
+    echo(
+        f"disc: centre ({geometry.row:.1f}, {geometry.col:.1f}) px, radius "
+        f"{geometry.radius_px:.1f} px from the {how}; fitting {len(photos)} photograph(s)"
+    )
     discs = [DiscImage(p, P, n) for p, P, n in zip(photos, all_loads, names, strict=True)]
     fit = fit_disc_photos(discs, geometry, diameter=D, thickness=t, field=field,
                           shared_light=reference is not None)  # fmt: skip

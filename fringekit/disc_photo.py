@@ -247,7 +247,11 @@ def _refine(pb: _Problem, start: tuple[float, float], geometry: DiscGeometry):
     m = GEOMETRY_MARGIN
     x0 = [start[0] * p_max * pb.g0, start[1], geometry.angle_rad, 0.0, 0.0, 0.0]
     sol = least_squares(
-        fun, x0, loss="soft_l1", f_scale=0.1, x_scale=[0.05, 0.05, 0.01, 0.005, 0.005, 0.005],
+        fun,
+        x0,
+        loss="soft_l1",
+        f_scale=0.1,
+        x_scale=[0.05, 0.05, 0.01, 0.005, 0.005, 0.005],
         bounds=([1e-4, -0.5, -MAX_ANGLE, -m, -m, -m], [np.inf, 0.5, MAX_ANGLE, m, m, m]),
     )
     pb.at(_geometry(geometry, sol.x))
@@ -311,7 +315,9 @@ def _jackknife(pb: _Problem, images, start, by_image: bool) -> tuple[float, str]
             fs.append(1.0 / _refit_kappa(pb, start, sector != k))
         how = f"jackknife over {SECTORS} sectors of the disc"
     n = len(fs)
-    sd = float(np.sqrt((n - 1) / n * np.sum((np.array(fs) - np.mean(fs)) ** 2))) if n > 1 else np.nan
+    sd = (
+        float(np.sqrt((n - 1) / n * np.sum((np.array(fs) - np.mean(fs)) ** 2))) if n > 1 else np.nan
+    )
     return sd, how
 
 
@@ -329,9 +335,10 @@ def fit_disc_photos(
     """f_sigma of a disc from one or more photographs at known loads (module doc).
 
     ``fit_offset`` fits the common residual order N_0 (it is separable from the load's
-    order even in one photograph: N_0 is uniform, Frocht's order is not). ``shared_light``: all photographs share one illumination and background (the
-    same light and exposure) - what lets a zero-load reference (load 0, N = N_0
-    everywhere) fix N_0. The 1-sigma of f_sigma is a jackknife (:func:`_jackknife`).
+    order even in one photograph: N_0 is uniform, Frocht's order is not).
+    ``shared_light``: all photographs share one illumination and background (the same
+    light and exposure) - what lets a zero-load reference (load 0, N = N_0 everywhere)
+    fix N_0. The 1-sigma of f_sigma is a jackknife (:func:`_jackknife`).
     """
     if field not in ("dark", "bright"):
         raise ValueError(f"--field {field!r} is not allowed; use dark or bright")

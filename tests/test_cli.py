@@ -304,7 +304,9 @@ def test_analyze_phase_and_compare_recover_the_prediction(tiny_images):
                  "--f-sigma-N-per-m", "386", "--thickness-mm", "3", "--quiet"])  # fmt: skip
     assert code == 0
     s = json.loads((an / "summary.json").read_text())
-    assert s["method"] == "phase" and s["phase"]["info"]["regions_without_anchor"] == 0
+    assert s["method"] == "phase" and s["phase"]["fold"] == "count"
+    assert s["phase"]["info"]["ordered_bands"] == s["phase"]["info"]["bands"]
+    assert s["phase"]["fold_disagreement_fraction"] < 0.01 and "warning" not in s
     m = np.load(an / "maps.npz")
     for k in ("isoclinic_rad", "delta_eq3_rad", "modulation", "stress_difference_Pa"):
         assert m[k].shape == (96, 96)

@@ -120,8 +120,9 @@ def test_calibrate_disc_from_photographs_writes_the_results(tmp_path, capsys):
         files.append(str(tmp_path / f"disc_{int(P)}N.png"))
         write_image(files[-1], img)
     out = tmp_path / "cal"
-    args = ["calibrate", "--disc", *files, "--load-N", *map(str, loads), "--diameter-mm", "40",
-            "--thickness-mm", "6", "--wavelength-nm", "546", "--out", str(out), "--quiet"]  # fmt: skip
+    geo = ["--diameter-mm", "40", "--thickness-mm", "6", "--wavelength-nm", "546"]
+    args = ["calibrate", "--disc", *files, "--load-N", *map(str, loads), *geo,
+            "--out", str(out), "--quiet"]  # fmt: skip
     assert main(args) == 0
     res = json.loads((out / "disc_calibration.json").read_text())
     assert set(res) == {"f_sigma_N_per_m", "f_sigma_sd_N_per_m", "offset_order", "images"}
@@ -130,9 +131,7 @@ def test_calibrate_disc_from_photographs_writes_the_results(tmp_path, capsys):
     assert res["f_sigma_N_per_m"] == pytest.approx(F_SIGMA, rel=0.015)
     assert res["offset_order"] == pytest.approx(0.2, abs=0.05)
     s = json.loads((out / "summary.json").read_text())
-    assert s["wavelength_nm"] == 546 and s["disc"]["pixel_mm"] == pytest.approx(
-        20 / R_PX, rel=0.01
-    )
+    assert s["wavelength_nm"] == 546 and s["disc"]["pixel_mm"] == pytest.approx(20 / R_PX, rel=0.01)
     assert (out / "disc_fit.png").stat().st_size > 10000
     # wrong count of loads, and a photograph that is no disc (noise): one line, no output
     capsys.readouterr()

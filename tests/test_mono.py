@@ -142,7 +142,8 @@ def test_analyze_mono_writes_points_at_the_true_order(photo, tmp_path):
     pts = _points(tmp_path / "p.csv", "row,col\n60,119.5\n10,10\n119.5,150\n200,119\n")
     out = tmp_path / "a"
     args = ["analyze", str(root / "dark.png"), "--exclude-circle", "119.5", "119.5", "32",
-            "--pixel-mm", "0.05", "--points", pts, "--out", str(out), "--quiet", "--strict"]  # fmt: skip
+            "--pixel-mm", "0.05", "--points", pts, "--out", str(out), "--quiet",
+            "--strict"]  # fmt: skip
     assert main(args) == 0
     s = json.loads((out / "summary.json").read_text())
     assert s["method"] == "mono" and s["reliable_fraction_of_roi"] > 0.9

@@ -27,6 +27,7 @@ from .phase import (
     principal_stress_difference,
     resolve_ambiguity,
     six_step,
+    subtract_reference,
     wrap,
 )
 from .rgb import (
@@ -80,6 +81,7 @@ __all__ = [
     "search",
     "search_refined",
     "six_step",
+    "subtract_reference",
     "unwrap_fringe_order",
     "wrap",
 ]

@@ -267,3 +267,56 @@ def principal_stress_difference(order, f_sigma: float, thickness: float, *, refl
         raise ValueError(f"thickness = {thickness!r} m is not allowed; must be > 0")
     path = (2.0 if reflection else 1.0) * thickness
     return np.asarray(order, float) * f_sigma / path
+
+
+def subtract_reference(result: SixStep, reference: SixStep) -> SixStep:
+    """The six-step result of the specimen alone: a zero-load reference's retardation
+    (residual birefringence of the sheet, the optics) removed vectorially.
+
+    On the Poincare sphere a linear retarder of retardation d and axis t turns the light
+    by d about the equatorial axis a(t) = (cos 2t, sin 2t, 0) (Theocaris and Gdoutos,
+    *Matrix Theory of Photoelasticity*, Springer 1979, ch. 4); the six steps measure where
+    the circularly polarised input ends up, s = R z (its fold d <-> 2 pi - d is the same
+    point). The reference, a linear retarder, gives its own R_r exactly, so the residual
+    acting first turns z to p = R_r z, and the specimen's retarder R_s then takes p to
+    the measured m. A rotation about an equatorial axis that takes p to m has its axis
+    normal to both z and m - p, and its angle is the turn from p to m about that axis;
+    R_s z is what the specimen alone would have given. Validity needs both; the
+    modulation is the smaller of the two. Exact for a residual retarder in series with a
+    linear specimen retarder.
+    """
+    from scipy.spatial.transform import Rotation
+
+    if result.valid.shape != reference.valid.shape:
+        raise ValueError(
+            f"reference shape {reference.valid.shape} does not match the images "
+            f"{result.valid.shape}"
+        )
+
+    def end_point(r: SixStep) -> np.ndarray:
+        d, t = r.delta_axis_insensitive.ravel(), r.isoclinic.ravel()
+        axis = np.stack([np.cos(2 * t), np.sin(2 * t), np.zeros_like(t)], -1)
+        return Rotation.from_rotvec(d[:, None] * axis).apply([0.0, 0.0, 1.0])
+
+    p, m = end_point(reference), end_point(result)
+    w = m - p
+    axis = np.stack([-w[:, 1], w[:, 0], np.zeros(len(w))], -1)
+    norm = np.linalg.norm(axis, axis=1, keepdims=True)
+    axis = np.where(norm > 1e-12, axis / np.maximum(norm, 1e-300), [1.0, 0.0, 0.0])
+    pp = p - np.sum(axis * p, axis=1, keepdims=True) * axis
+    mp = m - np.sum(axis * m, axis=1, keepdims=True) * axis
+    turn = np.arctan2(np.sum(axis * np.cross(pp, mp), axis=1), np.sum(pp * mp, axis=1))
+    turn = np.where(norm[:, 0] > 1e-12, turn, 0.0)
+    axis = np.where(turn[:, None] < 0, -axis, axis)
+    d = np.abs(turn).reshape(result.valid.shape)
+    theta = 0.5 * np.arctan2(axis[:, 1], axis[:, 0])
+    theta = np.where(theta >= np.pi / 2, theta - np.pi, theta).reshape(result.valid.shape)
+    return SixStep(
+        isoclinic=theta,
+        isoclinic_eq2=(theta + np.pi / 4) % (np.pi / 2) - np.pi / 4,
+        delta_eq3=d,
+        delta_axis_insensitive=d,
+        modulation=np.minimum(result.modulation, reference.modulation),
+        consistency=np.maximum(result.consistency, reference.consistency),
+        valid=result.valid & reference.valid,
+    )

@@ -211,6 +211,7 @@ def run_analyze(
     mono: dict | None = None,
     points=None,
     fold: str = "count",
+    reference=None,
 ) -> dict:
     """Analyse fringe images; write maps, figures and a summary to ``out``.
 
@@ -237,6 +238,7 @@ def run_analyze(
         (seed eq. 4, reflection).
     fold : {"count", "isoclinic"} — (phase) how the folded phase is resolved: by counting
         fringes from the anchor, or by the isoclinic's continuity; the other checks it.
+    reference : paths, optional — (phase) six zero-load images: residual retardation.
     roi_polygon, exclude_polygons : (k, 2) (row, col) px — polygonal region of interest
         (with ``roi_circle``) and excluded polygons (cracks, labels, load points).
     order_at : (row, col, order), optional — (phase) a pixel of known fringe order in the
@@ -253,13 +255,18 @@ def run_analyze(
     if not paths:
         raise ValueError("analyze needs at least one image")
     method = _method(method, paths)
+    if reference and method != "phase":
+        raise ValueError(
+            f"--reference is for --method phase (six zero-load images); the {method} method "
+            "has none (calibrate --disc takes a zero-load photo)"
+        )
     if (f_sigma is None) != (thickness is None):
         raise ValueError("give both the fringe value and the thickness for stress, or neither")
     out = Path(out)
     mask_args = (roi_circle, exclude, roi_polygon, exclude_polygons)
     runs = {
         "phase": lambda: analyse_phase(paths, dark, mask_args, min_modulation, anchor_order,
-                                        order_at, fold),
+                                        order_at, fold, reference),
         "mono": lambda: analyse_mono(paths, dark, mask_args, anchor_order, order_at, mono or {}),
         "rgb": lambda: analyse_rgb(paths, dark, mask_args, calibration, chart, seeds, window),
     }  # fmt: skip

@@ -18,6 +18,7 @@ from analysis import (
     search,
     search_refined,
     six_step,
+    subtract_reference,
     unwrap_fringe_order,
 )
 from optics import PSM4_ASSUMED, Camera, colour_chart, light_source
@@ -53,14 +54,23 @@ MAX_FOLD_DISAGREEMENT = 0.05
 
 
 def analyse_phase(paths, dark, mask_args, min_modulation, anchor_order, order_at=None,
-                   fold="count"):  # fmt: skip
+                   fold="count", reference=None):  # fmt: skip
     """Six-step images -> (order, reliable, extra maps, summary part, mask).
 
     Both fold resolutions run (counting fringes, and following the isoclinic); ``fold``
-    picks the map, the other checks it."""
+    picks the map, the other checks it. ``reference`` (six zero-load images): their
+    retardation is subtracted vectorially first (:func:`analysis.subtract_reference`)."""
     frames = load_six_step(paths[0] if len(paths) == 1 else paths, dark=dark)
     mask = region_mask(frames[0].shape, *mask_args)
     res = six_step(frames, mask=mask, min_modulation=min_modulation)
+    if reference:
+        ref = load_six_step(reference[0] if len(reference) == 1 else reference, dark=dark)
+        if ref[0].shape != frames[0].shape:
+            raise ValueError(
+                f"--reference: images of {ref[0].shape} px, the loaded ones {frames[0].shape}; "
+                "allowed: the same camera view"
+            )
+        res = subtract_reference(res, six_step(ref, mask=mask, min_modulation=min_modulation))
     anchor, n = order_at_anchor(frames[0].shape, res.valid, order_at)
     if anchor is None and not border_anchor(res.valid).any():
         raise ValueError(
@@ -82,7 +92,7 @@ def analyse_phase(paths, dark, mask_args, min_modulation, anchor_order, order_at
         "delta_axis_insensitive_rad": np.where(res.valid, res.delta_axis_insensitive, np.nan),
         "modulation": res.modulation,
     }
-    part = {"phase": {"fold": fold, "info": fo.info, "offset": fo.offset,
+    part = {"phase": {"fold": fold, "reference": list(reference or []) or None, "info": fo.info, "offset": fo.offset,
                       "anchor_order": anchor_order, "fold_disagreement_fraction": differ,
                       "order_at_px": list(order_at[:2]) if order_at else None}}  # fmt: skip
     if differ > MAX_FOLD_DISAGREEMENT:

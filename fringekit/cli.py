@@ -130,6 +130,9 @@ def _add_analyze(sub) -> None:
     an.add_argument("--anchor-order", type=finite, default=0.0,
                     help="(phase, mono) fringe order of the image border ring")  # fmt: skip
     an.add_argument("--min-modulation", type=fraction, default=0.1)
+    an.add_argument("--reference", nargs="+", default=None, metavar="IMAGE",
+                    help="(phase) the six images (or a 6-page TIFF) of the unloaded specimen: "
+                    "their residual retardation is subtracted vectorially")  # fmt: skip
     an.add_argument("--fold", choices=("count", "isoclinic"), default="count",
                     help="(phase) resolve the folded phase by counting fringes from the "
                     "anchor, or by the isoclinic's continuity; the other checks it")  # fmt: skip

@@ -204,6 +204,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         mono={"field": args.field, "flat": args.flat, "smooth_px": args.smooth_px},
         points=args.points,
         fold=args.fold,
+        reference=args.reference,
     )
     if not args.quiet:
         rng = summary["fringe_order_range"]

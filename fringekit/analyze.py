@@ -194,68 +194,49 @@ def run_analyze(
     dark=None,
     roi_circle: tuple[float, float, float] | None = None,
     exclude: Sequence[tuple[float, float, float]] = (),
+    roi_polygon=None,
+    exclude_polygons=(),
     pixel_size: float = 0.0,
+    origin_px: tuple[float, float] | None = None,
     anchor_order: float = 0.0,
-    min_modulation: float = 0.1,
-    calibration: str | os.PathLike | None = None,
-    chart: dict | None = None,
-    seeds: Sequence[tuple[float, float, float]] = (),
-    window: float = 0.25,
+    order_at: tuple[float, float, float] | None = None,
     line: tuple[float, float, float, float] | None = None,
     f_sigma: float | None = None,
     thickness: float | None = None,
-    origin_px: tuple[float, float] | None = None,
-    order_at: tuple[float, float, float] | None = None,
-    roi_polygon=None,
-    exclude_polygons=(),
-    mono: dict | None = None,
     points=None,
-    fold: str = "count",
-    reference=None,
+    phase: dict | None = None,
+    rgb: dict | None = None,
+    mono: dict | None = None,
 ) -> dict:
     """Analyse fringe images; write maps, figures and a summary to ``out``.
 
     Parameters
     ----------
-    images : paths
-        ``phase``: six files in :data:`analysis.SIX_STEP_ORDER` or one 6-page TIFF.
-        ``rgb``: one colour image.
-    method : {"phase", "rgb"}, optional
-        Default: ``rgb`` for a single non-TIFF image, ``phase`` otherwise.
-    roi_circle : (row, col, radius) px, optional — region of interest.
-    exclude : sequence of (row, col, radius) px — masked circles (the indenter centre).
-    pixel_size : float (m) — for axes in mm; 0 = pixels.
-    anchor_order : float — (phase) fringe order of the far field (image border ring).
-    min_modulation : float — (phase) quality threshold.
-    calibration : path, optional — (rgb) table CSV (order, R, G, B); default a synthetic
-        chart from :func:`optics.colour_chart` with ``chart`` settings (light, camera,
-        max_order).
-    seeds : sequence of (row, col, order) — (rgb) seeds for the refined search; none
-        gives the plain search.
-    line : (r0, c0, r1, c1) px — profile line; default the horizontal line through the
-        first excluded circle's centre, else through the image centre.
-    f_sigma, thickness : float (N/m, m) — give both for the principal stress difference
-        (seed eq. 4, reflection).
-    fold : {"count", "isoclinic"} — (phase) how the folded phase is resolved: by counting
-        fringes from the anchor, or by the isoclinic's continuity; the other checks it.
-    reference : paths, optional — (phase) six zero-load images: residual retardation.
-    roi_polygon, exclude_polygons : (k, 2) (row, col) px — polygonal region of interest
-        (with ``roi_circle``) and excluded polygons (cracks, labels, load points).
-    order_at : (row, col, order), optional — (phase) a pixel of known fringe order in the
-        far field that anchors the unwrapped map instead of the image border at
-        ``anchor_order``. Like the border, it is taken as the lowest order of its region:
-        that fixes the sign (the order is a magnitude); one point cannot.
-    origin_px : (row, col), optional — the pixel of the sensor origin; figures and
-        profile.csv use the sensor frame (x right, y up, mm) about it when the pixel size
-        is known. Default: the image centre.
-    mono : dict, optional — (mono) ``field`` ("dark"/"bright"), ``flat`` (image path),
-        ``smooth_px``. points : path, optional — CSV (``row,col`` or ``x_mm,y_mm``).
+    images : paths - ``phase``: six files in :data:`analysis.SIX_STEP_ORDER` or one
+        6-page TIFF; ``rgb``: one colour image; ``mono``: one image.
+    method : {"phase", "rgb", "mono"}, optional - default ``rgb`` for one colour image,
+        ``mono`` for one grey image, ``phase`` otherwise.
+    roi_circle : (row, col, radius) px; exclude : (row, col, radius) px circles;
+    roi_polygon, exclude_polygons : (k, 2) (row, col) px - the region of interest.
+    pixel_size : float (m) - for axes in mm, 0 = pixels; origin_px : (row, col) - the
+        pixel of the sensor origin (default the image centre) for the sensor frame.
+    anchor_order : float - order of the image border ring (far field); order_at : (row,
+        col, order) - a pixel of known order instead (the lowest of its region).
+    line : (r0, c0, r1, c1) px - profile line (default across the region).
+    f_sigma, thickness : float (N/m, m) - both for the stress difference (seed eq. 4).
+    points : path - CSV (``row,col`` or ``x_mm,y_mm``) for ``points.csv``.
+    phase : dict - ``min_modulation``, ``fold`` ("count"/"isoclinic": how the folded
+        phase is resolved; the other checks it), ``reference`` (six zero-load images).
+    rgb : dict - ``calibration`` (table CSV), ``chart`` (light, camera, max_order,
+        exposure of the synthetic chart), ``seeds`` ((row, col, order) ...), ``window``.
+    mono : dict - ``field`` ("dark"/"bright"), ``flat`` (image path), ``smooth_px``.
     """
     paths = [str(p) for p in images]
     if not paths:
         raise ValueError("analyze needs at least one image")
     method = _method(method, paths)
-    if reference and method != "phase":
+    phase, rgb = phase or {}, rgb or {}
+    if phase.get("reference") and method != "phase":
         raise ValueError(
             f"--reference is for --method phase (six zero-load images); the {method} method "
             "has none (calibrate --disc takes a zero-load photo)"
@@ -265,10 +246,9 @@ def run_analyze(
     out = Path(out)
     mask_args = (roi_circle, exclude, roi_polygon, exclude_polygons)
     runs = {
-        "phase": lambda: analyse_phase(paths, dark, mask_args, min_modulation, anchor_order,
-                                        order_at, fold, reference),
+        "phase": lambda: analyse_phase(paths, dark, mask_args, anchor_order, order_at, **phase),
         "mono": lambda: analyse_mono(paths, dark, mask_args, anchor_order, order_at, mono or {}),
-        "rgb": lambda: analyse_rgb(paths, dark, mask_args, calibration, chart, seeds, window),
+        "rgb": lambda: analyse_rgb(paths, dark, mask_args, **rgb),
     }  # fmt: skip
     order, reliable, maps, part, mask = runs[method]()
     summary: dict = {"method": method, "images": paths}

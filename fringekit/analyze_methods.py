@@ -53,8 +53,8 @@ def _table(calibration, chart: dict | None) -> CalibrationTable:
 MAX_FOLD_DISAGREEMENT = 0.05
 
 
-def analyse_phase(paths, dark, mask_args, min_modulation, anchor_order, order_at=None,
-                   fold="count", reference=None):  # fmt: skip
+def analyse_phase(paths, dark, mask_args, anchor_order, order_at=None, *,
+                  min_modulation=0.1, fold="count", reference=None):  # fmt: skip
     """Six-step images -> (order, reliable, extra maps, summary part, mask).
 
     Both fold resolutions run (counting fringes, and following the isoclinic); ``fold``
@@ -92,8 +92,9 @@ def analyse_phase(paths, dark, mask_args, min_modulation, anchor_order, order_at
         "delta_axis_insensitive_rad": np.where(res.valid, res.delta_axis_insensitive, np.nan),
         "modulation": res.modulation,
     }
-    part = {"phase": {"fold": fold, "reference": list(reference or []) or None, "info": fo.info, "offset": fo.offset,
-                      "anchor_order": anchor_order, "fold_disagreement_fraction": differ,
+    part = {"phase": {"fold": fold, "reference": list(reference or []) or None,
+                      "info": fo.info, "offset": fo.offset, "anchor_order": anchor_order,
+                      "fold_disagreement_fraction": differ,
                       "order_at_px": list(order_at[:2]) if order_at else None}}  # fmt: skip
     if differ > MAX_FOLD_DISAGREEMENT:
         other = "isoclinic" if fold == "count" else "count"
@@ -105,7 +106,7 @@ def analyse_phase(paths, dark, mask_args, min_modulation, anchor_order, order_at
     return fo.order, fo.reliable, maps, part, mask
 
 
-def analyse_rgb(paths, dark, mask_args, calibration, chart, seeds, window):
+def analyse_rgb(paths, dark, mask_args, *, calibration=None, chart=None, seeds=(), window=0.25):
     """One colour image -> (order, reliable, extra maps, summary part, mask)."""
     if len(paths) != 1:
         raise ValueError(f"the rgb method takes one colour image, got {len(paths)}")

@@ -182,29 +182,33 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         dark=args.dark,
         roi_circle=tuple(args.roi_circle) if args.roi_circle else None,
         exclude=[tuple(e) for e in args.exclude_circle or []],
-        pixel_size=(args.pixel_mm or 0.0) * 1e-3,
-        anchor_order=args.anchor_order,
-        min_modulation=args.min_modulation,
-        calibration=args.calibration,
-        chart={
-            "light": args.light,
-            "camera": args.camera,
-            "max_order": args.max_order,
-            "exposure": args.exposure,
-        },
-        seeds=[tuple(s) for s in args.seed or []],
-        window=args.window,
-        line=tuple(args.line) if args.line else None,
-        f_sigma=args.f_sigma_N_per_m,
-        origin_px=tuple(args.origin_px) if args.origin_px else None,
-        order_at=tuple(args.order_at) if args.order_at else None,
         roi_polygon=roi_polygon(args),
         exclude_polygons=[exclusion_polygon(p) for p in args.exclude_polygon or []],
+        pixel_size=(args.pixel_mm or 0.0) * 1e-3,
+        origin_px=tuple(args.origin_px) if args.origin_px else None,
+        anchor_order=args.anchor_order,
+        order_at=tuple(args.order_at) if args.order_at else None,
+        line=tuple(args.line) if args.line else None,
+        f_sigma=args.f_sigma_N_per_m,
         thickness=args.thickness_mm * 1e-3 if args.thickness_mm else None,
-        mono={"field": args.field, "flat": args.flat, "smooth_px": args.smooth_px},
         points=args.points,
-        fold=args.fold,
-        reference=args.reference,
+        phase={
+            "min_modulation": args.min_modulation,
+            "fold": args.fold,
+            "reference": args.reference,
+        },  # fmt: skip
+        rgb={
+            "calibration": args.calibration,
+            "chart": {
+                "light": args.light,
+                "camera": args.camera,
+                "max_order": args.max_order,
+                "exposure": args.exposure,
+            },
+            "seeds": [tuple(s) for s in args.seed or []],
+            "window": args.window,
+        },  # fmt: skip
+        mono={"field": args.field, "flat": args.flat, "smooth_px": args.smooth_px},
     )
     if not args.quiet:
         rng = summary["fringe_order_range"]

@@ -29,8 +29,13 @@ neighbours lie beyond it. Where the count cannot tell, the pixels are flagged, n
 guessed: in a cap whose extreme does not cut it (the hill's top may pass the fringe
 centre or stop short of it) the pixels within :data:`CAP_AMBIGUOUS` fringe of the band's
 centre value are unreliable; so are bands the anchor does not reach, pixels of low
-fringe contrast, and pixels whose uncertainty exceeds ``max_sd``. The count cannot see a
-local *minimum* of the order that is not the anchor (a pit); that needs a second anchor.
+fringe contrast, and pixels whose uncertainty exceeds ``max_sd``.
+
+What a count cannot see: a local *minimum* of the order that is not an anchor (a pit, or
+the far end of a disc, where the order falls back to zero) is counted up instead of
+down - give an anchor there too; and fringes denser than the pixels (a disc's load
+points, a contact edge at low magnification) alias into broad bands that look resolved
+and connect bands that are fringes apart - leave them out of the region.
 """
 
 from __future__ import annotations
@@ -102,8 +107,9 @@ def _order_bands(labels, is_bright, pairs, anchor_mask, anchor_order):
     """Breadth-first numbering of the bands from the anchor bands (see module doc).
 
     Every band holding at least :data:`ANCHOR_SHARE` of the anchor pixels starts at the
-    whole (dark) or half (bright) order nearest ``anchor_order`` from above - the anchor
-    region spans the lowest orders; the count goes up by 1/2 per band away from them.
+    whole (dark) or half (bright) order nearest the median ``anchor_order`` of its anchor
+    pixels (a scalar, or a map for several anchors), from above - the anchor region spans
+    the lowest orders; the count goes up by 1/2 per band away from them.
     Returns (nominal order per label (NaN = unreached), anchor labels (bool per label),
     conflicting labels: a band and a neighbour whose orders do not differ by 1/2)."""
     n = len(is_bright)
@@ -113,8 +119,11 @@ def _order_bands(labels, is_bright, pairs, anchor_mask, anchor_order):
         raise ValueError("the anchor region lies on no fringe band (all masked)")
     sources = hits >= max(1.0, ANCHOR_SHARE * hits.sum())
     nominal = np.full(n, np.nan)
-    base = np.where(is_bright, np.floor(anchor_order) + 0.5, np.round(anchor_order))
-    nominal[sources] = base[sources]
+    ids = np.flatnonzero(sources)
+    known = np.broadcast_to(np.asarray(anchor_order, float), labels.shape)
+    a0 = np.asarray(ndimage.median(known, np.where(anchor_mask, labels, 0), ids), float)
+    base = np.where(is_bright[ids], np.floor(a0) + 0.5, np.round(a0))
+    nominal[ids] = base
     adj = [[] for _ in range(n)]
     for a, b in pairs:
         adj[a].append(b)
@@ -251,8 +260,9 @@ def mono_order(
     mask : (rows, cols) bool, optional - region of interest (default all)
     field : {"dark", "bright"} - the polariscope's field: whole orders are dark fringes in
         dark field and bright ones in bright field
-    anchor_mask : (rows, cols) bool, optional - pixels of known order ``anchor_order``;
-        default the region's border ring (:func:`analysis.border_anchor`)
+    anchor_mask : (rows, cols) bool, optional - pixels of known order ``anchor_order``
+        (a number, or a (rows, cols) map for anchors of different orders); default the
+        region's border ring (:func:`analysis.border_anchor`)
     flat : (rows, cols) float, optional - flat-field image (I_0 of the light); default
         the fringe envelope
     smooth_px : float - Gaussian smoothing before normalising (px)

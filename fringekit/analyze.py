@@ -35,6 +35,7 @@ from analysis import (
 from .analyze_methods import analyse_phase, analyse_rgb
 from .analyze_mono import analyse_mono, read_points, write_points
 from .figures import map_figure, profile_figure, sensor_extent
+from .regions import disc_region
 
 __all__ = ["run_analyze"]
 
@@ -199,7 +200,7 @@ def run_analyze(
     pixel_size: float = 0.0,
     origin_px: tuple[float, float] | None = None,
     anchor_order: float = 0.0,
-    order_at: tuple[float, float, float] | None = None,
+    order_at: Sequence[tuple[float, float, float]] = (),
     line: tuple[float, float, float, float] | None = None,
     f_sigma: float | None = None,
     thickness: float | None = None,
@@ -207,6 +208,7 @@ def run_analyze(
     phase: dict | None = None,
     rgb: dict | None = None,
     mono: dict | None = None,
+    roi_disc: float | None = None,
 ) -> dict:
     """Analyse fringe images; write maps, figures and a summary to ``out``.
 
@@ -221,7 +223,7 @@ def run_analyze(
     pixel_size : float (m) - for axes in mm, 0 = pixels; origin_px : (row, col) - the
         pixel of the sensor origin (default the image centre) for the sensor frame.
     anchor_order : float - order of the image border ring (far field); order_at : (row,
-        col, order) - a pixel of known order instead (the lowest of its region).
+        col, order) ... - pixels of known order instead (each the lowest about it).
     line : (r0, c0, r1, c1) px - profile line (default across the region).
     f_sigma, thickness : float (N/m, m) - both for the stress difference (seed eq. 4).
     points : path - CSV (``row,col`` or ``x_mm,y_mm``) for ``points.csv``.
@@ -230,12 +232,18 @@ def run_analyze(
     rgb : dict - ``calibration`` (table CSV), ``chart`` (light, camera, max_order,
         exposure of the synthetic chart), ``seeds`` ((row, col, order) ...), ``window``.
     mono : dict - ``field`` ("dark"/"bright"), ``flat`` (image path), ``smooth_px``.
+    roi_disc : float (m) - the diameter of a circular specimen to find in the first image:
+        it sets the region, the pixel size and the origin (:func:`regions.disc_region`).
     """
     paths = [str(p) for p in images]
     if not paths:
         raise ValueError("analyze needs at least one image")
     method = _method(method, paths)
     phase, rgb = phase or {}, rgb or {}
+    disc = None if roi_disc is None else disc_region(paths[0], roi_disc, dark)
+    if disc is not None:
+        roi_circle, pixel_size = disc["roi_circle"], pixel_size or disc["pixel_size"]
+        origin_px = origin_px if origin_px is not None else disc["origin_px"]
     if phase.get("reference") and method != "phase":
         raise ValueError(
             f"--reference is for --method phase (six zero-load images); the {method} method "
@@ -252,6 +260,8 @@ def run_analyze(
     }  # fmt: skip
     order, reliable, maps, part, mask = runs[method]()
     summary: dict = {"method": method, "images": paths}
+    if disc is not None:
+        summary["disc_found"] = disc["info"]
     summary.update((k, v) for k, v in part.items() if k != "extra_warning")
     rows, cols = order.shape
     origin_rc = tuple(origin_px) if origin_px is not None else ((rows - 1) / 2, (cols - 1) / 2)

@@ -77,10 +77,12 @@ def analyse_phase(paths, dark, mask_args, anchor_order, order_at=None, *,
             "no pixel with fringe data lies on the image border, where --anchor-order "
             f"({anchor_order:g}) applies; give --order-at ROW COL N, a pixel of known order"
         )
-    anchor_order = anchor_order if n is None else n
-    by_iso = unwrap_fringe_order(res, resolve_ambiguity(res), anchor_mask=anchor,
-                                 anchor_order=anchor_order)  # fmt: skip
-    by_count = count_fringe_order(res, anchor_mask=anchor, anchor_order=anchor_order)
+    if n is None:
+        by_iso = unwrap_fringe_order(res, resolve_ambiguity(res), anchor_order=anchor_order)
+        by_count = count_fringe_order(res, anchor_order=anchor_order)
+    else:  # the --order-at points: a map of known orders
+        by_iso = unwrap_fringe_order(res, resolve_ambiguity(res), reference_order=n)
+        by_count = count_fringe_order(res, anchor_mask=anchor, anchor_order=np.nan_to_num(n))
     fo = by_count if fold == "count" else by_iso
     both = np.isfinite(by_iso.order) & np.isfinite(by_count.order)
     differ = (
@@ -93,9 +95,10 @@ def analyse_phase(paths, dark, mask_args, anchor_order, order_at=None, *,
         "modulation": res.modulation,
     }
     part = {"phase": {"fold": fold, "reference": list(reference or []) or None,
-                      "info": fo.info, "offset": fo.offset, "anchor_order": anchor_order,
+                      "info": fo.info, "offset": fo.offset,
+                      "anchor_order": anchor_order if n is None else None,
                       "fold_disagreement_fraction": differ,
-                      "order_at_px": list(order_at[:2]) if order_at else None}}  # fmt: skip
+                      "order_at": [list(p) for p in order_at or []]}}  # fmt: skip
     if differ > MAX_FOLD_DISAGREEMENT:
         other = "isoclinic" if fold == "count" else "count"
         part["extra_warning"] = (

@@ -49,7 +49,7 @@ def analyse_mono(paths, dark, mask_args, anchor_order, order_at, mono: dict):
             )
     res = mono_order(
         frame.data, mask=mask, field=mono.get("field", "dark"), anchor_mask=anchor,
-        anchor_order=anchor_order if n is None else n, flat=flat,
+        anchor_order=anchor_order if n is None else np.nan_to_num(n), flat=flat,
         smooth_px=mono.get("smooth_px", 0.5),
     )  # fmt: skip
     maps = {
@@ -58,7 +58,8 @@ def analyse_mono(paths, dark, mask_args, anchor_order, order_at, mono: dict):
         "fringe_centres": res.centres,
     }
     part = {"mono": {"field": mono.get("field", "dark"), "flat": mono.get("flat"),
-                     "anchor_order": anchor_order if n is None else n, **res.info}}  # fmt: skip
+                     "anchor_order": anchor_order if n is None else None,
+                     "order_at": [list(p) for p in order_at or []], **res.info}}  # fmt: skip
     share = float(res.reliable[mask].mean())
     if res.info["ordered_bands"] == 0 or res.info["bands"] < 2:
         part["unreliable_reason"] = "no fringes found to count"

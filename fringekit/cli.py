@@ -75,6 +75,28 @@ def _add_config(sub) -> None:
     show.set_defaults(func=cmd_config, quiet=True)
 
 
+def _mono_options(g) -> None:
+    g.add_argument(
+        "--field",
+        choices=("dark", "bright"),
+        default="dark",
+        help="(mono) polariscope field: whole orders are dark fringes in dark "
+        "field, bright ones in bright field",
+    )
+    g.add_argument(
+        "--flat",
+        default=None,
+        help="(mono) flat-field image: the light without the specimen's "
+        "retardation (bright field, unloaded); default: the fringe envelope",
+    )
+    g.add_argument(
+        "--smooth-px",
+        type=nonnegative,
+        default=0.5,
+        help="(mono) Gaussian smoothing before normalising (px)",
+    )
+
+
 def _add_analyze(sub) -> None:
     an = sub.add_parser(
         "analyze", help="fringe order from six phase-stepped, one RGB or one monochrome image"
@@ -90,25 +112,7 @@ def _add_analyze(sub) -> None:
         default=None,
         help="default: rgb for one colour PNG/JPEG, mono for one grey image, phase otherwise",
     )
-    an.add_argument(
-        "--field",
-        choices=("dark", "bright"),
-        default="dark",
-        help="(mono) polariscope field: whole orders are dark fringes in dark "
-        "field, bright ones in bright field",
-    )
-    an.add_argument(
-        "--flat",
-        default=None,
-        help="(mono) flat-field image: the light without the specimen's "
-        "retardation (bright field, unloaded); default: the fringe envelope",
-    )
-    an.add_argument(
-        "--smooth-px",
-        type=nonnegative,
-        default=0.5,
-        help="(mono) Gaussian smoothing before normalising (px)",
-    )
+    _mono_options(an.add_argument_group("mono: one monochrome photograph"))
     an.add_argument("--points", default=None, metavar="FILE.csv",
                     help="CSV with header row,col or x_mm,y_mm: writes points.csv with "
                     "row,col,x_mm,y_mm,order,order_sd,reliable")  # fmt: skip
@@ -127,6 +131,9 @@ def _add_analyze(sub) -> None:
         help="masked circle, e.g. the indenter",
     )  # fmt: skip
     an.add_argument("--pixel-mm", type=positive, default=None, help="pixel pitch on the sheet (mm)")
+    an.add_argument("--roi-disc", type=positive, default=None, metavar="DIAMETER_MM",
+                    help="find the circular specimen of this diameter in the (first) image: "
+                    "the region of interest, the pixel size and the origin")  # fmt: skip
     an.add_argument("--anchor-order", type=finite, default=0.0,
                     help="(phase, mono) fringe order of the image border ring")  # fmt: skip
     an.add_argument("--min-modulation", type=fraction, default=0.1)
@@ -150,11 +157,12 @@ def _add_analyze(sub) -> None:
         "--order-at",
         nargs=3,
         type=finite,
+        action="append",
         metavar=("ROW", "COL", "N"),
         default=None,
-        help="(phase, mono) a pixel of known fringe order N in the far field (the lowest order of "
-        "its region: it also fixes the sign) that anchors the unwrapped map instead of the "
-        "image border at --anchor-order",
+        help="(phase, mono) a pixel of known fringe order N, the lowest order about it (it "
+        "also fixes the sign), instead of the image border at --anchor-order; repeat it "
+        "for every low point the count cannot reach by counting up (a disc's two ends)",
     )
     an.add_argument(
         "--origin-px",

@@ -187,7 +187,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         pixel_size=(args.pixel_mm or 0.0) * 1e-3,
         origin_px=tuple(args.origin_px) if args.origin_px else None,
         anchor_order=args.anchor_order,
-        order_at=tuple(args.order_at) if args.order_at else None,
+        order_at=[tuple(p) for p in args.order_at or []],
         line=tuple(args.line) if args.line else None,
         f_sigma=args.f_sigma_N_per_m,
         thickness=args.thickness_mm * 1e-3 if args.thickness_mm else None,
@@ -209,6 +209,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
             "window": args.window,
         },  # fmt: skip
         mono={"field": args.field, "flat": args.flat, "smooth_px": args.smooth_px},
+        roi_disc=args.roi_disc * 1e-3 if args.roi_disc else None,
     )
     if not args.quiet:
         rng = summary["fringe_order_range"]

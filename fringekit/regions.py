@@ -6,7 +6,7 @@ import numpy as np
 
 from analysis import circle_mask, exclude_circle, polygon_mask
 
-__all__ = ["ORDER_AT_RADIUS_PX", "order_at_anchor", "region_mask"]
+__all__ = ["DISC_ROI_SHARE", "ORDER_AT_RADIUS_PX", "disc_region", "order_at_anchor", "region_mask"]
 
 
 def region_mask(shape, roi_circle, exclude, roi_polygon=None, exclude_polygons=()) -> np.ndarray:
@@ -37,15 +37,57 @@ ORDER_AT_RADIUS_PX = 3.0
 
 
 def order_at_anchor(shape, valid, order_at):
-    """(anchor mask or None, anchor order) from ``--order-at`` (row, col, order), checked."""
-    if order_at is None:
+    """(anchor mask, anchor orders (rows, cols), NaN off the anchors) from ``--order-at``
+    points (row, col, order), each checked; (None, None) without any."""
+    if not order_at:
         return None, None
-    r, c, n = order_at
-    anchor = circle_mask(shape, (r, c), ORDER_AT_RADIUS_PX)
-    if not (anchor & valid).any():
-        raise ValueError(
-            f"--order-at {r:g} {c:g} {n:g}: no valid pixel within {ORDER_AT_RADIUS_PX:g} px of "
-            f"({r:g}, {c:g}); allowed: a point inside the image with fringe data (not masked, "
-            "modulation above --min-modulation)"
-        )
-    return anchor, n
+    anchor = np.zeros(shape[:2], bool)
+    orders = np.full(shape[:2], np.nan)
+    for r, c, n in order_at:
+        disc = circle_mask(shape, (r, c), ORDER_AT_RADIUS_PX)
+        if not (disc & valid).any():
+            raise ValueError(
+                f"--order-at {r:g} {c:g} {n:g}: no valid pixel within {ORDER_AT_RADIUS_PX:g} px "
+                f"of ({r:g}, {c:g}); allowed: a point inside the image with fringe data (not "
+                "masked, modulation above --min-modulation)"
+            )
+        anchor |= disc & valid
+        orders[disc & valid] = n
+    return anchor, orders
+
+
+#: Share of the found disc's radius kept as the region of interest (the rim's pixels mix
+#: disc and background).
+DISC_ROI_SHARE = 0.97
+
+
+def disc_region(image_path, diameter_m: float, dark=None) -> dict:
+    """``--roi-disc``: the circular specimen in the first image, found by its outline
+    (:func:`analysis.find_discs`, 60 % of it seen) or else by the symmetry of its fringes
+    (:func:`analysis.disc_by_symmetry`). Returns ``roi_circle`` (row, col, radius px),
+    ``pixel_size`` (m, from the known diameter), ``origin_px`` (its centre) and ``info``."""
+    from analysis import disc_by_symmetry, find_discs, load_image
+
+    data = load_image(image_path, dark=dark).data
+    found = find_discs(data, count=1)
+    if found and found[0].support >= 0.6:
+        c, how = found[0], "outline"
+    else:
+        try:
+            c, how = disc_by_symmetry(data), "symmetry of the fringes"
+        except ValueError:
+            raise ValueError(
+                f"--roi-disc: no circular specimen found in {image_path}; give --roi-circle "
+                "ROW COL R and --pixel-mm"
+            ) from None
+    return {
+        "roi_circle": (c.row, c.col, DISC_ROI_SHARE * c.radius),
+        "pixel_size": diameter_m / (2 * c.radius),
+        "origin_px": (c.row, c.col),
+        "info": {
+            "centre_px": [c.row, c.col],
+            "radius_px": c.radius,
+            "found_from": how,
+            "support": c.support,
+        },  # fmt: skip
+    }

@@ -99,8 +99,9 @@ def grey_channel(image: np.ndarray, mask: np.ndarray | None = None) -> np.ndarra
     return img[..., int(np.argmax(spread))]
 
 
-#: A band holding at least this share of the anchor pixels is an anchor band.
-ANCHOR_SHARE = 0.02
+#: A band holding at least this share of the anchor pixels is an anchor band (a corner
+#: of the far field cut off by the envelope's error holds ~1 %).
+ANCHOR_SHARE = 0.005
 
 
 def _order_bands(labels, is_bright, pairs, anchor_mask, anchor_order):
@@ -307,6 +308,9 @@ def mono_order(
     amp = env.high - env.low
     sd_u = np.hypot(_noise_sd(img, mask, smooth_px) / np.maximum(amp, 1e-6), env.sd())
     sd = np.where(np.isfinite(order), _order_sd(u, sd_u), np.nan)
+    # near a fringe centre the side is a coin toss within the noise: the error is up to 2 d
+    side_blur = d < np.sqrt(3 * sd_u) / np.pi
+    sd = np.where(side_blur, np.maximum(sd, d), sd)
     cap_px = blind[labels] & (labels > 0) & (d < CAP_AMBIGUOUS)
     # where a cap's centre line runs into the edge of the region, the slivers beyond it
     # can reach the lower side along the edge: cap pixels on the edge off the line

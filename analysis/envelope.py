@@ -27,7 +27,15 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-__all__ = ["Envelope", "band_labels", "fit_envelope", "flat_field_envelope", "smooth_surface"]
+__all__ = [
+    "Envelope",
+    "band_labels",
+    "band_neighbours",
+    "fit_envelope",
+    "flat_field_envelope",
+    "smooth_surface",
+    "two_sided",
+]
 
 
 @dataclass(frozen=True)
@@ -134,35 +142,56 @@ def smooth_surface(rows, cols, values, shape, degree: int = 2) -> tuple[np.ndarr
     return surface, float(np.sqrt(np.mean(res[keep] ** 2)))
 
 
-def _centre_samples(image, labels, is_bright, two_sided):
-    """(rows, cols, values) of the fringe-centre pixels (skeletons) of the bands in
-    ``two_sided``, each valued at the band's local extreme (3 x 3 max or min)."""
-    from skimage.morphology import skeletonize
+#: A band's pixels within this share of its intensity range from its extreme sample
+#: its fringe centre.
+CENTRE_SHARE = 0.1
+#: At most this many samples per band (evenly thinned).
+SAMPLES_PER_BAND = 2000
 
+
+def _centre_samples(image, labels, is_bright, selected):
+    """(rows, cols, values) of the fringe-centre pixels of the ``selected`` bands: the
+    pixels within :data:`CENTRE_SHARE` of the band's intensity range from its extreme
+    (the brightest of a bright band, the darkest of a dark one), each valued at the
+    3 x 3 local extreme. The band's own pixels say where its centre runs; a medial axis
+    does not (a far-field band is wide where its order is nowhere near the centre)."""
     out = {True: ([], [], []), False: ([], [], [])}
     hi = ndimage.maximum_filter(image, 3)
     lo = ndimage.minimum_filter(image, 3)
     for lab, sl in enumerate(ndimage.find_objects(labels), start=1):
-        if sl is None or not two_sided[lab]:
+        if sl is None or not selected[lab]:
             continue
-        skel = skeletonize(labels[sl] == lab)
-        r, c = np.nonzero(skel)
+        band = labels[sl] == lab
+        v = image[sl][band]
         b = bool(is_bright[lab])
-        vals = (hi if b else lo)[sl][r, c]
+        top, bottom = v.max(), v.min()
+        near = band & ((image[sl] >= top - CENTRE_SHARE * (top - bottom)) if b
+                       else (image[sl] <= bottom + CENTRE_SHARE * (top - bottom)))  # fmt: skip
+        r, c = np.nonzero(near)
+        step = max(1, len(r) // SAMPLES_PER_BAND)
+        r, c = r[::step], c[::step]
         out[b][0].append(r + sl[0].start)
         out[b][1].append(c + sl[1].start)
-        out[b][2].append(vals)
+        out[b][2].append((hi if b else lo)[sl][r, c])
     return {k: tuple(np.concatenate(x) if x else np.zeros(0) for x in v) for k, v in out.items()}
 
 
-def fit_envelope(image: np.ndarray, mask: np.ndarray, *, passes: int = 2) -> Envelope:
+def two_sided(labels, is_bright, pairs) -> np.ndarray:
+    """Bands that touch at least two others (bool per label): without an order, the
+    bands that may hold a whole fringe centre."""
+    return np.bincount(pairs.ravel(), minlength=len(is_bright)) >= 2
+
+
+def fit_envelope(image: np.ndarray, mask: np.ndarray, *, passes: int = 2, select=two_sided):
     """The fringe envelope of a dark-field-like image (see module doc).
 
-    Bands come from a first normalisation between the 1st and 99th percentiles; bands
-    that touch at least two others hold a whole fringe centre (a band touching one is a
-    cap or the far field, whose extreme need not be a fringe centre), and their skeleton
-    pixels sample the envelope. With samples from at least three bands of a kind the
-    surface is quadratic, else constant; with none of a kind the percentile stays.
+    Bands come from a first normalisation between the 1st and 99th percentiles;
+    ``select(labels, is_bright, pairs)`` says which bands hold a whole fringe centre
+    (by default :func:`two_sided`; :func:`analysis.mono_order` passes the bands its count
+    puts between a lower and a higher neighbour - a far-field band touching a few
+    vignetted blobs is two-sided but holds no centre), and their most extreme pixels
+    sample the envelope. With samples from at least three bands of a kind the surface is the
+    illumination model, else constant; with none of a kind the percentile stays.
     """
     vals = image[mask]
     low0, high0 = np.percentile(vals, [1.0, 99.0])
@@ -170,8 +199,7 @@ def fit_envelope(image: np.ndarray, mask: np.ndarray, *, passes: int = 2) -> Env
     for _ in range(passes):
         labels, is_bright = band_labels(env.normalise(image), mask)
         pairs = band_neighbours(labels)
-        count = np.bincount(pairs.ravel(), minlength=len(is_bright))
-        samples = _centre_samples(image, labels, is_bright, count >= 2)
+        samples = _centre_samples(image, labels, is_bright, select(labels, is_bright, pairs))
         surfaces, n, res = {}, 0, []
         seen = np.zeros(image.shape, bool)
         for kind, (rr, cc, v) in samples.items():

@@ -144,6 +144,33 @@ def _order_bands(labels, is_bright, pairs, anchor_mask, anchor_order):
     return nominal, sources, conflict
 
 
+def _between(anchor_mask, anchor_order):
+    """Envelope band selector: the bands the count from the anchors puts between a lower
+    and a higher neighbour (they hold a whole fringe centre)."""
+
+    def select(labels, is_bright, pairs):
+        if not (anchor_mask & (labels > 0)).any():
+            return np.zeros(len(is_bright), bool)
+        nominal, sources, _ = _order_bands(labels, is_bright, pairs, anchor_mask, anchor_order)
+        lower = np.zeros(len(is_bright), bool)
+        higher = np.zeros(len(is_bright), bool)
+        a, b = pairs[:, 0], pairs[:, 1]
+        np.logical_or.at(higher, a, nominal[b] > nominal[a])
+        np.logical_or.at(lower, a, nominal[b] < nominal[a])
+        np.logical_or.at(higher, b, nominal[a] > nominal[b])
+        np.logical_or.at(lower, b, nominal[a] < nominal[b])
+        # an anchor band holds its centre when its anchors sit clearly below it and the
+        # count rises beyond it
+        known = np.broadcast_to(np.asarray(anchor_order, float), labels.shape)
+        a0 = np.full(len(is_bright), np.nan)
+        ids = np.flatnonzero(sources)
+        a0[ids] = ndimage.median(known, np.where(anchor_mask, labels, 0), ids)
+        crossing = sources & higher & (nominal - a0 > CAP_EXTREME)
+        return (lower & higher & ~sources) | crossing
+
+    return select
+
+
 def _neighbours(a: np.ndarray, fill):
     """The four 4-neighbour arrays of ``a`` (right, left, down, up), ``fill`` off the edge."""
     out = []
@@ -289,11 +316,11 @@ def mono_order(
         if field == "bright":  # bright field: 1 - I / flat is the dark-field u
             sign_img = 1.0 - smooth / np.where(flat > 0, flat, np.nan)
             env = Envelope(np.zeros_like(img), np.ones_like(img), "flat field")
-    else:
-        env = fit_envelope(sign_img, mask)
-    u = np.where(mask, env.normalise(sign_img), np.nan)
     anchor = border_anchor(mask) if anchor_mask is None else check_mask(anchor_mask, img.shape)
     anchor &= mask
+    if flat is None:
+        env = fit_envelope(sign_img, mask, select=_between(anchor, anchor_order))
+    u = np.where(mask, env.normalise(sign_img), np.nan)
     labels, is_bright = band_labels(u, mask)
     pairs = band_neighbours(labels)
     nominal, start, conflict = _order_bands(labels, is_bright, pairs, anchor, anchor_order)

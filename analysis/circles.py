@@ -5,9 +5,8 @@ detector and circles from the circular Hough transform (scikit-image, ``canny``,
 ``hough_circle``, ``hough_circle_peaks``) on a copy of the photo reduced to at most
 :data:`WORK_PX` a side; each circle found is then refined at full resolution by a
 least-squares circle (``skimage.measure.CircleModel``) through the edge pixels within a
-thin annulus about it. Fringes make edges too, and closed fringes make circles, but they
-lie inside the disc: of circles whose centres lie inside one another the largest is
-kept. The score of each circle is the fraction of its circumference with an edge within
+thin annulus about it. Fringes make edges too, and closed fringes make circles: of
+circles whose centres lie inside one another the best supported is kept. The score of each circle is the fraction of its circumference with an edge within
 2 % of its radius.
 """
 
@@ -118,11 +117,12 @@ def find_discs(
         c = Circle(c.row, c.col, c.radius, _support(edges, c.row, c.col, c.radius))
         if c.support >= MIN_SUPPORT:
             candidates.append(c)
-    # a closed fringe inside a disc is a circle too, but always inside the disc's outline:
-    # keep the largest of circles whose centres lie inside one another
+    # a closed fringe inside a disc is a circle too, and Hough finds circles through
+    # parts of neighbouring discs: of circles whose centres lie inside one another the
+    # best supported is kept
     found: list[Circle] = []
-    for c in sorted(candidates, key=lambda c: -c.radius):
-        if not any(np.hypot(c.row - o.row, c.col - o.col) < o.radius for o in found):
+    for c in sorted(candidates, key=lambda c: -c.support):
+        if not any(np.hypot(c.row - o.row, c.col - o.col) < max(c.radius, o.radius) for o in found):
             found.append(c)
     found.sort(key=lambda c: -c.support)
     return found[:count]

@@ -76,8 +76,10 @@ class Envelope:
         return np.clip(u, 0.0, 1.0)
 
 
-#: Largest bright or dark island (px) removed as noise.
-MIN_BAND_PX = 12
+#: Largest bright or dark island (px) removed as noise: one 8 x 8 JPEG block (on
+#: photographs of camera size, noise and compression make islands of that size where
+#: the order stays near a quarter fringe from a centre).
+MIN_BAND_PX = 64
 
 
 def band_labels(u: np.ndarray, mask: np.ndarray, min_px: int = MIN_BAND_PX):

@@ -278,12 +278,39 @@ def is_cycling(history: list[float]) -> bool:
     return abs(d - b) <= 1e-3 * d and abs(c - a) <= 1e-3 * c and abs(d - c) > 1e-3 * d
 
 
+#: a step is trusted to be taken whole, and its trial given the tangent, when the last
+#: step cut the residual at least by this factor
+CONTRACTION = 0.5
+
+
+def trial_with_tangent(history: list[float], whole: bool, tol: float) -> bool:
+    """Whether the next step's full trial should assemble the tangent with the residual.
+
+    Worth it when the trial will be accepted and iterated from: the last step was taken
+    whole and cut the residual by :data:`CONTRACTION` (Newton is converging, so the full
+    step will pass), and the trial is not predicted to converge - with quadratic
+    convergence r_next ~ r^3 / r_prev^2; below half the tolerance no next step (and no
+    tangent) is needed. Otherwise the trial evaluates the residual only and an accepted
+    iterate gets its tangent once (a residual evaluation costs about a third of one).
+    """
+    if not whole:
+        return False
+    if len(history) < 2:
+        return True
+    r, r_prev = history[-1], history[-2]
+    if r_prev > 0 and r**3 / r_prev**2 < 0.5 * tol:
+        return False
+    return r <= CONTRACTION * r_prev
+
+
 def _update_multipliers(run: Run, st: State, results, f_ind):
-    """Uzawa step lambda <- p; returns the evaluation at the same displacements."""
+    """Uzawa step lambda <- p; returns the evaluation at the same displacements (the
+    tangent only when the body's is at hand: Newton assembles it when it needs it)."""
     for j, res in enumerate(results):
         st.lam[j] = res.p.copy()
     run.stats.al_updates += 1
-    return evaluate(run.model, st, f_ind, tangent=True, stats=run.stats, cache=run.cache)
+    has_k = run.cache.get(st.u, True) is not None
+    return evaluate(run.model, st, f_ind, tangent=has_k, stats=run.stats, cache=run.cache)
 
 
 def newton(run: Run, st: State, f_ind: np.ndarray, fscale: float, iter_log: list):
@@ -341,6 +368,9 @@ def newton(run: Run, st: State, f_ind: np.ndarray, fscale: float, iter_log: list
             ):
                 iter_log.append({"iteration": it, "residual_N": rnorm, "energy_norm_J": 0.0})
                 return True, "", results
+        if K is None:  # accepted on a residual-only trial and not converged: assemble now
+            prev = evaluate(model, st, f_ind, tangent=True, stats=stats, cache=run.cache)
+            energy, r, K, results, body, _ = prev
         t_it, f_it = time.perf_counter(), lin.time_factorize
         dx = lin.solve(
             K, -r, symmetric=model.symmetric, pattern_id=model.pattern_id,
@@ -352,17 +382,15 @@ def newton(run: Run, st: State, f_ind: np.ndarray, fscale: float, iter_log: list
         enorm = abs(float(dx @ r))
         e0 = enorm if e0 is None else max(e0, enorm)
         e_last = enorm
-        accepted, alpha = _line_search(run, st, f_ind, dx, energy, rnorm, whole)
-        row = {"iteration": it, "residual_N": rnorm, "energy_norm_J": enorm, "alpha": alpha}
+        with_k = trial_with_tangent(history, whole, settings.force_tol * scale)
+        accepted, alpha = _line_search(run, st, f_ind, dx, energy, rnorm, with_k)
+        row = {"iteration": it, "residual_N": rnorm, "energy_norm_J": enorm, "alpha": alpha,
+               "tangent_trial": with_k}  # fmt: skip
         iter_log.append(row)
         log.debug("fea: %s", row)
         if accepted is None:
             return False, "the line search found no decreasing, admissible step", None
-        prev = (
-            accepted
-            if accepted[2] is not None
-            else evaluate(model, st, f_ind, tangent=True, stats=stats, cache=run.cache)
-        )
+        prev = accepted  # without its tangent when the trial had none: assembled if needed
         whole = alpha == 1.0
         stats.iteration_times.append((time.perf_counter() - t_it, lin.time_factorize - f_it))
         run.watch.check(it, rnorm, settings.max_iterations)

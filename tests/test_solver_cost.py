@@ -20,22 +20,34 @@ def _expected_evaluations(log) -> tuple[int, int]:
     assembled once per iterate and never again for multiplier updates, increment starts
     or recovery.
 
-    Within one Newton run the full step's trial assembles the tangent when the previous
-    step was taken whole (the first step counts as such); every other trial evaluates the
-    residual only, and an iterate accepted on a residual-only trial gets its tangent
-    once. A step of length 2^-k took k + 1 trials. A row without ``alpha`` (converged)
-    ends a Newton run.
+    The full step's trial assembles the tangent when the log says so
+    (``tangent_trial``, :func:`fea.newton.trial_with_tangent`); every other trial
+    evaluates the residual only, and an iterate accepted on a residual-only trial gets
+    its tangent once, when a linear solve needs it - never for the solve's last iterate.
+    A step of length 2^-k took k + 1 trials. A row without ``alpha`` (converged) ends a
+    Newton run.
     """
-    tangents, residuals, whole = 1, 0, True  # 1: the unloaded start
-    for row in log:
-        if "alpha" not in row:
-            whole = True
-            continue
-        k = round(-math.log2(row["alpha"]))
-        tangents += (1 if whole else 0) + (0 if whole and k == 0 else 1)
-        residuals += k if whole else k + 1
-        whole = k == 0
+    steps = [i for i, row in enumerate(log) if "alpha" in row]
+    tangents, residuals = 1, 0  # 1: the unloaded start
+    for i in steps:
+        k = round(-math.log2(log[i]["alpha"]))
+        with_k = log[i]["tangent_trial"]
+        later = i != steps[-1]  # another linear solve follows in this solve
+        tangents += (1 if with_k else 0) + (1 if not (with_k and k == 0) and later else 0)
+        residuals += k if with_k else k + 1
     return tangents, residuals
+
+
+def test_the_trial_tangent_rule():
+    """A full trial carries the tangent only while Newton contracts and is not about to
+    converge."""
+    from fea.newton import trial_with_tangent
+
+    assert trial_with_tangent([10.0], True, 1e-6)  # the first step
+    assert not trial_with_tangent([10.0], False, 1e-6)  # after a shortened step
+    assert trial_with_tangent([10.0, 4.0], True, 1e-6)  # contracting
+    assert not trial_with_tangent([10.0, 8.0], True, 1e-6)  # stalling: it may be cut back
+    assert not trial_with_tangent([1e-2, 1e-4], True, 1e-6)  # next ~1e-8: converged
 
 
 def test_body_is_assembled_once_per_newton_iteration(small_meshes):

@@ -6,8 +6,8 @@ detector and circles from the circular Hough transform (scikit-image, ``canny``,
 :data:`WORK_PX` a side; each circle found is then refined at full resolution by a
 least-squares circle (``skimage.measure.CircleModel``) through the edge pixels within a
 thin annulus about it. Fringes make edges too, and closed fringes make circles: of
-circles whose centres lie inside one another the best supported is kept. The score of each circle is the fraction of its circumference with an edge within
-2 % of its radius.
+circles whose centres lie inside one another the best supported is kept. The score of
+each circle is the fraction of its circumference with an edge within 2 % of its radius.
 """
 
 from __future__ import annotations

@@ -94,6 +94,37 @@ def _resample(pred, centre_pred, shape, centre_meas, scale, rot):
     return v
 
 
+def _register(pred, meas, cp, cm, scale, rot, res_pred):
+    """The measured centre that best overlays the prediction: masked normalised
+    cross-correlation for the whole-pixel shift (Padfield, IEEE Trans. Image Process. 21,
+    2012; ``skimage.registration.phase_cross_correlation`` with masks - the two maps'
+    holes differ, and filling them biased the plain correlation by 3.5 px on a one-photo
+    map), then least squares of the residual over the sub-pixel shift on the pixels both
+    maps hold (eroded by 2 px so that the set stays valid). Returns (centre, RMS)."""
+    from scipy.ndimage import binary_erosion
+    from scipy.optimize import least_squares
+    from skimage.registration import phase_cross_correlation
+
+    a_ok, b_ok = np.isfinite(meas), np.isfinite(res_pred)
+    a = np.where(a_ok, meas, 0.0)
+    b = np.where(b_ok, res_pred, 0.0)
+    shift = phase_cross_correlation(a, b, reference_mask=a_ok, moving_mask=b_ok)[0]
+    start = (cm[0] + shift[0], cm[1] + shift[1])
+    both = a_ok & np.isfinite(_resample(pred, cp, meas.shape, start, scale, rot))
+    both = binary_erosion(both, iterations=2)
+    if both.sum() < 10:
+        return start, float("nan")
+
+    def resid(d):
+        v = _resample(pred, cp, meas.shape, (start[0] + d[0], start[1] + d[1]), scale, rot)
+        return np.nan_to_num(meas[both] - v[both])
+
+    sol = least_squares(resid, [0.0, 0.0], bounds=([-1.5, -1.5], [1.5, 1.5]), loss="soft_l1",
+                        f_scale=0.1)  # fmt: skip
+    centre = (start[0] + float(sol.x[0]), start[1] + float(sol.x[1]))
+    return centre, float(np.sqrt(np.mean(sol.fun**2)))
+
+
 def compare_maps(
     predicted,
     measured,
@@ -114,13 +145,11 @@ def compare_maps(
     centre_predicted : (row, col), optional — the indenter centre in the prediction
         (default: the image centre)
     centre_measured : (row, col), optional — the indenter centre in the measurement;
-        when omitted it is fitted by phase cross-correlation (skimage.registration,
-        sub-pixel) after scaling and rotating the prediction
+        when omitted it is fitted (masked cross-correlation, then least squares to a
+        fraction of a pixel) after scaling and rotating the prediction
     rotation_deg : float — rotation of the prediction about its centre
     mask : (rows, cols) bool, optional — pixels of the measurement to compare
     """
-    from skimage.registration import phase_cross_correlation
-
     pred = np.asarray(predicted, float)
     meas = np.asarray(measured, float)
     if pred.ndim != 2 or meas.ndim != 2:
@@ -141,12 +170,9 @@ def compare_maps(
     res_pred = _resample(pred, cp, meas.shape, cm, scale, rot)
     info = {}
     if fitted:
-        a = np.nan_to_num(meas - np.nanmean(meas))
-        b = np.nan_to_num(res_pred - np.nanmean(res_pred))
-        shift, err, _ = phase_cross_correlation(a, b, upsample_factor=20, normalization=None)
-        cm = (cm[0] + shift[0], cm[1] + shift[1])
+        cm, rms = _register(pred, meas, cp, cm, scale, rot, res_pred)
         res_pred = _resample(pred, cp, meas.shape, cm, scale, rot)
-        info["registration_error"] = float(err)
+        info["registration_rms_fringe"] = rms
     m = np.isfinite(meas) & np.isfinite(res_pred)
     if mask is not None:
         mk = np.asarray(mask, bool)

@@ -157,10 +157,16 @@ def run_sweep(
     echo=print,
 ) -> dict:
     """Run the sweep's unfinished cases on Dask, then rebuild the table and plots."""
+    import logging
+
     from dask.distributed import Client, LocalCluster, as_completed
     from tqdm.auto import tqdm
 
     from meshes import default_cache_dir
+
+    # importing distributed sets its logger to INFO (Dask's config): the cluster's
+    # chatter (scheduler, nanny, connections) is not the sweep's progress
+    logging.getLogger("distributed").setLevel(logging.WARNING)
 
     out = Path(out)
     (out / "cases").mkdir(parents=True, exist_ok=True)

@@ -52,6 +52,8 @@ class Envelope:
         relative to the amplitude (0 for a flat field)
     reach : (rows, cols) float or None - distance to the nearest fringe-centre sample
         over the half diagonal of the image: where the surfaces extrapolate
+    sampled : tuple of "low", "high" - which surfaces came from fringe centres (the
+        others are percentiles of the image; a flat field gives both)
     """
 
     low: np.ndarray
@@ -60,6 +62,7 @@ class Envelope:
     samples: int = 0
     residual: float = 0.0
     reach: np.ndarray | None = None
+    sampled: tuple = ()
 
     def sd(self) -> np.ndarray | float:
         """1-sigma error of u from the envelope: the misfit at the samples, growing
@@ -219,7 +222,8 @@ def fit_envelope(image: np.ndarray, mask: np.ndarray, *, passes: int = 2, select
         amp = float(np.median((high - low)[mask]))
         reach = ndimage.distance_transform_edt(~seen) / (0.5 * np.hypot(*image.shape))
         rel = max(res) / amp if amp > 0 else np.inf
-        env = Envelope(low, high, "fringe envelope", n, rel, reach)
+        kinds = tuple(k for k, b in (("low", False), ("high", True)) if b in surfaces)
+        env = Envelope(low, high, "fringe envelope", n, rel, reach, kinds)
     return env
 
 
@@ -227,4 +231,4 @@ def flat_field_envelope(flat: np.ndarray, background: float | np.ndarray = 0.0) 
     """Envelope from a flat-field image of the light (I_b + I_0 everywhere)."""
     flat = np.asarray(flat, float)
     low = np.broadcast_to(np.asarray(background, float), flat.shape).copy()
-    return Envelope(low, ndimage.gaussian_filter(flat, 2.0), "flat field")
+    return Envelope(low, ndimage.gaussian_filter(flat, 2.0), "flat field", sampled=("low", "high"))

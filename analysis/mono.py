@@ -26,7 +26,9 @@ A band whose neighbours are all lower (a cap: the top of a hill, or a band cut o
 the region of interest) has no higher boundary to seed: its centre line is the set of
 pixels nearest its extreme intensity, and the parts it cuts off from the lower
 neighbours lie beyond it. Where the count cannot tell, the pixels are flagged, not
-guessed: in a cap whose extreme does not cut it (the hill's top may pass the fringe
+guessed: everything when no half-order fringe centre sets the fringe amplitude (and no
+flat field does: the image's own range would stretch orders below 1/2 to a half
+fringe); in a cap whose extreme does not cut it (the hill's top may pass the fringe
 centre or stop short of it) the pixels within :data:`CAP_AMBIGUOUS` fringe of the band's
 centre value are unreliable; so are bands the anchor does not reach, pixels of low
 fringe contrast, and pixels whose uncertainty exceeds ``max_sd``.
@@ -315,7 +317,8 @@ def mono_order(
         env = flat_field_envelope(flat if field == "dark" else np.ones_like(img))
         if field == "bright":  # bright field: 1 - I / flat is the dark-field u
             sign_img = 1.0 - smooth / np.where(flat > 0, flat, np.nan)
-            env = Envelope(np.zeros_like(img), np.ones_like(img), "flat field")
+            env = Envelope(np.zeros_like(img), np.ones_like(img), "flat field",
+                           sampled=("low", "high"))  # fmt: skip
     anchor = border_anchor(mask) if anchor_mask is None else check_mask(anchor_mask, img.shape)
     anchor &= mask
     if flat is None:
@@ -347,6 +350,9 @@ def mono_order(
     island = ((u > 0.5) != is_bright[labels]) & (np.abs(u - 0.5) > 3 * sd_u)
     reliable = np.isfinite(order) & ~cap_px & ~island & ~conflict[labels]
     reliable &= (amp >= min_contrast) & (sd <= max_sd)
+    # without a half-order fringe centre (or a flat field) the fringe amplitude is the
+    # image's own range: a photo whose orders stay below 1/2 would be stretched to it
+    reliable &= "high" in env.sampled
     info = {
         "bands": int(len(is_bright) - 1),
         "ordered_bands": int(np.isfinite(nominal[1:]).sum()),
@@ -354,6 +360,7 @@ def mono_order(
         "anchor_bands": int(start.sum()),
         "conflicting_bands": int(conflict.sum()),
         "envelope": env.method,
+        "envelope_from_centres": list(env.sampled),
         "envelope_samples": env.samples,
         "envelope_residual": env.residual,
         "sd_u_median": float(np.nanmedian(sd_u[mask])),

@@ -63,6 +63,11 @@ def analyse_mono(paths, dark, mask_args, anchor_order, order_at, mono: dict):
     share = float(res.reliable[mask].mean())
     if res.info["ordered_bands"] == 0 or res.info["bands"] < 2:
         part["unreliable_reason"] = "no fringes found to count"
+    elif "high" not in res.envelope.sampled:
+        part["unreliable_reason"] = (
+            "no half-order fringe centre (a bright fringe in dark field) sets the fringe "
+            "amplitude; give --flat, an image of the light without the specimen's retardation"
+        )
     elif share < 0.5:
         part["unreliable_reason"] = (
             "bands out of reach of the anchor, caps whose fringe centre is not seen, or low "

@@ -21,6 +21,7 @@ from optics import (
     dark_field_circular,
     optical_map,
     photograph,
+    retarder,
     write_image,
 )
 
@@ -99,6 +100,29 @@ def test_mono_order_is_reproducible_and_flags_what_it_cannot_order(dent):
     rng = np.random.default_rng(0)
     flat = np.clip(0.02 + 0.005 * rng.standard_normal(img.shape), 0, 1)
     assert mono_order(flat, mask=roi).reliable.mean() < 0.05
+
+
+def test_no_half_order_centre_means_no_amplitude():
+    """A photo whose orders stay below 1/2 (0.05-0.4: no bright fringe centre in dark
+    field) has no fringe amplitude of its own; the image's range would stretch it to a
+    half fringe (the real-photo failure of the issue). Without a flat field nothing is
+    reliable; with one, the orders come back within 0.03."""
+    n = 160
+    r, c = np.mgrid[:n, :n].astype(float)
+    x, y = (c - 79.5) / n, (79.5 - r) / n
+    truth = 0.05 + 0.35 * np.exp(-((np.hypot(x, y) / 0.25) ** 2))
+    q = retarder(2 * np.pi * truth, np.arctan2(y, x))
+    model = PhotoModel(vignetting=0.2, seed=2)
+    img = normalise(photograph(q, dark_field_circular(), CAMERA, model, seed=1)).data
+    res = mono_order(img, anchor_order=0.05)
+    assert "high" not in res.envelope.sampled and not res.reliable.any()
+    unit = np.zeros_like(q)
+    unit[..., 0] = 1.0
+    flat = normalise(photograph(unit, bright_field_circular(), CAMERA, model, seed=3)).data
+    res = mono_order(img, anchor_order=0.05, flat=flat)
+    ok = res.reliable
+    assert ok.mean() > 0.9
+    assert np.percentile(np.abs(res.order - truth)[ok], 99) < 0.03
 
 
 def test_mono_order_with_a_flat_field(dent):

@@ -16,7 +16,7 @@ from .calibrate import (
     radial_profile,
     save_calibration,
 )
-from .circles import Circle, disc_by_symmetry, find_discs
+from .circles import Circle, disc_by_symmetry, find_disc, find_discs
 from .compare import Comparison, Profile, compare_maps, line_profile
 from .images import SIX_STEP_ORDER, Frame, load_image, load_six_step, normalise
 from .masks import check_mask, circle_mask, exclude_circle, polygon_mask
@@ -44,6 +44,7 @@ __all__ = [
     "RADII_MM",
     "Circle",
     "disc_by_symmetry",
+    "find_disc",
     "find_discs",
     "MonoResult",
     "grey_channel",

@@ -18,13 +18,23 @@ import numpy as np
 
 from .mono import grey_channel
 
-__all__ = ["Circle", "disc_by_symmetry", "find_discs", "WORK_PX"]
+__all__ = [
+    "Circle",
+    "MIN_OUTLINE_SUPPORT",
+    "WORK_PX",
+    "disc_by_symmetry",
+    "find_disc",
+    "find_discs",
+]
 
 #: Longest side (px) of the reduced image the Hough transform runs on.
 WORK_PX = 400
 
 #: Minimum share of the circumference with edge support for a circle to count.
 MIN_SUPPORT = 0.35
+
+#: Edge support an outline needs to be trusted as THE specimen (:func:`find_disc`).
+MIN_OUTLINE_SUPPORT = 0.6
 
 
 @dataclass(frozen=True)
@@ -159,3 +169,19 @@ def disc_by_symmetry(image: np.ndarray) -> Circle:
     radius = 0.5 * float(lit[-1] - lit[0] + 1)
     inside = np.abs(lit - row) <= radius
     return Circle(row, col, radius, float(inside.mean()))
+
+
+def find_disc(image: np.ndarray) -> tuple[Circle, str]:
+    """The one circular specimen of a photograph: its outline when
+    :data:`MIN_OUTLINE_SUPPORT` of it is seen (:func:`find_discs`), else the symmetry of
+    its fringes (:func:`disc_by_symmetry`). Returns (circle, how it was found).
+
+    Raises
+    ------
+    ValueError
+        Neither finds a disc.
+    """
+    found = find_discs(image, count=1)
+    if found and found[0].support >= MIN_OUTLINE_SUPPORT:
+        return found[0], f"outline ({100 * found[0].support:.0f} % of it found)"
+    return disc_by_symmetry(image), "symmetry of the fringes (outline not found)"

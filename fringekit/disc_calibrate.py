@@ -1,8 +1,8 @@
 """``fringekit calibrate --disc IMAGE... --load-N P...``: the fringe value from photographs.
 
 Reads the photographs (and the zero-load ``--reference``), finds the disc (given by
-``--centre`` and ``--radius-px``; else its outline, :func:`analysis.find_discs`; else the
-symmetry of its fringes, :func:`analysis.disc_by_symmetry`), fits Frocht's field through
+``--centre`` and ``--radius-px``; else :func:`analysis.find_disc`: its outline, else the
+symmetry of its fringes), fits Frocht's field through
 the polariscope to the intensities (:func:`fringekit.disc_photo.fit_disc_photos`) and
 writes to ``--out``:
 
@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis import disc_by_symmetry, find_discs, grey_channel, load_image
+from analysis import find_disc, grey_channel, load_image
 
 from .disc_photo import (
     REFUSE_RESIDUAL,
@@ -35,9 +35,6 @@ from .disc_photo import (
 from .figures import disc_fit_figure
 
 __all__ = ["is_photo", "run_disc_photos"]
-
-#: Edge support (share of the circumference) an outline needs to be trusted.
-MIN_OUTLINE_SUPPORT = 0.6
 
 
 def is_photo(path) -> bool:
@@ -51,16 +48,12 @@ def _geometry(photo, centre, radius_px, pixel_mm, diameter_mm) -> tuple[DiscGeom
         radius_px = diameter_mm / 2 / pixel_mm
     if centre is not None and radius_px is not None:
         return DiscGeometry(centre[0], centre[1], radius_px), "--centre and --radius-px"
-    found = find_discs(photo, count=1)
-    if found and found[0].support >= MIN_OUTLINE_SUPPORT:
-        c, how = found[0], f"outline ({100 * found[0].support:.0f} % of it found)"
-    else:
-        try:
-            c, how = disc_by_symmetry(photo), "symmetry of the fringes (outline not found)"
-        except ValueError:
-            raise ValueError(
-                "--disc: no disc found in the photograph; give --centre ROW COL and --radius-px R"
-            ) from None
+    try:
+        c, how = find_disc(photo)
+    except ValueError:
+        raise ValueError(
+            "--disc: no disc found in the photograph; give --centre ROW COL and --radius-px R"
+        ) from None
     row, col = centre if centre is not None else (c.row, c.col)
     return DiscGeometry(row, col, radius_px or c.radius), how
 

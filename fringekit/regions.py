@@ -62,24 +62,18 @@ DISC_ROI_SHARE = 0.97
 
 
 def disc_region(image_path, diameter_m: float, dark=None) -> dict:
-    """``--roi-disc``: the circular specimen in the first image, found by its outline
-    (:func:`analysis.find_discs`, 60 % of it seen) or else by the symmetry of its fringes
-    (:func:`analysis.disc_by_symmetry`). Returns ``roi_circle`` (row, col, radius px),
+    """``--roi-disc``: the circular specimen in the first image (:func:`analysis.find_disc`:
+    its outline, or else the symmetry of its fringes). Returns ``roi_circle`` (row, col, radius px),
     ``pixel_size`` (m, from the known diameter), ``origin_px`` (its centre) and ``info``."""
-    from analysis import disc_by_symmetry, find_discs, load_image
+    from analysis import find_disc, load_image
 
-    data = load_image(image_path, dark=dark).data
-    found = find_discs(data, count=1)
-    if found and found[0].support >= 0.6:
-        c, how = found[0], "outline"
-    else:
-        try:
-            c, how = disc_by_symmetry(data), "symmetry of the fringes"
-        except ValueError:
-            raise ValueError(
-                f"--roi-disc: no circular specimen found in {image_path}; give --roi-circle "
-                "ROW COL R and --pixel-mm"
-            ) from None
+    try:
+        c, how = find_disc(load_image(image_path, dark=dark).data)
+    except ValueError:
+        raise ValueError(
+            f"--roi-disc: no circular specimen found in {image_path}; give --roi-circle "
+            "ROW COL R and --pixel-mm"
+        ) from None
     return {
         "roi_circle": (c.row, c.col, DISC_ROI_SHARE * c.radius),
         "pixel_size": diameter_m / (2 * c.radius),

@@ -114,7 +114,8 @@ def _order_bands(labels, is_bright, pairs, anchor_mask, anchor_order):
     pixels (a scalar, or a map for several anchors), from above - the anchor region spans
     the lowest orders; the count goes up by 1/2 per band away from them.
     Returns (nominal order per label (NaN = unreached), anchor labels (bool per label),
-    conflicting labels: a band and a neighbour whose orders do not differ by 1/2)."""
+    conflicting labels: a band and a neighbour whose orders do not differ by 1/2, the
+    median anchor order of each anchor label (NaN for the others))."""
     n = len(is_bright)
     hits = np.bincount(labels[anchor_mask], minlength=n)
     hits[0] = 0
@@ -124,9 +125,9 @@ def _order_bands(labels, is_bright, pairs, anchor_mask, anchor_order):
     nominal = np.full(n, np.nan)
     ids = np.flatnonzero(sources)
     known = np.broadcast_to(np.asarray(anchor_order, float), labels.shape)
-    a0 = np.asarray(ndimage.median(known, np.where(anchor_mask, labels, 0), ids), float)
-    base = np.where(is_bright[ids], np.floor(a0) + 0.5, np.round(a0))
-    nominal[ids] = base
+    a0 = np.full(n, np.nan)
+    a0[ids] = ndimage.median(known, np.where(anchor_mask, labels, 0), ids)
+    nominal[ids] = np.where(is_bright[ids], np.floor(a0[ids]) + 0.5, np.round(a0[ids]))
     adj = [[] for _ in range(n)]
     for a, b in pairs:
         adj[a].append(b)
@@ -143,7 +144,7 @@ def _order_bands(labels, is_bright, pairs, anchor_mask, anchor_order):
         bad = np.abs(nominal[pairs[:, 0]] - nominal[pairs[:, 1]]) != 0.5
         bad &= np.isfinite(nominal[pairs]).all(axis=1)
         conflict[pairs[bad].ravel()] = True
-    return nominal, sources, conflict
+    return nominal, sources, conflict, a0
 
 
 def _between(anchor_mask, anchor_order):
@@ -153,7 +154,7 @@ def _between(anchor_mask, anchor_order):
     def select(labels, is_bright, pairs):
         if not (anchor_mask & (labels > 0)).any():
             return np.zeros(len(is_bright), bool)
-        nominal, sources, _ = _order_bands(labels, is_bright, pairs, anchor_mask, anchor_order)
+        nominal, sources, _, a0 = _order_bands(labels, is_bright, pairs, anchor_mask, anchor_order)
         lower = np.zeros(len(is_bright), bool)
         higher = np.zeros(len(is_bright), bool)
         a, b = pairs[:, 0], pairs[:, 1]
@@ -163,10 +164,6 @@ def _between(anchor_mask, anchor_order):
         np.logical_or.at(lower, b, nominal[a] < nominal[b])
         # an anchor band holds its centre when its anchors sit clearly below it and the
         # count rises beyond it
-        known = np.broadcast_to(np.asarray(anchor_order, float), labels.shape)
-        a0 = np.full(len(is_bright), np.nan)
-        ids = np.flatnonzero(sources)
-        a0[ids] = ndimage.median(known, np.where(anchor_mask, labels, 0), ids)
         crossing = sources & higher & (nominal - a0 > CAP_EXTREME)
         return (lower & higher & ~sources) | crossing
 
@@ -313,12 +310,12 @@ def mono_order(
         raise ValueError(f"smooth_px = {smooth_px!r} is not allowed; must be >= 0")
     smooth = ndimage.gaussian_filter(img, smooth_px) if smooth_px > 0 else img
     sign_img = smooth if field == "dark" else 1.0 - smooth
-    if flat is not None:
-        env = flat_field_envelope(flat if field == "dark" else np.ones_like(img))
-        if field == "bright":  # bright field: 1 - I / flat is the dark-field u
-            sign_img = 1.0 - smooth / np.where(flat > 0, flat, np.nan)
-            env = Envelope(np.zeros_like(img), np.ones_like(img), "flat field",
-                           sampled=("low", "high"))  # fmt: skip
+    if flat is not None and field == "dark":
+        env = flat_field_envelope(flat)
+    elif flat is not None:  # bright field: 1 - I / flat is the dark-field u
+        sign_img = 1.0 - smooth / np.where(flat > 0, flat, np.nan)
+        env = Envelope(np.zeros_like(img), np.ones_like(img), "flat field",
+                       sampled=("low", "high"))  # fmt: skip
     anchor = border_anchor(mask) if anchor_mask is None else check_mask(anchor_mask, img.shape)
     anchor &= mask
     if flat is None:
@@ -326,7 +323,7 @@ def mono_order(
     u = np.where(mask, env.normalise(sign_img), np.nan)
     labels, is_bright = band_labels(u, mask)
     pairs = band_neighbours(labels)
-    nominal, start, conflict = _order_bands(labels, is_bright, pairs, anchor, anchor_order)
+    nominal, start, conflict, _ = _order_bands(labels, is_bright, pairs, anchor, anchor_order)
     su = np.sqrt(np.clip(np.nan_to_num(u), 0, 1))
     # d > 1/4 only on islands too small to be bands (merged into their surroundings)
     d = np.minimum(np.where(is_bright[labels], np.arccos(su), np.arcsin(su)) / np.pi, 0.25)

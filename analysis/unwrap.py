@@ -196,9 +196,8 @@ def count_fringe_order(
 
     valid = result.valid
     u = np.where(valid, np.sin(0.5 * result.delta_axis_insensitive) ** 2, 0.0)
-    anchor = border_anchor(valid) if anchor_mask is None else anchor_mask
-    mo = mono_order(u, mask=valid, flat=np.ones_like(u), smooth_px=0.0, anchor_mask=anchor,
-                    anchor_order=anchor_order)  # fmt: skip
+    mo = mono_order(u, mask=valid, flat=np.ones_like(u), smooth_px=0.0,
+                    anchor_mask=anchor_mask, anchor_order=anchor_order)  # fmt: skip
     flip = np.sin(TWO_PI * np.nan_to_num(mo.order)) < 0
     iso = np.where(flip, result.isoclinic + np.pi / 2, result.isoclinic)
     iso = (iso + np.pi / 2) % np.pi - np.pi / 2

@@ -2,8 +2,8 @@
 
 Usage: python bench/mono.py [--rows 2000 --cols 3000] [--disc-px 1000] [--json FILE]
 
-- ``mono``: the indent-like order field of ``bench/photo.py`` (0.3 at the border to 2.9,
-  masked contact) photographed once in dark field through the realistic model (residual
+- ``mono``: the indent-like order field (:func:`optics.indent_field`, 0.3 at the border
+  to 2.9, masked contact) photographed once in dark field through the realistic model (residual
   birefringence 0.05 rad RMS, 30 % vignetting, 2 % glare, 8-bit, 10k e- full well, 5 e-
   read noise, JPEG 90) and ordered by :func:`analysis.mono_order`;
 - ``disc``: Frocht's disc (40 mm, f_sigma 7000 N/m, residual order 0.5) photographed at
@@ -36,6 +36,7 @@ from optics import (  # noqa: E402
     DiametralDisc,
     PhotoModel,
     dark_field_circular,
+    indent_field,
     photograph,
     retarder,
 )
@@ -50,15 +51,9 @@ def _peak_mb() -> float:
 
 
 def mono_case(rows: int, cols: int) -> dict:
-    r, c = np.mgrid[:rows, :cols].astype(float)
-    s = min(rows, cols)
-    x, y = (c - (cols - 1) / 2) / s, ((rows - 1) / 2 - r) / s
-    rad = np.hypot(x, y)
-    order = 0.3 + 2.6 * np.exp(-((rad / 0.3) ** 2))
-    mask = rad > 0.09
+    order, q, mask = indent_field(rows, cols, core=0.09)
     t0 = time.perf_counter()
-    img = photograph(retarder(2 * np.pi * order, np.arctan2(y, x)), dark_field_circular(),
-                     CAMERA, MODEL, seed=1)  # fmt: skip
+    img = photograph(q, dark_field_circular(), CAMERA, MODEL, seed=1)
     t1 = time.perf_counter()
     res = mono_order(normalise(img).data, mask=mask, anchor_order=0.3)
     t2 = time.perf_counter()

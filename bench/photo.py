@@ -32,7 +32,13 @@ from analysis import (  # noqa: E402
     six_step,
     unwrap_fringe_order,
 )
-from optics import Camera, PhotoModel, photograph, retarder, six_step_arrangements  # noqa: E402
+from optics import (  # noqa: E402
+    Camera,
+    PhotoModel,
+    indent_field,
+    photograph,
+    six_step_arrangements,
+)
 
 MODELS = {
     "ideal": PhotoModel(),
@@ -42,16 +48,6 @@ MODELS = {
                         seed=7),
 }  # fmt: skip
 CAMERA = Camera(exposure=0.9, full_well=20000.0, read_noise=10.0)
-
-
-def field(rows: int, cols: int):
-    """(order, quaternions, mask) of the indent-like field on a rows x cols image."""
-    r, c = np.mgrid[:rows, :cols].astype(float)
-    s = min(rows, cols)
-    x, y = (c - (cols - 1) / 2) / s, ((rows - 1) / 2 - r) / s
-    rad = np.hypot(x, y)
-    order = 0.3 + 2.6 * np.exp(-((rad / 0.3) ** 2))
-    return order, retarder(2 * np.pi * order, np.arctan2(y, x)), rad > 0.06
 
 
 def _score(fo, order, mask) -> dict:
@@ -65,7 +61,7 @@ def _score(fo, order, mask) -> dict:
 
 
 def run(rows: int, cols: int, name: str) -> dict:
-    order, q, mask = field(rows, cols)
+    order, q, mask = indent_field(rows, cols)
     t0 = time.perf_counter()
     frames = [photograph(q, a, CAMERA, MODELS[name], seed=k).astype(float) / 255
               for k, a in enumerate(six_step_arrangements())]  # fmt: skip

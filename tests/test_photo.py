@@ -11,6 +11,7 @@ from optics import (
     Camera,
     PhotoModel,
     dark_field_circular,
+    indent_field,
     photograph,
     retarder,
     six_step_arrangements,
@@ -19,14 +20,10 @@ from optics import (
 CAMERA = Camera(exposure=0.9, full_well=20000.0, read_noise=10.0)
 
 
-def _field(n=96):
-    """A smooth indent-like order field (0.3 at the border, 2.9 in the middle), radial
-    axes, a contact zone without data."""
-    r, c = np.mgrid[:n, :n].astype(float)
-    x, y = (c - n / 2 + 0.5) / n, (n / 2 - 0.5 - r) / n
-    rad = np.hypot(x, y)
-    order = 0.3 + 2.6 * np.exp(-((rad / 0.3) ** 2))
-    return order, retarder(2 * np.pi * order, np.arctan2(y, x)), rad > 0.06
+def _six_photos(q, model, seed0=0):
+    """The six phase-stepped photographs of ``q`` through ``model``, as floats."""
+    return [photograph(q, a, CAMERA, model, seed=seed0 + k).astype(float) / 255
+            for k, a in enumerate(six_step_arrangements())]  # fmt: skip
 
 
 def test_each_effect_of_the_photograph_model():
@@ -58,29 +55,15 @@ def test_six_step_analysis_of_realistic_photographs():
     fringe RMS of the truth (measured 0.006, against 0.0012 for ideal images; 0.05 rad
     alone is 0.008 fringe), on at least 95 % of the pixels with data (measured 100 %).
     At camera size the isoclinic fold breaks (next test)."""
-    order, q, mask = _field()
+    order, q, mask = indent_field(96, 96)
     model = PhotoModel(residual_rms_rad=0.05, vignetting=0.3, glare=0.02, jpeg_quality=90,
                        seed=7)  # fmt: skip
-    frames = [photograph(q, a, CAMERA, model, seed=k).astype(float) / 255
-              for k, a in enumerate(six_step_arrangements())]  # fmt: skip
-    res = six_step(frames, mask=mask)
+    res = six_step(_six_photos(q, model), mask=mask)
     fo = unwrap_fringe_order(res, resolve_ambiguity(res), anchor_order=0.3)
     ok = fo.reliable & mask
     assert ok.sum() >= 0.95 * mask.sum()
     rms = float(np.sqrt(np.mean((fo.order[ok] - order[ok]) ** 2)))
     assert rms < 0.02, rms
-
-
-def _camera_size_field(rows=400, cols=600):
-    """The indent-like field on a 400 x 600 image: the order changes by 0.002-0.005
-    fringe per pixel in the far field, so the fringe contours there are bands tens of
-    pixels wide."""
-    r, c = np.mgrid[:rows, :cols].astype(float)
-    s = min(rows, cols)
-    x, y = (c - (cols - 1) / 2) / s, ((rows - 1) / 2 - r) / s
-    rad = np.hypot(x, y)
-    order = 0.3 + 2.6 * np.exp(-((rad / 0.3) ** 2))
-    return order, retarder(2 * np.pi * order, np.arctan2(y, x)), rad > 0.06
 
 
 def test_six_step_fold_by_fringe_count_holds_at_camera_size():
@@ -91,12 +74,10 @@ def test_six_step_fold_by_fringe_count_holds_at_camera_size():
     5 % at which analyze warns."""
     from analysis import count_fringe_order
 
-    order, q, mask = _camera_size_field()
+    order, q, mask = indent_field(400, 600)  # far-field fringe contours tens of px wide
     model = PhotoModel(residual_rms_rad=0.05, vignetting=0.3, glare=0.02, jpeg_quality=90,
                        seed=7)  # fmt: skip
-    frames = [photograph(q, a, CAMERA, model, seed=k).astype(float) / 255
-              for k, a in enumerate(six_step_arrangements())]  # fmt: skip
-    res = six_step(frames, mask=mask)
+    res = six_step(_six_photos(q, model), mask=mask)
     iso = unwrap_fringe_order(res, resolve_ambiguity(res), anchor_order=0.3)
     cnt = count_fringe_order(res, anchor_order=0.3)
     ok = cnt.reliable & mask
@@ -128,7 +109,7 @@ def test_zero_load_reference_removes_residual_birefringence(tmp_path):
     from optics import intensity, residual_birefringence, write_image
     from optics.jones import qmul
 
-    order, q, mask = _camera_size_field(200, 300)
+    order, q, mask = indent_field(200, 300)
     res_model = PhotoModel(residual_rms_rad=0.3, seed=7)
     qr = residual_birefringence(order.shape, res_model)
     steps = six_step_arrangements()

@@ -34,7 +34,6 @@ __all__ = [
     "fit_envelope",
     "flat_field_envelope",
     "smooth_surface",
-    "two_sided",
 ]
 
 
@@ -181,20 +180,14 @@ def _centre_samples(image, labels, is_bright, selected):
     return {k: tuple(np.concatenate(x) if x else np.zeros(0) for x in v) for k, v in out.items()}
 
 
-def two_sided(labels, is_bright, pairs) -> np.ndarray:
-    """Bands that touch at least two others (bool per label): without an order, the
-    bands that may hold a whole fringe centre."""
-    return np.bincount(pairs.ravel(), minlength=len(is_bright)) >= 2
-
-
-def fit_envelope(image: np.ndarray, mask: np.ndarray, *, passes: int = 2, select=two_sided):
+def fit_envelope(image: np.ndarray, mask: np.ndarray, *, select, passes: int = 2):
     """The fringe envelope of a dark-field-like image (see module doc).
 
     Bands come from a first normalisation between the 1st and 99th percentiles;
     ``select(labels, is_bright, pairs)`` says which bands hold a whole fringe centre
-    (by default :func:`two_sided`; :func:`analysis.mono_order` passes the bands its count
-    puts between a lower and a higher neighbour - a far-field band touching a few
-    vignetted blobs is two-sided but holds no centre), and their most extreme pixels
+    (:func:`analysis.mono_order` passes the bands its count puts between a lower and a
+    higher neighbour; merely touching two others is not enough - a far-field band
+    touching a few vignetted blobs does and holds no centre), and their most extreme pixels
     sample the envelope. With samples from at least three bands of a kind the surface is the
     illumination model, else constant; with none of a kind the percentile stays.
     """
@@ -227,8 +220,9 @@ def fit_envelope(image: np.ndarray, mask: np.ndarray, *, passes: int = 2, select
     return env
 
 
-def flat_field_envelope(flat: np.ndarray, background: float | np.ndarray = 0.0) -> Envelope:
-    """Envelope from a flat-field image of the light (I_b + I_0 everywhere)."""
+def flat_field_envelope(flat: np.ndarray) -> Envelope:
+    """Envelope from a flat-field image of the light (I_0 everywhere; the background is
+    taken as the dark frame's, already subtracted)."""
     flat = np.asarray(flat, float)
-    low = np.broadcast_to(np.asarray(background, float), flat.shape).copy()
-    return Envelope(low, ndimage.gaussian_filter(flat, 2.0), "flat field", sampled=("low", "high"))
+    high = ndimage.gaussian_filter(flat, 2.0)
+    return Envelope(np.zeros_like(flat), high, "flat field", sampled=("low", "high"))

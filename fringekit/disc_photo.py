@@ -156,6 +156,9 @@ class _Problem:
         self.evaluations = 0
         self.rows, self.cols = disc_pixels(images[0].data.shape, geometry)
         self.values = [im.data[self.rows, self.cols] for im in images]
+        # the residual scales are properties of the sampled photographs: computed once
+        self.spreads = [_spread(v) for v in self.values]
+        self.stack_spread = _spread(np.concatenate(self.values))
         self.geometry = None
         self.at(geometry)
 
@@ -182,13 +185,13 @@ class _Problem:
             b = np.concatenate([v[sub] for v in self.values])
             N = g[None, :] * kappa[:, None] + offset[:, None]
             res, amp = _project(self.fringe(N), basis, b, vectors)
-            scale = _spread(b)
+            whole = isinstance(sub, slice) and sub == slice(None)
+            scale = self.stack_spread if whole else _spread(b)
             return [(res / scale if vectors else res / scale**2 / len(g), amp)]
         out = []
-        for P, b in zip(self.loads, self.values, strict=True):
+        for P, b, scale in zip(self.loads, self.values, self.spreads, strict=True):
             N = P * g[None, :] * kappa[:, None] + offset[:, None]
             res, amp = _project(self.fringe(N), basis, b[sub], vectors)
-            scale = _spread(b)
             out.append((res / scale if vectors else res / scale**2 / len(g), amp))
         return out
 
@@ -264,12 +267,12 @@ def _per_image(pb: _Problem, kappa: float, offset: float):
     centre = tuple(float(P * pb.g0 * kappa) for P in pb.loads)
     parts = pb.residuals(np.array([kappa]), np.array([offset]))
     if pb.shared:
-        (res, amp), b = parts[0], np.concatenate(pb.values)
-        scaled = res[0] * _spread(b) / max(float(amp[0]), 1e-6)
+        res, amp = parts[0]
+        scaled = res[0] * pb.stack_spread / max(float(amp[0]), 1e-6)
         resid = [float(np.sqrt(np.mean(r**2))) for r in np.split(scaled, len(pb.values))]
     else:
-        resid = [float(np.sqrt(np.mean(res[0] ** 2)) * _spread(b) / max(float(amp[0]), 1e-6))
-                 for (res, amp), b in zip(parts, pb.values, strict=True)]  # fmt: skip
+        resid = [float(np.sqrt(np.mean(res[0] ** 2)) * s / max(float(amp[0]), 1e-6))
+                 for (res, amp), s in zip(parts, pb.spreads, strict=True)]  # fmt: skip
     return centre, tuple(resid)
 
 

@@ -9,7 +9,6 @@ import numpy as np
 from analysis import (
     MIN_COLOUR_SPREAD,
     CalibrationTable,
-    border_anchor,
     colour_spread,
     count_fringe_order,
     load_image,
@@ -23,7 +22,7 @@ from analysis import (
 )
 from optics import PSM4_ASSUMED, Camera, colour_chart, light_source
 
-from .regions import order_at_anchor, region_mask
+from .regions import order_anchors, region_mask
 
 __all__ = ["MAX_FOLD_DISAGREEMENT", "analyse_phase", "analyse_rgb"]
 
@@ -71,18 +70,13 @@ def analyse_phase(paths, dark, mask_args, anchor_order, order_at=None, *,
                 "allowed: the same camera view"
             )
         res = subtract_reference(res, six_step(ref, mask=mask, min_modulation=min_modulation))
-    anchor, n = order_at_anchor(frames[0].shape, res.valid, order_at)
-    if anchor is None and not border_anchor(res.valid).any():
-        raise ValueError(
-            "no pixel with fringe data lies on the image border, where --anchor-order "
-            f"({anchor_order:g}) applies; give --order-at ROW COL N, a pixel of known order"
-        )
-    if n is None:
-        by_iso = unwrap_fringe_order(res, resolve_ambiguity(res), anchor_order=anchor_order)
-        by_count = count_fringe_order(res, anchor_order=anchor_order)
+    anchor, known = order_anchors(frames[0].shape, res.valid, order_at, anchor_order)
+    if np.ndim(known) == 0:  # the border ring at --anchor-order
+        by_iso = unwrap_fringe_order(res, resolve_ambiguity(res), anchor_mask=anchor,
+                                     anchor_order=known)  # fmt: skip
     else:  # the --order-at points: a map of known orders
-        by_iso = unwrap_fringe_order(res, resolve_ambiguity(res), reference_order=n)
-        by_count = count_fringe_order(res, anchor_mask=anchor, anchor_order=np.nan_to_num(n))
+        by_iso = unwrap_fringe_order(res, resolve_ambiguity(res), reference_order=known)
+    by_count = count_fringe_order(res, anchor_mask=anchor, anchor_order=np.nan_to_num(known))
     fo = by_count if fold == "count" else by_iso
     both = np.isfinite(by_iso.order) & np.isfinite(by_count.order)
     differ = (
@@ -96,7 +90,7 @@ def analyse_phase(paths, dark, mask_args, anchor_order, order_at=None, *,
     }
     part = {"phase": {"fold": fold, "reference": list(reference or []) or None,
                       "info": fo.info, "offset": fo.offset,
-                      "anchor_order": anchor_order if n is None else None,
+                      "anchor_order": anchor_order if np.ndim(known) == 0 else None,
                       "fold_disagreement_fraction": differ,
                       "order_at": [list(p) for p in order_at or []]}}  # fmt: skip
     if differ > MAX_FOLD_DISAGREEMENT:

@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis import border_anchor, grey_channel, load_image, mono_order
+from analysis import grey_channel, load_image, mono_order
 
-from .regions import order_at_anchor, region_mask
+from .regions import order_anchors, region_mask
 
 __all__ = ["POINTS_COLUMNS", "analyse_mono", "read_points", "write_points"]
 
@@ -39,17 +39,10 @@ def analyse_mono(paths, dark, mask_args, anchor_order, order_at, mono: dict):
                 f"{frame.shape}"
             )
         flat = grey_channel(flat_frame.data, mask)
-    anchor, n = order_at_anchor(frame.shape, mask, order_at)
-    if anchor is None:
-        anchor = border_anchor(mask)
-        if not anchor.any():
-            raise ValueError(
-                "no pixel of the region of interest lies on the image border, where "
-                f"--anchor-order ({anchor_order:g}) applies; give --order-at ROW COL N"
-            )
+    anchor, known = order_anchors(frame.shape, mask, order_at, anchor_order)
     res = mono_order(
         frame.data, mask=mask, field=mono.get("field", "dark"), anchor_mask=anchor,
-        anchor_order=anchor_order if n is None else np.nan_to_num(n), flat=flat,
+        anchor_order=np.nan_to_num(known), flat=flat,
         smooth_px=mono.get("smooth_px", 0.5),
     )  # fmt: skip
     maps = {
@@ -58,7 +51,7 @@ def analyse_mono(paths, dark, mask_args, anchor_order, order_at, mono: dict):
         "fringe_centres": res.centres,
     }
     part = {"mono": {"field": mono.get("field", "dark"), "flat": mono.get("flat"),
-                     "anchor_order": anchor_order if n is None else None,
+                     "anchor_order": anchor_order if not order_at else None,
                      "order_at": [list(p) for p in order_at or []], **res.info}}  # fmt: skip
     share = float(res.reliable[mask].mean())
     if res.info["ordered_bands"] == 0 or res.info["bands"] < 2:

@@ -6,7 +6,14 @@ import numpy as np
 
 from analysis import circle_mask, exclude_circle, polygon_mask
 
-__all__ = ["DISC_ROI_SHARE", "ORDER_AT_RADIUS_PX", "disc_region", "order_at_anchor", "region_mask"]
+__all__ = [
+    "DISC_ROI_SHARE",
+    "ORDER_AT_RADIUS_PX",
+    "disc_region",
+    "order_anchors",
+    "order_at_anchor",
+    "region_mask",
+]
 
 
 def region_mask(shape, roi_circle, exclude, roi_polygon=None, exclude_polygons=()) -> np.ndarray:
@@ -54,6 +61,26 @@ def order_at_anchor(shape, valid, order_at):
         anchor |= disc & valid
         orders[disc & valid] = n
     return anchor, orders
+
+
+def order_anchors(shape, valid, order_at, anchor_order: float):
+    """The anchors of the count or the unwrap: the ``--order-at`` points when given (mask,
+    orders map NaN off them), else the valid pixels on the image border at
+    ``--anchor-order`` (mask, that order); an error naming the options when there are
+    none."""
+    from analysis import border_anchor
+
+    anchor, orders = order_at_anchor(shape, valid, order_at)
+    if anchor is not None:
+        return anchor, orders
+    anchor = border_anchor(valid)
+    if not anchor.any():
+        raise ValueError(
+            "no pixel with fringe data in the region of interest lies on the image border, "
+            f"where --anchor-order ({anchor_order:g}) applies; give --order-at ROW COL N, a "
+            "pixel of known order"
+        )
+    return anchor, anchor_order
 
 
 #: Share of the found disc's radius kept as the region of interest (the rim's pixels mix

@@ -47,9 +47,8 @@ class Circle:
     support: float
 
 
-def _support(edges: np.ndarray, row: float, col: float, radius: float) -> float:
-    """Fraction of 360 angular bins with an edge pixel within 2 % of ``radius``."""
-    rr, cc = np.nonzero(edges)
+def _support(rr: np.ndarray, cc: np.ndarray, row: float, col: float, radius: float) -> float:
+    """Fraction of 360 angular bins with an edge pixel (rr, cc) within 2 % of ``radius``."""
     near = np.abs(np.hypot(rr - row, cc - col) - radius) <= max(0.02 * radius, 1.5)
     if not near.any():
         return 0.0
@@ -58,11 +57,11 @@ def _support(edges: np.ndarray, row: float, col: float, radius: float) -> float:
     return len(bins) / 360.0
 
 
-def _refine(edges: np.ndarray, guess: Circle) -> Circle:
-    """Least-squares circle through the edge pixels within 4 % of the guess's radius."""
+def _refine(rr: np.ndarray, cc: np.ndarray, guess: Circle) -> Circle:
+    """Least-squares circle through the edge pixels (rr, cc) within 4 % of the guess's
+    radius (support left to the caller)."""
     from skimage.measure import CircleModel
 
-    rr, cc = np.nonzero(edges)
     near = np.abs(np.hypot(rr - guess.row, cc - guess.col) - guess.radius) <= max(
         0.04 * guess.radius, 2.0
     )
@@ -74,7 +73,7 @@ def _refine(edges: np.ndarray, guess: Circle) -> Circle:
     (xc, yc), r = model.center, model.radius
     if not (abs(r / guess.radius - 1) < 0.1 and np.hypot(yc - guess.row, xc - guess.col) < 0.1 * r):
         return guess
-    return Circle(float(yc), float(xc), float(r), _support(edges, yc, xc, r))
+    return Circle(float(yc), float(xc), float(r), 0.0)
 
 
 def find_discs(
@@ -121,10 +120,11 @@ def find_discs(
     _, cx, cy, rad = hough_circle_peaks(acc, radii, **peaks)
     edges = canny(img, sigma=max(1.0, sigma / scale / 2), low_threshold=0.8,
                   high_threshold=0.9, use_quantiles=True)  # fmt: skip
+    rr, cc = np.nonzero(edges)
     candidates = []
     for x, y, r in zip(cx, cy, rad, strict=True):
-        c = _refine(edges, Circle(y / scale, x / scale, r / scale, 0.0))
-        c = Circle(c.row, c.col, c.radius, _support(edges, c.row, c.col, c.radius))
+        c = _refine(rr, cc, Circle(y / scale, x / scale, r / scale, 0.0))
+        c = Circle(c.row, c.col, c.radius, _support(rr, cc, c.row, c.col, c.radius))
         if c.support >= MIN_SUPPORT:
             candidates.append(c)
     # a closed fringe inside a disc is a circle too, and Hough finds circles through

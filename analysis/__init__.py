@@ -18,7 +18,7 @@ from .calibrate import (
 )
 from .circles import Circle, disc_by_symmetry, find_disc, find_discs
 from .compare import Comparison, Profile, compare_maps, line_profile
-from .images import SIX_STEP_ORDER, Frame, load_image, load_six_step, normalise
+from .images import SIX_STEP_ORDER, Frame, load_image, load_six_step, noise_sd, normalise
 from .masks import check_mask, circle_mask, exclude_circle, polygon_mask
 from .mono import MonoResult, grey_channel, mono_order
 from .phase import (
@@ -75,6 +75,7 @@ __all__ = [
     "line_profile",
     "load_image",
     "load_six_step",
+    "noise_sd",
     "normalise",
     "polygon_mask",
     "principal_stress_difference",

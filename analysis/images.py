@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Frame", "load_image", "load_six_step", "normalise", "SIX_STEP_ORDER"]
+__all__ = ["Frame", "load_image", "load_six_step", "noise_sd", "normalise", "SIX_STEP_ORDER"]
 
 #: The arrangement of a six-step set (the table of ``docs/theory.md``, Ramesh 2000): image k is
 #: taken with quarter-wave plates (xi, eta) and analyser beta of row k, polariser at pi/2.
@@ -210,3 +210,21 @@ def load_six_step(images, *, dark=None) -> list[Frame]:
         data = f.data.mean(axis=2) if f.data.ndim == 3 else f.data
         out.append(Frame(data, f.saturated, f.bit_depth, f.source))
     return out
+
+
+def noise_sd(image: np.ndarray, mask: np.ndarray | None = None) -> float:
+    """Per-pixel noise sd of a grey image (rows, cols).
+
+    Immerkaer's operator (J. Immerkaer, "Fast noise variance estimation", Comput. Vis.
+    Image Underst. 64, 1996): the difference of two Laplacians cancels intensity varying
+    linearly or quadratically, and its response to white noise has sd 6 sigma; here
+    through the median absolute response, robust to fringe edges. ``mask`` (eroded by
+    one pixel) limits the pixels used.
+    """
+    from scipy import ndimage
+
+    kernel = np.array([[1.0, -2.0, 1.0], [-2.0, 4.0, -2.0], [1.0, -2.0, 1.0]])
+    resp = ndimage.convolve(np.asarray(image, float), kernel, mode="reflect")
+    if mask is not None:
+        resp = resp[ndimage.binary_erosion(mask)]
+    return 1.4826 * float(np.median(np.abs(resp))) / 6.0 if resp.size else 0.0

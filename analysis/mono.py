@@ -49,6 +49,7 @@ import numpy as np
 from scipy import ndimage
 
 from .envelope import Envelope, band_labels, band_neighbours, fit_envelope, flat_field_envelope
+from .images import noise_sd
 from .masks import check_mask
 
 __all__ = ["CAP_AMBIGUOUS", "MonoResult", "mono_order", "grey_channel"]
@@ -245,17 +246,9 @@ def _sides(u, d, labels, nominal, anchor_mask, start):
 
 
 def _noise_sd(image: np.ndarray, mask: np.ndarray, smooth_px: float) -> float:
-    """Per-pixel noise of the smoothed image.
-
-    The image's noise by Immerkaer's operator (J. Immerkaer, "Fast noise variance
-    estimation", Comput. Vis. Image Underst. 64, 1996): the difference of two Laplacians
-    cancels intensity varying linearly or quadratically, and its response to white noise
-    has sd 6 sigma; here through the median absolute response, robust to fringe edges.
-    Times the Gaussian filter's noise gain 1 / (2 sqrt(pi) sigma)."""
-    kernel = np.array([[1.0, -2.0, 1.0], [-2.0, 4.0, -2.0], [1.0, -2.0, 1.0]])
-    resp = ndimage.convolve(image, kernel, mode="reflect")[ndimage.binary_erosion(mask)]
-    raw = 1.4826 * float(np.median(np.abs(resp))) / 6.0 if resp.size else 0.0
-    return raw / max(2 * np.sqrt(np.pi) * smooth_px, 1.0)
+    """Per-pixel noise of the smoothed image: :func:`analysis.images.noise_sd` times the
+    Gaussian filter's noise gain 1 / (2 sqrt(pi) sigma)."""
+    return noise_sd(image, mask) / max(2 * np.sqrt(np.pi) * smooth_px, 1.0)
 
 
 def _order_sd(u, sd_u):

@@ -37,6 +37,7 @@ import shutil
 import time
 from pathlib import Path
 
+from .cluster import run_tasks
 from .config import ConfigError, apply_overrides, load_config, tomllib
 from .figures import sweep_plots
 
@@ -157,16 +158,7 @@ def run_sweep(
     echo=print,
 ) -> dict:
     """Run the sweep's unfinished cases on Dask, then rebuild the table and plots."""
-    import logging
-
-    from dask.distributed import Client, LocalCluster, as_completed
-    from tqdm.auto import tqdm
-
     from meshes import default_cache_dir
-
-    # importing distributed sets its logger to INFO (Dask's config): the cluster's
-    # chatter (scheduler, nanny, connections) is not the sweep's progress
-    logging.getLogger("distributed").setLevel(logging.WARNING)
 
     out = Path(out)
     (out / "cases").mkdir(parents=True, exist_ok=True)
@@ -176,33 +168,16 @@ def run_sweep(
     say = echo if progress else (lambda s: None)
     say(f"sweep {sweep['name']}: {len(sweep['cases'])} cases, {done_before} already finished")
     t0 = time.perf_counter()
-    if todo:
-        if scheduler:
-            client = Client(scheduler)
-            cluster = None
-        else:
-            n = workers or max(1, min(len(todo), os.cpu_count() or 1))
-            cluster = LocalCluster(
-                n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None
-            )
-            client = Client(cluster)
-        try:
-            futures = [
-                client.submit(
-                    _run_case, c, str(out.resolve()), cache, key=f"case-{c['id']}", pure=False
-                )  # fmt: skip
-                for c in todo
-            ]
-            with tqdm(total=len(futures), desc="cases", unit="case", disable=not progress) as bar:
-                for fut in as_completed(futures):
-                    res = fut.result()
-                    bar.update(1)
-                    if res["status"] != "ok":
-                        say(f"case {res['id']} failed: {res.get('error')}")
-        finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
+
+    def report(res: dict) -> None:
+        if res["status"] != "ok":
+            say(f"case {res['id']} failed: {res.get('error')}")
+
+    run_tasks(
+        _run_case, todo, [f"case-{c['id']}" for c in todo], str(out.resolve()), cache,
+        scheduler=scheduler, workers=workers, progress=progress, desc="cases", unit="case",
+        on_result=report,
+    )  # fmt: skip
     table = collect_results(sweep, out)
     return {
         "cases": len(sweep["cases"]),

@@ -11,7 +11,7 @@ from .camera import (
 )
 from .fem import FEMStressField
 from .fields import Boussinesq, DiametralDisc, StressField, TwistedStress, UniformStress
-from .grid import PixelGrid, RaySamples, sample_rays
+from .grid import PixelGrid, RaySamples, sample_points, sample_rays
 from .jones import characteristic, integrate_path, retarder, rotator, secondary_principal
 from .opticalmap import OpticalMap, integrate_layers, integrate_samples, optical_map
 from .photo import PhotoModel, indent_field, photograph, residual_birefringence
@@ -39,6 +39,7 @@ __all__ = [
     "PhotoModel",
     "PixelGrid",
     "RaySamples",
+    "sample_points",
     "sample_rays",
     "Spectrum",
     "StressField",

@@ -19,7 +19,7 @@ import numpy as np
 
 from .jones import principal_from_components
 
-__all__ = ["PixelGrid", "RaySamples", "sample_rays"]
+__all__ = ["PixelGrid", "RaySamples", "sample_points", "sample_rays"]
 
 
 @dataclass(frozen=True)
@@ -253,6 +253,42 @@ def _lattice_ab(field, xy, want, step, pixel, s, chunk, progress, rtol):
         left &= ~f
         step *= 0.5
     return a, b, filled
+
+
+def sample_points(
+    field, xy, n_samples: int, *, chunk: int = 1 << 20
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The stress combinations along vertical rays at arbitrary points (not a pixel grid).
+
+    Parameters
+    ----------
+    field : StressField
+    xy : (n, 2) ray positions (m)
+    n_samples : int
+        Slabs of equal thickness per ray (midpoint rule, as :func:`sample_rays`).
+
+    Returns
+    -------
+    a, b : (n, S) Pa
+        sigma_xx - sigma_yy and 2 sigma_xy at the slab midpoints (zero on invalid rays).
+    dz : (n,) m
+        Slab thickness (zero on invalid rays).
+    valid : (n,) bool
+        Rays that cross the layer (outside the contact zones).
+    """
+    if int(n_samples) < 1:
+        raise ValueError(f"n_samples = {n_samples!r} is not allowed; need >= 1")
+    xy = np.asarray(xy, float).reshape(-1, 2)
+    S = int(n_samples)
+    z0, z1, ok = field.z_range(xy)
+    ok = np.asarray(ok, bool)
+    s = (np.arange(S) + 0.5) / S
+    a = np.zeros((len(xy), S))
+    b = np.zeros((len(xy), S))
+    d = np.flatnonzero(ok)
+    if d.size:
+        a[d], b[d] = _sample_ab(field, xy[d], z0[d], z1[d], s, chunk, False, "rays")
+    return a, b, np.where(ok, (z1 - z0) / S, 0.0), ok
 
 
 def sample_rays(

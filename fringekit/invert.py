@@ -1,0 +1,282 @@
+"""From one image to every indenter's position and load vector, by fitting the library.
+
+1. **Detection.** Fringes crowd about each indenter: the local energy of the image
+   gradient, smoothed over about a millimetre, peaks there (a no-data contact disc, as in
+   a ``predict`` image, counts as the strongest energy of its rim). Peaks above a noise
+   floor (``DETECT_SNR`` times the gradient energy of the image noise, estimated by
+   Immerkaer's estimator) and above ``DETECT_REL`` of the strongest peak are
+   candidates; none means no indenter.
+2. **Start.** Each candidate's normal load (and diameter, when the library holds several)
+   is the library load whose single-indenter image fits best within ``WINDOW_MM`` of it;
+   tangential load zero.
+3. **Joint fit.** All indenters' x, y, Fz, Fx, Fy by nonlinear least squares of the
+   synthesised image against the measured one (scipy's trust-region reflective method,
+   soft-L1 robust loss at 3 noise sd, exposure/gain/offset by variable projection), first
+   on every 4th pixel, then on every 2nd.
+4. **Model selection.** An indenter whose fitted Fz is not significant (below 3 sd or
+   ``MIN_LOAD_FRACTION`` of the library's first load) is dropped; a residual peak that
+   passes the detection test away from the others adds one; then the fit is repeated.
+5. **Uncertainty and refusal.** 1-sigma from the Jacobian at the solution scaled by the
+   residual variance (pixels are treated as independent, so spatially correlated model
+   error makes these optimistic); a load at the edge of the library's range, or a
+   residual above ``MAX_RESIDUAL`` of the fringe amplitude, is refused rather than
+   returned.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .config import ConfigError
+from .invert_model import N_PARAMS, ImageModel, unpack
+
+__all__ = ["DETECT_REL", "DETECT_SNR", "InvertError", "InvertResult", "detect", "invert_image"]
+
+DETECT_SNR = 30.0
+DETECT_REL = 0.04
+WINDOW_MM = 3.0
+MIN_LOAD_FRACTION = 0.5
+MAX_RESIDUAL = 0.2
+#: Candidates closer than this (mm) are one.
+MIN_SEPARATION_MM = 2.0
+
+
+class InvertError(ConfigError):
+    """An image the library cannot explain (exit 2, one line)."""
+
+
+@dataclass(frozen=True)
+class InvertResult:
+    """Fitted indenters: params (n, 5) x, y (mm), Fz, Fx, Fy (N); sd (n, 5); diameters
+    (n,) (m); residual_rms (n,) near each indenter, in fringe amplitudes; gains and
+    offsets per channel; noise sd; iterations; warnings."""
+
+    params: np.ndarray
+    sd: np.ndarray
+    diameters: np.ndarray
+    residual_rms: np.ndarray
+    gains: np.ndarray
+    offsets: np.ndarray
+    noise: float
+    iterations: int
+    residual: float
+    warnings: list = field(default_factory=list)
+    times_s: dict = field(default_factory=dict)
+
+
+def _subsample(model: ImageModel, k: int) -> ImageModel:
+    """Every k-th pixel in both directions (pixel centres kept where they were)."""
+    rows, cols = model.grid.shape
+    r = np.arange(0, rows, k)
+    c = np.arange(0, cols, k)
+    rr, cc = np.meshgrid(r, c, indexing="ij")
+    x, y = model.grid.pixel_to_xy(rr, cc)
+    from optics import PixelGrid
+
+    centre = (float(x.mean()), float(y.mean()))
+    grid = PixelGrid((len(r), len(c)), model.grid.pixel_size * k, centre)
+    pick = (rr * cols + cc).ravel()
+    return replace(model, grid=grid, measured=model.measured[pick], usable=model.usable[pick])
+
+
+def _energy(model: ImageModel, smooth_px: float) -> np.ndarray:
+    """Smoothed gradient energy (rows, cols) of the measured image, no-data discs filled
+    with their rim's energy."""
+    from scipy import ndimage
+
+    rows, cols = model.grid.shape
+    img = model.measured.reshape(rows, cols, -1)
+    use = model.usable.reshape(rows, cols)
+    e = np.zeros((rows, cols))
+    for c in range(img.shape[-1]):  # channels (1, 3 or 6)
+        gy, gx = np.gradient(img[..., c])
+        e += gx**2 + gy**2
+    good = ndimage.binary_erosion(use, iterations=2)
+    e = np.where(good, e, 0.0)
+    holes = ~use
+    if holes.any():
+        rim = ndimage.grey_dilation(e, size=5)
+        lab, n = ndimage.label(holes)
+        top = ndimage.maximum(rim, lab, np.arange(1, n + 1)) if n else []
+        e = np.where(holes, np.concatenate([[0.0], top])[lab], e)
+    w = ndimage.gaussian_filter(np.where(good | holes, 1.0, 0.0), smooth_px)
+    return ndimage.gaussian_filter(e, smooth_px) / np.maximum(w, 1e-6)
+
+
+def noise_sd(model: ImageModel) -> float:
+    """Noise sd of the measured image (Immerkaer's estimator, the channels' median), at
+    least the quantisation noise of 8 bits."""
+    from analysis import noise_sd as image_noise
+
+    rows, cols = model.grid.shape
+    img = model.measured.reshape(rows, cols, -1)
+    use = model.usable.reshape(rows, cols)
+    sig = [image_noise(img[..., c], use) for c in range(img.shape[-1])]
+    return float(max(np.median(sig), 1.0 / (255 * np.sqrt(12))))
+
+
+def detect(model: ImageModel, noise: float, exclude=()) -> np.ndarray:
+    """Candidate indenter positions (k, 2) (mm), strongest first; ``exclude`` (m, 2) mm
+    positions already taken (candidates within MIN_SEPARATION_MM of them are dropped)."""
+    from skimage.feature import peak_local_max
+
+    px = model.grid.pixel_size * 1e3
+    e = _energy(model, smooth_px=0.6 / px)
+    floor = DETECT_SNR * noise**2 * model.measured.shape[1]
+    peaks = peak_local_max(e, min_distance=max(1, int(MIN_SEPARATION_MM / px)),
+                           threshold_abs=floor, threshold_rel=DETECT_REL, exclude_border=False)  # fmt: skip
+    x, y = model.grid.pixel_to_xy(peaks[:, 0], peaks[:, 1])
+    pos = np.column_stack([x, y]) * 1e3
+    if len(exclude) and len(pos):
+        d = np.hypot(*(pos[:, None, :] - np.asarray(exclude)[None]).transpose(2, 0, 1))
+        pos = pos[d.min(axis=1) > MIN_SEPARATION_MM]
+    return pos
+
+
+def _start(model: ImageModel, pos_mm: np.ndarray):
+    """Starting parameters and diameters for candidates: the best library load (and
+    diameter) per candidate within WINDOW_MM of it."""
+    lib = model.lib
+    xy = model.grid.xy() * 1e3
+    p, diam = [], []
+    for x, y in pos_mm:  # candidates (a handful)
+        near = model.usable & (np.hypot(xy[:, 0] - x, xy[:, 1] - y) < WINDOW_MM)
+        best = (np.inf, None, None)
+        for d in lib.diameters_mm:
+            for f in lib.load_N[1:]:
+                cand = np.array([x, y, f, 0.0, 0.0])
+                r = model.residual(cand, [d * 1e-3]).reshape(len(xy), -1)[near]
+                cost = float(np.sum(r**2))
+                if cost < best[0]:
+                    best = (cost, cand, d * 1e-3)
+        p.append(best[1])
+        diam.append(best[2])
+    return (np.concatenate(p) if p else np.zeros(0)), diam
+
+
+def _bounds(model: ImageModel, n: int):
+    lib = model.lib
+    xy = model.grid.xy() * 1e3
+    lo_xy, hi_xy = xy.min(axis=0) - 1.0, xy.max(axis=0) + 1.0
+    t = lib.max_ratio * lib.max_load_N
+    lo = np.tile([lo_xy[0], lo_xy[1], 0.0, -t, -t], n)
+    hi = np.tile([hi_xy[0], hi_xy[1], lib.max_load_N, t, t], n)
+    return lo, hi
+
+
+def _fit(model: ImageModel, p0: np.ndarray, diam, noise: float):
+    """One joint least-squares fit; returns scipy's result."""
+    from scipy.optimize import least_squares
+
+    lo, hi = _bounds(model, len(diam))
+    p0 = np.clip(p0, lo + 1e-9, hi - 1e-9)
+    return least_squares(
+        model.residual, p0, args=(diam,), bounds=(lo, hi), loss="soft_l1",
+        f_scale=3.0 * noise, diff_step=1e-3, x_scale="jac", max_nfev=60,
+    )  # fmt: skip
+
+
+def _uncertainty(model: ImageModel, res, n_used: int) -> np.ndarray:
+    """1-sigma of the parameters from the Jacobian and the residual variance."""
+    J = res.jac
+    dof = max(n_used - J.shape[1], 1)
+    s2 = float(np.sum(res.fun**2)) / dof
+    try:
+        cov = np.linalg.pinv(J.T @ J) * s2
+    except np.linalg.LinAlgError:
+        return np.full(J.shape[1], np.nan)
+    return np.sqrt(np.clip(np.diag(cov), 0.0, None))
+
+
+def _prune(p: np.ndarray, sd: np.ndarray, diam: list, lib) -> tuple[np.ndarray, list]:
+    q = p.reshape(-1, N_PARAMS)
+    s = sd.reshape(-1, N_PARAMS)
+    keep = (q[:, 2] >= MIN_LOAD_FRACTION * lib.load_N[1]) & (q[:, 2] > 3 * s[:, 2])
+    return q[keep].ravel(), [d for d, k in zip(diam, keep, strict=True) if k]
+
+
+def _fit_all(model, fine, p, diam, noise, its):
+    """Fit on every 4th pixel, then every 2nd; returns (p, result, iterations)."""
+    res = None
+    for m in (model, fine):
+        if not diam:
+            return p, None, its
+        res = _fit(m, p, diam, noise)
+        p, its = res.x, its + res.nfev
+    return p, res, its
+
+
+def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
+    """Detect and fit every indenter of ``model``'s measured image (full resolution)."""
+    t0 = time.perf_counter()
+    noise = noise_sd(model)
+    coarse, fine = _subsample(model, 4), _subsample(model, 2)
+    pos = detect(fine, noise)
+    t_detect = time.perf_counter() - t0
+    p, diam = _start(coarse, pos)
+    its, res = 0, None
+    for _ in range(max_rounds):  # model selection rounds (at most a few)
+        p, res, its = _fit_all(coarse, fine, p, diam, noise, its)
+        if res is None:
+            break
+        used = int(np.count_nonzero(res.fun))
+        sd = _uncertainty(fine, res, used)
+        p2, diam2 = _prune(p, sd, diam, model.lib)
+        fitted = unpack(p2, diam2)
+        model_img, outside = fine.linear(fitted)
+        fitted_img, _, _ = fine.project(model_img, fine.usable & outside)
+        resid = replace(fine, measured=np.where(outside[:, None], fine.measured - fitted_img, 0.0))
+        taken = p2.reshape(-1, N_PARAMS)[:, :2]
+        new = detect(resid, noise, exclude=taken)
+        if len(diam2) == len(diam) and not len(new):
+            break
+        pn, dn = _start(coarse, new)
+        p, diam = np.concatenate([p2, pn]), diam2 + dn
+    return _finish(model, fine, p, diam, res, noise, its, t0, t_detect)
+
+
+def _finish(model, fine, p, diam, res, noise, its, t0, t_detect) -> InvertResult:
+    lib = model.lib
+    n = len(diam)
+    if n == 0:
+        return InvertResult(np.zeros((0, N_PARAMS)), np.zeros((0, N_PARAMS)), np.zeros(0),
+                            np.zeros(0), np.zeros(0), np.zeros(0), noise, its, 0.0,
+                            times_s={"detect_s": t_detect, "total_s": time.perf_counter() - t0})  # fmt: skip
+    used = int(np.count_nonzero(res.fun))
+    sd = _uncertainty(fine, res, used).reshape(n, N_PARAMS)
+    q = p.reshape(n, N_PARAMS)
+    model_img, outside = fine.linear(unpack(p, diam))
+    use = fine.usable & outside
+    fitted, gains, offs = fine.project(model_img, use)
+    r = np.where(use[:, None], fine.measured - fitted, np.nan)
+    amp = float(np.mean(np.abs(gains)))
+    xy = fine.grid.xy() * 1e3
+    near = [np.hypot(xy[:, 0] - v[0], xy[:, 1] - v[1]) < WINDOW_MM for v in q]
+    rms = np.array([np.sqrt(np.nanmean(r[m] ** 2)) / amp for m in near])
+    total = float(np.sqrt(np.nanmean(r**2)) / amp)
+    _refuse(q, lib, total)
+    return InvertResult(q, sd, np.array(diam), rms, gains, offs, noise, its, total,
+                        times_s={"detect_s": t_detect, "total_s": time.perf_counter() - t0})  # fmt: skip
+
+
+def _refuse(q: np.ndarray, lib, total: float) -> None:
+    """An image the library cannot explain is refused, not returned."""
+    for i, v in enumerate(q):
+        if v[2] >= 0.995 * lib.max_load_N:
+            raise InvertError(
+                f"indenter {i + 1} at ({v[0]:.2f}, {v[1]:.2f}) mm needs a normal load at or "
+                f"beyond the library's largest, {lib.max_load_N:g} N; build a library with "
+                "larger --load-N")  # fmt: skip
+        ratio = np.hypot(v[3], v[4]) / max(v[2], 1e-12)
+        if ratio > lib.max_ratio + 0.01:
+            raise InvertError(
+                f"indenter {i + 1} at ({v[0]:.2f}, {v[1]:.2f}) mm needs a tangential load of "
+                f"{ratio:.2f} of its normal load, beyond the library's {lib.max_ratio:g}")  # fmt: skip
+    if total > MAX_RESIDUAL:
+        raise InvertError(
+            f"the library cannot explain this image: the fit leaves a residual of {total:.2f} "
+            f"of the fringe amplitude (at most {MAX_RESIDUAL} is accepted); check the sensor, "
+            "the pixel size, the origin and the method")  # fmt: skip

@@ -1,0 +1,233 @@
+"""``fringekit library build``: a sensor's response library from FEM solves, on Dask.
+
+For each indenter diameter and each normal load of the grid, one continuation solve of
+the sensor with a single indenter at the centre of its sheet, full stick: the normal
+load first, then the tangential load along +x at that normal load through the ratios of
+the grid (the seed paper's protocol). The half model about y = 0 holds that loading.
+Every converged state is sampled on the polar ray lattice (:mod:`fringekit.lattice`).
+
+A branch is one task: it writes ``branches/<id>.npz`` atomically, so a killed build
+resumes where it stopped (branches whose settings match are not solved again). When all
+branches exist the field files and ``manifest.json`` (written last) are assembled; a
+folder without ``manifest.json`` is not a library.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .cluster import run_tasks
+from .config import ConfigError, to_toml
+from .lattice import default_lattice, sample_lattice
+from .library import FORMAT, field_file, sensor_key, sha256
+from .versions import run_versions
+
+__all__ = [
+    "DEFAULT_LOADS_N",
+    "DEFAULT_RATIOS",
+    "branch_config",
+    "build_library",
+    "library_lattice",
+]
+
+#: Normal loads of the default grid (N): steps of about 1.4x, 0.25-12 N.
+DEFAULT_LOADS_N = (0.25, 0.35, 0.5, 0.7, 1.0, 1.4, 2.0, 2.8, 4.0, 5.0, 6.3, 8.0, 10.0, 12.0)
+#: Tangential / normal load ratios of the default grid (full stick).
+DEFAULT_RATIOS = (0.0, 0.2, 0.4, 0.6, 0.8)
+
+
+def library_lattice(cfg: dict, n_slabs: int = 16):
+    """The lattice for a config's sheet: out to 12 mm or 0.4 of the sheet's smaller side,
+    0.1 mm radial steps out to twice the refined-zone radius, then growing by 8 % per
+    node; 5 deg in angle."""
+    sh = cfg["sheet"]
+    r_max = min(12e-3, 0.4e-3 * min(sh["width_mm"], sh["length_mm"]))
+    fine = min(2e-3 * cfg["mesh"]["refine_radius_mm"], 0.6 * r_max)
+    return default_lattice(r_max, fine_step=0.1e-3, fine_radius=fine, n_slabs=n_slabs)
+
+
+def branch_config(cfg: dict, diameter_mm: float, load_n: float, ratios) -> dict:
+    """The config of one branch: one indenter at the origin, ``load_n`` then tangential
+    loads ``ratio * load_n`` along +x, full stick, half model."""
+    b = copy.deepcopy(cfg)
+    b["case"] = f"library-d{diameter_mm:g}-F{load_n:g}"
+    n = len(ratios)
+    b["indenter"] = [{
+        "x_mm": 0.0, "y_mm": 0.0, "diameter_mm": float(diameter_mm),
+        "load_N": [float(load_n)] * n, "depth_mm": None,
+        "shear_N": [[float(r * load_n), 0.0] for r in ratios],
+    }]  # fmt: skip
+    b["contact"]["friction"] = "stick"
+    b["mesh"]["symmetry"] = "half"
+    return b
+
+
+def _branch_id(diameter_mm: float, load_n: float) -> str:
+    return f"d{int(round(diameter_mm * 1000)):05d}_F{int(round(load_n * 1000)):06d}"
+
+
+def _solve_branch(task: dict, out: str, cache_dir: str | None) -> dict:
+    """Solve one branch and write ``branches/<id>.npz`` (runs on a worker)."""
+    from optics import FEMStressField
+
+    from .lattice import PolarLattice
+    from .pipeline import solve_config
+
+    lat = PolarLattice(np.array(task["r"]), np.array(task["phi"]), task["n_slabs"])
+    t0 = time.perf_counter()
+    _, sols, _, failure = solve_config(task["config"], cache_dir=cache_dir, progress=False)
+    if failure:
+        return {"id": task["id"], "error": failure}
+    AB, valid, a, centre, force = [], [], [], [], []
+    for sol in sols:
+        ab, v = sample_lattice(FEMStressField(sol), lat)
+        ind = sol.indenters[0]
+        AB.append(ab)
+        valid.append(v)
+        a.append(ind.contact_radius)
+        centre.append([ind.centre[0], ind.centre[1], ind.depth])
+        force.append([ind.force[0], ind.force[1], -ind.force[2]])
+    dest = Path(out) / "branches" / f"{task['id']}.npz"
+    part = dest.with_name(dest.name + ".part.npz")
+    np.savez(part, AB=np.array(AB), valid=np.array(valid), contact_radius_m=np.array(a),
+             centre_m=np.array(centre), force_N=np.array(force),
+             settings=json.dumps(task["settings"]))  # fmt: skip
+    os.replace(part, dest)
+    return {"id": task["id"], "error": None, "time_s": time.perf_counter() - t0}
+
+
+def _finished(path: Path, settings: dict) -> bool:
+    try:
+        with np.load(path) as z:
+            return json.loads(str(z["settings"])) == settings
+    except (OSError, ValueError, KeyError):
+        return False
+
+
+def _check_grid(loads, ratios, diameters) -> None:
+    loads, ratios = np.asarray(loads, float), np.asarray(ratios, float)
+    if len(loads) < 2 or np.any(loads <= 0) or np.any(np.diff(loads) <= 0):
+        raise ConfigError(f"--load-N = {list(loads)} is not allowed; give at least 2 "
+                          "increasing loads > 0 (N)")  # fmt: skip
+    if len(ratios) < 2 or ratios[0] != 0 or np.any(np.diff(ratios) <= 0) or ratios[-1] > 2:
+        raise ConfigError(f"--shear-ratio = {list(ratios)} is not allowed; give increasing "
+                          "ratios from 0, at least 2, at most 2")  # fmt: skip
+    if not diameters or any(not d > 0 for d in diameters):
+        raise ConfigError(f"--diameter-mm = {list(diameters)} is not allowed; give "
+                          "diameters > 0 (mm)")  # fmt: skip
+
+
+def build_library(
+    cfg: dict, out, *, diameters=None, loads=DEFAULT_LOADS_N, ratios=DEFAULT_RATIOS,
+    n_slabs: int = 16, scheduler=None, workers=None, cache_dir=None, progress=True, echo=print,
+) -> dict:  # fmt: skip
+    """Solve the unfinished branches, then assemble the library in ``out``; return the
+    manifest. ``diameters`` default to the config's indenters' diameters (mm)."""
+    from meshes import default_cache_dir
+
+    diameters = sorted({float(d["diameter_mm"]) for d in cfg["indenter"]} if diameters is None
+                       else {float(d) for d in diameters})  # fmt: skip
+    _check_grid(loads, ratios, diameters)
+    if cfg["optics"]["include_substrate"]:
+        raise ConfigError("optics.include_substrate = true is not supported by a library "
+                          "(it stores the sheet's stress only); set it to false")  # fmt: skip
+    out = Path(out)
+    lat = library_lattice(cfg, n_slabs)
+    key = sensor_key(cfg)
+    mesh = dict(cfg["mesh"], symmetry="half")
+    settings = {"sensor": key, "mesh": mesh, "solver": cfg["solver"], "ratios": list(ratios),
+                "lattice_r_mm": list(lat.r * 1e3), "n_slabs": n_slabs}  # fmt: skip
+    tasks = []
+    for d in diameters:
+        for f in loads:
+            tid = _branch_id(d, f)
+            tasks.append({"id": tid, "config": branch_config(cfg, d, f, ratios),
+                          "settings": dict(settings, diameter_mm=d, load_N=float(f)),
+                          "r": lat.r, "phi": lat.phi, "n_slabs": n_slabs})  # fmt: skip
+    (out / "branches").mkdir(parents=True, exist_ok=True)
+    (out / "manifest.json").unlink(missing_ok=True)  # not a library until assembled again
+    todo = [t for t in tasks
+            if not _finished(out / "branches" / f"{t['id']}.npz", t["settings"])]  # fmt: skip
+    say = echo if progress else (lambda s: None)
+    say(f"library: {len(tasks)} branches ({len(diameters)} diameter(s) x {len(loads)} loads, "
+        f"{len(ratios)} states each), {len(tasks) - len(todo)} already solved")  # fmt: skip
+    t0 = time.perf_counter()
+    failed = []
+
+    def report(res: dict) -> None:
+        if res["error"]:
+            failed.append(res)
+            say(f"library: branch {res['id']} failed: {res['error']}")
+
+    cache = str(cache_dir or default_cache_dir())
+    run_tasks(_solve_branch, todo, [f"branch-{t['id']}" for t in todo], str(out.resolve()),
+              cache, scheduler=scheduler, workers=workers, progress=progress,
+              desc="library branches", unit="branch", on_result=report)  # fmt: skip
+    if failed:
+        raise RuntimeError(f"library: {len(failed)} branch(es) failed ({failed[0]['id']}: "
+                           f"{failed[0]['error']}); the solved ones are kept, re-run to "
+                           "resume")  # fmt: skip
+    build_s = time.perf_counter() - t0
+    return _assemble(cfg, out, tasks, diameters, loads, ratios, lat, mesh, build_s)
+
+
+#: The stored field is tapered to zero over this outer fraction of the lattice radius
+#: (cos^2), so a synthesised image has no step where one indenter's lattice ends.
+TAPER = 0.25
+
+
+def condition_fields(AB: np.ndarray, lat) -> np.ndarray:
+    """What is stored from the sampled fields AB (nF, nS, R, F, S, 2).
+
+    - The normal-load states (ratio 0) are averaged over the angle, with sigma_rp = 0:
+      that loading is axisymmetric, and what the mesh leaves of the angle dependence
+      (up to 10-25 % of the ray integral on a coarse mesh) would make a tangential load
+      turned about the axis jump as its magnitude goes to zero.
+    - The outer TAPER of the lattice radius is tapered to zero (cos^2).
+    """
+    out = AB.astype(np.float64)
+    out[:, 0, ..., 0] = out[:, 0, ..., 0].mean(axis=2, keepdims=True)  # (nF, R, F, S): over F
+    out[:, 0, ..., 1] = 0.0
+    t = np.clip((lat.r - (1 - TAPER) * lat.r_max) / (TAPER * lat.r_max), 0.0, 1.0)
+    w = np.cos(0.5 * np.pi * t) ** 2
+    return (out * w[:, None, None, None]).astype(np.float32)
+
+
+def _assemble(cfg, out: Path, tasks, diameters, loads, ratios, lat, mesh, build_s) -> dict:
+    files = {}
+    for d in diameters:
+        parts = [np.load(out / "branches" / f"{t['id']}.npz") for t in tasks
+                 if t["settings"]["diameter_mm"] == d]  # fmt: skip
+        name = field_file(d)
+        arrays = {k: np.stack([p[k] for p in parts])
+                  for k in ("AB", "valid", "contact_radius_m", "centre_m", "force_N")}
+        arrays["AB"] = condition_fields(arrays["AB"], lat)
+        part = out / (name + ".part.npz")
+        np.savez(part, **arrays)
+        os.replace(part, out / name)
+        files[name] = {"diameter_mm": d, "sha256": sha256(out / name)}
+    (out / "config.toml").write_text(to_toml(cfg))
+    manifest = {
+        "format": FORMAT,
+        "sensor": sensor_key(cfg),
+        "grid": {"diameters_mm": diameters, "load_N": [float(v) for v in loads],
+                 "shear_ratio": [float(v) for v in ratios], "friction": "stick"},
+        "lattice": {"r_mm": [float(v) for v in lat.r * 1e3],
+                    "phi_deg": [float(v) for v in np.degrees(lat.phi)],
+                    "n_slabs": lat.n_slabs},
+        "mesh": mesh,
+        "solver": cfg["solver"],
+        "files": files,
+        "build_s": build_s,
+        "versions": run_versions(),
+    }  # fmt: skip
+    tmp = out / "manifest.json.part"
+    tmp.write_text(json.dumps(manifest, indent=1))
+    os.replace(tmp, out / "manifest.json")
+    return manifest

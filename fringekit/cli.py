@@ -14,6 +14,8 @@ The application layer's entry point. Subcommands:
 - ``calibrate [CONFIG]``: load-to-fringe relations over a load path, or ``--disc`` the
   fringe value from a disc; ``estimate MAPS --calibration FILE``: the load back.
 - ``sweep SWEEP.toml``: a grid or list of cases on Dask, resumable (fringekit.sweep).
+- ``library build [CONFIG]``: a sensor's response library (fringekit.library_build);
+  ``invert IMAGE... --library DIR``: every indenter's position and load (fringekit.invert).
 Exit status: 0 success, 2 a user error (bad config or input; one line, no traceback),
 1 a run that failed (the solver did not reach a load; what converged is written).
 """
@@ -24,6 +26,7 @@ import argparse
 import logging
 import sys
 
+from .cli_library import add_invert, add_library
 from .commands import (
     MESH_OPTIONS,
     cmd_analyze,
@@ -63,6 +66,9 @@ def _add_predict(sub) -> None:
         help="TOML config file or built-in case (reference, shear); default reference",
     )  # fmt: skip
     _run_options(pr)
+    pr.add_argument("--library", default=None,
+                    help="synthesise from a response library instead of solving (seconds; "
+                    "final load state only)")  # fmt: skip
     pr.set_defaults(func=cmd_predict)
 
 
@@ -285,7 +291,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"fringekit {fringekit_version()}")
     sub = p.add_subparsers(dest="command")
     for add in (_add_predict, _add_config, _add_analyze, _add_compare, _add_calibrate,
-                _add_estimate, _add_sweep, _add_mesh):  # fmt: skip
+                _add_estimate, _add_sweep, _add_mesh, add_library, add_invert):  # fmt: skip
         add(sub)
     return p
 

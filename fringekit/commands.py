@@ -112,6 +112,11 @@ def cmd_predict(args: argparse.Namespace) -> int:
     cfg = overrides(args.config, args.set or [])
     out = Path(args.out) if args.out else Path("fringekit-out") / cfg["case"]
     t0 = time.perf_counter()
+    if args.library:
+        from .library_predict import run_library_predict
+
+        run_library_predict(cfg, args.library, out, progress=not args.quiet)
+        return 0
     summary = run_predict(
         cfg, out, cache_dir=args.cache_dir, use_cache=not args.no_cache, progress=not args.quiet
     )

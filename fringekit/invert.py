@@ -37,11 +37,18 @@ __all__ = ["DETECT_REL", "DETECT_SNR", "InvertError", "InvertResult", "detect", 
 
 DETECT_SNR = 30.0
 DETECT_REL = 0.04
+#: Two peaks are two indenters when the energy between them dips by this fraction.
+DETECT_DIP = 0.05
 WINDOW_MM = 3.0
 MIN_LOAD_FRACTION = 0.5
 MAX_RESIDUAL = 0.2
 #: Candidates closer than this (mm) are one.
 MIN_SEPARATION_MM = 2.0
+#: The first stage fits only pixels this far (mm) from every indenter, where the order is
+#: low and the cost varies smoothly with the parameters; the second stage fits them all.
+FAR_MM = 2.0
+#: Loads tried per candidate for the start (log-spaced over the library's range).
+START_LOADS = 16
 
 
 class InvertError(ConfigError):
@@ -118,6 +125,28 @@ def noise_sd(model: ImageModel) -> float:
     return float(max(np.median(sig), 1.0 / (255 * np.sqrt(12))))
 
 
+def _separated(e: np.ndarray, peaks: np.ndarray, min_px: float) -> list[int]:
+    """Peaks (strongest first) kept when at least ``min_px`` from every kept one and the
+    energy dips by DETECT_DIP of the weaker peak on the straight line between them (one
+    indenter's ridge is not a second indenter)."""
+    kept: list[int] = []
+    t = np.linspace(0.0, 1.0, 64)[:, None]
+    for i, p in enumerate(peaks):
+        ok = True
+        for j in kept:
+            q = peaks[j]
+            if np.hypot(*(p - q)) < min_px:
+                ok = False
+                break
+            line = np.rint(p[None] * (1 - t) + q[None] * t).astype(int)
+            if e[line[:, 0], line[:, 1]].min() > (1 - DETECT_DIP) * e[p[0], p[1]]:
+                ok = False
+                break
+        if ok:
+            kept.append(i)
+    return kept
+
+
 def detect(model: ImageModel, noise: float, exclude=()) -> np.ndarray:
     """Candidate indenter positions (k, 2) (mm), strongest first; ``exclude`` (m, 2) mm
     positions already taken (candidates within MIN_SEPARATION_MM of them are dropped)."""
@@ -126,8 +155,10 @@ def detect(model: ImageModel, noise: float, exclude=()) -> np.ndarray:
     px = model.grid.pixel_size * 1e3
     e = _energy(model, smooth_px=0.6 / px)
     floor = DETECT_SNR * noise**2 * model.measured.shape[1]
-    peaks = peak_local_max(e, min_distance=max(1, int(MIN_SEPARATION_MM / px)),
-                           threshold_abs=floor, threshold_rel=DETECT_REL, exclude_border=False)  # fmt: skip
+    peaks = peak_local_max(e, min_distance=max(1, int(0.5 * MIN_SEPARATION_MM / px)),
+                           threshold_abs=floor, threshold_rel=DETECT_REL,
+                           exclude_border=False)  # fmt: skip
+    peaks = peaks[_separated(e, peaks, MIN_SEPARATION_MM / px)]
     x, y = model.grid.pixel_to_xy(peaks[:, 0], peaks[:, 1])
     pos = np.column_stack([x, y]) * 1e3
     if len(exclude) and len(pos):
@@ -137,18 +168,21 @@ def detect(model: ImageModel, noise: float, exclude=()) -> np.ndarray:
 
 
 def _start(model: ImageModel, pos_mm: np.ndarray):
-    """Starting parameters and diameters for candidates: the best library load (and
-    diameter) per candidate within WINDOW_MM of it."""
+    """Starting parameters and diameters for candidates: the load (and diameter) of
+    START_LOADS whose single-indenter image fits the far field (FAR_MM out to WINDOW_MM
+    + FAR_MM) of the candidate best."""
     lib = model.lib
+    far = replace(model, inner=FAR_MM * 1e-3)
     xy = model.grid.xy() * 1e3
+    loads = np.geomspace(0.5 * lib.load_N[1], lib.max_load_N, START_LOADS)
     p, diam = [], []
     for x, y in pos_mm:  # candidates (a handful)
-        near = model.usable & (np.hypot(xy[:, 0] - x, xy[:, 1] - y) < WINDOW_MM)
+        near = model.usable & (np.hypot(xy[:, 0] - x, xy[:, 1] - y) < WINDOW_MM + FAR_MM)
         best = (np.inf, None, None)
         for d in lib.diameters_mm:
-            for f in lib.load_N[1:]:
+            for f in loads:
                 cand = np.array([x, y, f, 0.0, 0.0])
-                r = model.residual(cand, [d * 1e-3]).reshape(len(xy), -1)[near]
+                r = far.residual(cand, [d * 1e-3]).reshape(len(xy), -1)[near]
                 cost = float(np.sum(r**2))
                 if cost < best[0]:
                     best = (cost, cand, d * 1e-3)
@@ -173,8 +207,9 @@ def _fit(model: ImageModel, p0: np.ndarray, diam, noise: float):
 
     lo, hi = _bounds(model, len(diam))
     p0 = np.clip(p0, lo + 1e-9, hi - 1e-9)
+    fixed = replace(model, keep=model.outside_contacts(unpack(p0, diam)))
     return least_squares(
-        model.residual, p0, args=(diam,), bounds=(lo, hi), loss="soft_l1",
+        fixed.residual, p0, args=(diam,), bounds=(lo, hi), loss="soft_l1",
         f_scale=3.0 * noise, diff_step=1e-3, x_scale="jac", max_nfev=60,
     )  # fmt: skip
 
@@ -199,9 +234,10 @@ def _prune(p: np.ndarray, sd: np.ndarray, diam: list, lib) -> tuple[np.ndarray, 
 
 
 def _fit_all(model, fine, p, diam, noise, its):
-    """Fit on every 4th pixel, then every 2nd; returns (p, result, iterations)."""
+    """Fit the far field on every 2nd pixel, then every pixel on every 2nd; returns (p,
+    result, iterations)."""
     res = None
-    for m in (model, fine):
+    for m in (replace(fine, inner=FAR_MM * 1e-3), fine):
         if not diam:
             return p, None, its
         res = _fit(m, p, diam, noise)
@@ -242,9 +278,18 @@ def _finish(model, fine, p, diam, res, noise, its, t0, t_detect) -> InvertResult
     lib = model.lib
     n = len(diam)
     if n == 0:
-        return InvertResult(np.zeros((0, N_PARAMS)), np.zeros((0, N_PARAMS)), np.zeros(0),
-                            np.zeros(0), np.zeros(0), np.zeros(0), noise, its, 0.0,
-                            times_s={"detect_s": t_detect, "total_s": time.perf_counter() - t0})  # fmt: skip
+        return InvertResult(
+            np.zeros((0, N_PARAMS)),
+            np.zeros((0, N_PARAMS)),
+            np.zeros(0),
+            np.zeros(0),
+            np.zeros(0),
+            np.zeros(0),
+            noise,
+            its,
+            0.0,
+            times_s={"detect_s": t_detect, "total_s": time.perf_counter() - t0},
+        )
     used = int(np.count_nonzero(res.fun))
     sd = _uncertainty(fine, res, used).reshape(n, N_PARAMS)
     q = p.reshape(n, N_PARAMS)
@@ -258,8 +303,18 @@ def _finish(model, fine, p, diam, res, noise, its, t0, t_detect) -> InvertResult
     rms = np.array([np.sqrt(np.nanmean(r[m] ** 2)) / amp for m in near])
     total = float(np.sqrt(np.nanmean(r**2)) / amp)
     _refuse(q, lib, total)
-    return InvertResult(q, sd, np.array(diam), rms, gains, offs, noise, its, total,
-                        times_s={"detect_s": t_detect, "total_s": time.perf_counter() - t0})  # fmt: skip
+    return InvertResult(
+        q,
+        sd,
+        np.array(diam),
+        rms,
+        gains,
+        offs,
+        noise,
+        its,
+        total,
+        times_s={"detect_s": t_detect, "total_s": time.perf_counter() - t0},
+    )
 
 
 def _refuse(q: np.ndarray, lib, total: float) -> None:
@@ -274,7 +329,8 @@ def _refuse(q: np.ndarray, lib, total: float) -> None:
         if ratio > lib.max_ratio + 0.01:
             raise InvertError(
                 f"indenter {i + 1} at ({v[0]:.2f}, {v[1]:.2f}) mm needs a tangential load of "
-                f"{ratio:.2f} of its normal load, beyond the library's {lib.max_ratio:g}")  # fmt: skip
+                f"{ratio:.2f} of its normal load, beyond the library's {lib.max_ratio:g}"
+            )
     if total > MAX_RESIDUAL:
         raise InvertError(
             f"the library cannot explain this image: the fit leaves a residual of {total:.2f} "

@@ -61,6 +61,10 @@ class ImageModel:
     law : optics.StressOpticLaw
     setup : dict — arrangements, wavelengths, spectrum, camera for the method
     groups : list of channel index lists sharing one gain and offset
+    inner : float — pixels within this distance (m) of an indenter axis are left out
+        (the far-field stage of the fit)
+    keep : (P,) bool or None — when set, the pixels fitted, held fixed (a mask that moved
+        with the parameters would let the fit lower its cost by leaving pixels out)
     """
 
     lib: Library
@@ -71,6 +75,8 @@ class ImageModel:
     law: object
     setup: dict
     groups: list
+    inner: float = 0.0
+    keep: np.ndarray | None = None
 
     @classmethod
     def build(cls, lib, grid, method, measured, usable, optics, *, light="LED",
@@ -86,8 +92,12 @@ class ImageModel:
             groups = [list(range(6))]
         else:
             lam = law.wavenumber_grid(white_light_wavelengths)
-            setup = {"arrangement": dark_field_circular(**optics.errors), "wavelengths": lam,
-                     "spectrum": light_source(light, lam), "camera": optics.camera}
+            setup = {
+                "arrangement": dark_field_circular(**optics.errors),
+                "wavelengths": lam,
+                "spectrum": light_source(light, lam),
+                "camera": optics.camera,
+            }
             groups = [[0], [1], [2]]
         return cls(lib, grid, method, measured, usable, law, setup, groups)
 
@@ -111,7 +121,7 @@ class ImageModel:
         for ind in indenters:
             f = self.lib.fields[self.lib.nearest_diameter(ind.diameter * 1e3)]
             a = float(np.interp(max(ind.fz, 0.0), self.lib.load_N, f["contact_radius_m"][:, 0]))
-            reach = CONTACT_MARGIN * a + self.grid.pixel_size
+            reach = max(CONTACT_MARGIN * a + self.grid.pixel_size, self.inner)
             keep &= np.hypot(xy[:, 0] - ind.x, xy[:, 1] - ind.y) > reach
         return keep
 
@@ -133,7 +143,7 @@ class ImageModel:
     def residual(self, p: np.ndarray, diameters) -> np.ndarray:
         """Residuals (P * C,) of the parameter vector; zero on pixels left out."""
         model, outside = self.linear(unpack(p, diameters))
-        use = self.usable & outside
+        use = self.usable & (outside if self.keep is None else self.keep)
         fitted, _, _ = self.project(model, use)
         res = self.measured - fitted
         res[~use] = 0.0

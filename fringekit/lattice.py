@@ -78,9 +78,7 @@ def default_lattice(
         step *= growth
         r.append(min(r[-1] + step, r_max))
     n_phi = int(round(180.0 / phi_step_deg)) + 1
-    return PolarLattice(
-        r=np.array(r), phi=np.linspace(0.0, np.pi, n_phi), n_slabs=int(n_slabs)
-    )
+    return PolarLattice(r=np.array(r), phi=np.linspace(0.0, np.pi, n_phi), n_slabs=int(n_slabs))
 
 
 def polar_to_cartesian(A, B, alpha):

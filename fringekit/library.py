@@ -36,6 +36,7 @@ __all__ = [
     "Library",
     "LibraryError",
     "LoadedIndenter",
+    "check_sensor",
     "field_file",
     "load_library",
     "sensor_key",
@@ -62,13 +63,13 @@ def sha256(path: Path) -> str:
 
 
 def sensor_key(cfg: dict) -> dict:
-    """What makes two configs the same sensor for a library: the sheet, the substrate,
-    the contact law and the sheet's stress-optic law (not the camera or the loads)."""
+    """What makes two configs the same sensor for a library: the sheet, the substrate and
+    the sheet's stress-optic law (not the camera, the loads or the friction: a library
+    holds full-stick solutions)."""
     o = cfg["optics"]
     return {
         "sheet": dict(cfg["sheet"]),
         "substrate": dict(cfg["substrate"]),
-        "friction": cfg["contact"]["friction"],
         "optics": {k: o[k] for k in ("f_sigma_N_per_m", "wavelength_nm", "dispersion",
                                      "dispersion_coefficient")},
     }  # fmt: skip
@@ -207,6 +208,22 @@ class Library:
         return ab, contact
 
 
+def check_sensor(lib, cfg: dict, where: str) -> None:
+    """A library built for another sensor is refused, naming the first key that differs."""
+    want, have = lib.manifest["sensor"], sensor_key(cfg)
+    for table in want:
+        a, b = want[table], have.get(table)
+        if isinstance(a, dict):
+            for k in a:
+                if b is None or b.get(k) != a[k]:
+                    raise LibraryError(
+                        f"--library {lib.folder}: built for {table}.{k} = {a[k]!r}, but the "
+                        f"image's sensor ({where}) has {b.get(k) if b else None!r}")  # fmt: skip
+        elif a != b:
+            raise LibraryError(f"--library {lib.folder}: built for {table} = {a!r}, but the "
+                               f"image's sensor ({where}) has {b!r}")  # fmt: skip
+
+
 def _bad(folder: Path, what: str) -> LibraryError:
     return LibraryError(f"--library {folder}: {what}")
 
@@ -246,9 +263,7 @@ def load_library(folder) -> Library:
             raise _bad(folder, f"{name} holds fields of shape {f['AB'].shape}, the manifest "
                        f"says {expect}")  # fmt: skip
         zero = {k: np.zeros_like(v[:1]) for k, v in f.items()}
-        fields[float(info["diameter_mm"])] = {
-            k: np.concatenate([zero[k], v]) for k, v in f.items()
-        }
+        fields[float(info["diameter_mm"])] = {k: np.concatenate([zero[k], v]) for k, v in f.items()}
     if not fields:
         raise _bad(folder, "manifest.json lists no field files")
     return Library(folder, manifest, lattice, np.concatenate([[0.0], loads]), ratios, fields)

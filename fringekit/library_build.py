@@ -170,7 +170,9 @@ def build_library(
               cache, scheduler=scheduler, workers=workers, progress=progress,
               desc="library branches", unit="branch", on_result=report)  # fmt: skip
     if failed:
-        raise RuntimeError(f"library: {len(failed)} branch(es) failed ({failed[0]['id']}: "
+        from .pipeline import PredictError
+
+        raise PredictError(f"library: {len(failed)} branch(es) failed ({failed[0]['id']}: "
                            f"{failed[0]['error']}); the solved ones are kept, re-run to "
                            "resume")  # fmt: skip
     build_s = time.perf_counter() - t0
@@ -205,8 +207,10 @@ def _assemble(cfg, out: Path, tasks, diameters, loads, ratios, lat, mesh, build_
         parts = [np.load(out / "branches" / f"{t['id']}.npz") for t in tasks
                  if t["settings"]["diameter_mm"] == d]  # fmt: skip
         name = field_file(d)
-        arrays = {k: np.stack([p[k] for p in parts])
-                  for k in ("AB", "valid", "contact_radius_m", "centre_m", "force_N")}
+        arrays = {
+            k: np.stack([p[k] for p in parts])
+            for k in ("AB", "valid", "contact_radius_m", "centre_m", "force_N")
+        }
         arrays["AB"] = condition_fields(arrays["AB"], lat)
         part = out / (name + ".part.npz")
         np.savez(part, **arrays)

@@ -28,7 +28,6 @@ import logging
 import os
 import shutil
 import time
-import uuid
 from collections.abc import Callable
 from pathlib import Path
 
@@ -39,6 +38,7 @@ from meshes import build_mesh, quality_report
 from .config import to_toml
 from .inputs import build_inputs
 from .numbers import significant
+from .outdir import swap_in, work_folder
 from .render import render_state
 from .versions import run_versions
 
@@ -171,9 +171,7 @@ def run_predict(
     """
     out = Path(out)
     inp = build_inputs(cfg)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    work = out.with_name(f".{out.name}.{os.getpid()}-{uuid.uuid4().hex[:8]}.part")
-    work.mkdir()
+    work = work_folder(out)
     try:
         summary = _run(cfg, inp, work, cache_dir, use_cache, progress, echo)
     except BaseException:
@@ -181,24 +179,13 @@ def run_predict(
         raise
     failed = summary["status"] != "ok"
     dest = out.with_name(f"{out.name}-{summary['status']}") if failed and out.exists() else out
-    _swap_in(work, dest)
+    swap_in(work, dest)
     if failed:
         raise (PredictInterrupted if summary["status"] == "interrupted" else PredictError)(
             f"{summary['error']}; the {len(summary['states'])} converged state(s) are written "
             f"to {dest}" + (f" (the earlier run in {out} is kept)" if dest != out else "")
         )
     return summary
-
-
-def _swap_in(work: Path, dest: Path) -> None:
-    """Replace ``dest`` by the finished run folder ``work`` (same parent: a rename)."""
-    old = None
-    if dest.exists():
-        old = dest.with_name(f".{dest.name}.old-{os.getpid()}")
-        os.replace(dest, old)
-    os.replace(work, dest)
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
 
 
 def _run(cfg, inp, out: Path, cache_dir, use_cache, progress, echo) -> dict:

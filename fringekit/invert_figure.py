@@ -1,0 +1,61 @@
+"""``fit.png`` of ``fringekit invert``: measured, fitted and residual images."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .invert_model import unpack
+
+__all__ = ["fit_figure"]
+
+
+def _shown(model, values: np.ndarray) -> np.ndarray:
+    """(rows, cols[, 3]) of (P, C) values: RGB as is, six steps as step 2 (dark field)."""
+    rows, cols = model.grid.shape
+    v = values.reshape(rows, cols, -1)
+    if model.method == "rgb":
+        return v
+    return v[..., 1] if model.method == "phase" else v[..., 0]
+
+
+def fit_figure(path, model, res) -> None:
+    """Three panels in sensor mm, indenters marked, tangential loads as arrows."""
+    from matplotlib.figure import Figure
+
+    lin, outside = model.linear(unpack(res.params.ravel(), list(res.diameters)))
+    use = model.usable & outside
+    fitted, _, _ = model.project(lin, use) if len(res.params) else (
+        np.full_like(model.measured, np.median(model.measured)), None, None)  # fmt: skip
+    resid = np.where(use[:, None], model.measured - fitted, np.nan)
+    rows, cols = model.grid.shape
+    x0, y0 = model.grid.pixel_to_xy(0, 0)
+    x1, y1 = model.grid.pixel_to_xy(rows - 1, cols - 1)
+    h = model.grid.pixel_size * 0.5
+    ext = np.array([x0 - h, x1 + h, y1 - h, y0 + h]) * 1e3
+    fig = Figure(figsize=(13, 4.6), dpi=100)
+    axes = fig.subplots(1, 3)
+    top = float(np.nanmax(model.measured)) or 1.0
+    panels = (("measured", model.measured / top), ("fitted (library)", fitted / top),
+              ("residual", resid / top))  # fmt: skip
+    scale = max(float(np.max(np.abs(res.params[:, 2]))) if len(res.params) else 1.0, 1e-9)
+    for ax, (title, v) in zip(axes, panels, strict=True):
+        img = _shown(model, v)
+        if title == "residual":
+            im = ax.imshow(img if img.ndim == 2 else np.nanmean(img, -1), extent=ext,
+                           cmap="coolwarm", vmin=-0.3, vmax=0.3)  # fmt: skip
+            fig.colorbar(im, ax=ax, fraction=0.046, label="of full scale")
+        else:
+            ax.imshow(np.clip(img, 0, 1), extent=ext, cmap="gray", vmin=0, vmax=1)
+        for v_ in res.params:
+            ax.plot(v_[0], v_[1], "+", color="yellow", ms=8)
+            ax.arrow(v_[0], v_[1], 3.0 * v_[3] / scale, 3.0 * v_[4] / scale, color="yellow",
+                     width=0.05, length_includes_head=True)  # fmt: skip
+        ax.set_title(title)
+        ax.set_xlabel("x (mm)")
+    axes[0].set_ylabel("y (mm)")
+    for i, v_ in enumerate(res.params):
+        axes[1].annotate(f"{i + 1}: Fz {v_[2]:.2f} N, Ft ({v_[3]:.2f}, {v_[4]:.2f}) N",
+                         (0.02, 0.96 - 0.06 * i), xycoords="axes fraction", color="yellow",
+                         fontsize=7, va="top")  # fmt: skip
+    fig.tight_layout()
+    fig.savefig(path)

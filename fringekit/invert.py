@@ -1,8 +1,8 @@
 """From one image to every indenter's position and load vector, by fitting the library.
 
-1. **Detection.** Fringes crowd about each indenter: the local energy of the image
-   gradient, smoothed over about a millimetre, peaks there (a no-data contact disc, as in
-   a ``predict`` image, counts as the strongest energy of its rim). Peaks above a noise
+1. **Detection.** A no-data disc (the contact zone ``predict`` marks) is an indenter.
+   Elsewhere, fringes crowd about each indenter: the local energy of the image
+   gradient, smoothed over about a millimetre, peaks there. Peaks above a noise
    floor (``DETECT_SNR`` times the gradient energy of the image noise, estimated by
    Immerkaer's estimator) and above ``DETECT_REL`` of the strongest peak are
    candidates; none means no indenter.
@@ -11,10 +11,13 @@
    tangential load zero.
 3. **Joint fit.** All indenters' x, y, Fz, Fx, Fy by nonlinear least squares of the
    synthesised image against the measured one (scipy's trust-region reflective method,
-   soft-L1 robust loss at 3 noise sd, exposure/gain/offset by variable projection), first
-   on every 4th pixel, then on every 2nd.
+   soft-L1 robust loss at 3 noise sd, exposure/gain/offset by variable projection) on
+   first the far field only (FAR_MM from every indenter, every 4th pixel: the order is
+   low and smooth there) with one equivalent retarder per ray, then every 2nd pixel with
+   the Jones integration within EXACT_MM of each indenter.
 4. **Model selection.** An indenter whose fitted Fz is not significant (below 3 sd or
-   ``MIN_LOAD_FRACTION`` of the library's first load) is dropped; a residual peak that
+   ``MIN_LOAD_FRACTION`` of the library's first load), or that sits closer to a stronger
+   one than two spheres can (a diameter), is dropped; a residual peak that
    passes the detection test away from the others adds one; then the fit is repeated.
 5. **Uncertainty and refusal.** 1-sigma from the Jacobian at the solution scaled by the
    residual variance (pixels are treated as independent, so spatially correlated model
@@ -47,6 +50,10 @@ MIN_SEPARATION_MM = 2.0
 #: The first stage fits only pixels this far (mm) from every indenter, where the order is
 #: low and the cost varies smoothly with the parameters; the second stage fits them all.
 FAR_MM = 2.0
+#: The full stage integrates rays within this distance (mm) of an indenter axis slab by
+#: slab (Jones) and the others as one equivalent retarder (0.0004 fringe RMS apart beyond
+#: two contact radii in the reference case; fringekit.synth).
+EXACT_MM = 2.5
 #: Loads tried per candidate for the start (log-spaced over the library's range).
 START_LOADS = 16
 
@@ -153,6 +160,9 @@ def detect(model: ImageModel, noise: float, exclude=()) -> np.ndarray:
     from skimage.feature import peak_local_max
 
     px = model.grid.pixel_size * 1e3
+    taken = np.reshape(np.asarray(exclude, float), (-1, 2))
+    discs = _far_from(_discs(model), taken)
+    taken = np.concatenate([taken, discs])
     e = _energy(model, smooth_px=0.6 / px)
     floor = DETECT_SNR * noise**2 * model.measured.shape[1]
     peaks = peak_local_max(e, min_distance=max(1, int(0.5 * MIN_SEPARATION_MM / px)),
@@ -161,10 +171,33 @@ def detect(model: ImageModel, noise: float, exclude=()) -> np.ndarray:
     peaks = peaks[_separated(e, peaks, MIN_SEPARATION_MM / px)]
     x, y = model.grid.pixel_to_xy(peaks[:, 0], peaks[:, 1])
     pos = np.column_stack([x, y]) * 1e3
-    if len(exclude) and len(pos):
-        d = np.hypot(*(pos[:, None, :] - np.asarray(exclude)[None]).transpose(2, 0, 1))
-        pos = pos[d.min(axis=1) > MIN_SEPARATION_MM]
-    return pos
+    return np.concatenate([discs, _far_from(pos, taken)])
+
+
+def _far_from(pos: np.ndarray, taken: np.ndarray) -> np.ndarray:
+    """The positions (k, 2) farther than MIN_SEPARATION_MM from every taken one (mm)."""
+    if not len(taken) or not len(pos):
+        return pos
+    d = np.hypot(*(pos[:, None, :] - taken[None]).transpose(2, 0, 1))
+    return pos[d.min(axis=1) > MIN_SEPARATION_MM]
+
+
+def _discs(model: ImageModel) -> np.ndarray:
+    """Centres (k, 2) (mm) of the no-data discs of the image (pixels at the no-data fill
+    level: where ``predict`` marks an indenter's contact), at least 12 pixels each."""
+    from scipy import ndimage
+
+    holes = (~model.usable).reshape(model.grid.shape)
+    lab, n = ndimage.label(holes)
+    if not n:
+        return np.zeros((0, 2))
+    idx = np.arange(1, n + 1)
+    big = idx[ndimage.sum(holes, lab, idx) >= 12]
+    if not len(big):
+        return np.zeros((0, 2))
+    rc = np.array(ndimage.center_of_mass(holes, lab, big))
+    x, y = model.grid.pixel_to_xy(rc[:, 0], rc[:, 1])
+    return np.column_stack([x, y]) * 1e3
 
 
 def _start(model: ImageModel, pos_mm: np.ndarray):
@@ -172,7 +205,7 @@ def _start(model: ImageModel, pos_mm: np.ndarray):
     START_LOADS whose single-indenter image fits the far field (FAR_MM out to WINDOW_MM
     + FAR_MM) of the candidate best."""
     lib = model.lib
-    far = replace(model, inner=FAR_MM * 1e-3)
+    far = replace(model, inner=FAR_MM * 1e-3, exact=False)
     xy = model.grid.xy() * 1e3
     loads = np.geomspace(0.5 * lib.load_N[1], lib.max_load_N, START_LOADS)
     p, diam = [], []
@@ -202,15 +235,18 @@ def _bounds(model: ImageModel, n: int):
 
 
 def _fit(model: ImageModel, p0: np.ndarray, diam, noise: float):
-    """One joint least-squares fit; returns scipy's result."""
+    """One joint least-squares fit; returns scipy's result. The cost is the sum of the
+    squared residuals in intensity; it stops when it changes by less than 1e-6 of itself
+    (the parameters then move by far less than their sd)."""
     from scipy.optimize import least_squares
 
     lo, hi = _bounds(model, len(diam))
     p0 = np.clip(p0, lo + 1e-9, hi - 1e-9)
     fixed = replace(model, keep=model.outside_contacts(unpack(p0, diam)))
     return least_squares(
-        fixed.residual, p0, args=(diam,), bounds=(lo, hi), loss="soft_l1",
-        f_scale=3.0 * noise, diff_step=1e-3, x_scale="jac", max_nfev=60,
+        fixed.residual, p0, jac=fixed.jacobian, args=(diam,), bounds=(lo, hi), loss="soft_l1",
+        f_scale=3.0 * noise, x_scale="jac", max_nfev=40, ftol=1e-6,
+        xtol=1e-6,
     )  # fmt: skip
 
 
@@ -227,17 +263,33 @@ def _uncertainty(model: ImageModel, res, n_used: int) -> np.ndarray:
 
 
 def _prune(p: np.ndarray, sd: np.ndarray, diam: list, lib) -> tuple[np.ndarray, list]:
+    """Drop indenters whose normal load is not significant, and the weaker of two whose
+    axes are closer than their spheres allow (centres at least a diameter apart)."""
     q = p.reshape(-1, N_PARAMS)
     s = sd.reshape(-1, N_PARAMS)
-    keep = (q[:, 2] >= MIN_LOAD_FRACTION * lib.load_N[1]) & (q[:, 2] > 3 * s[:, 2])
-    return q[keep].ravel(), [d for d, k in zip(diam, keep, strict=True) if k]
+    with np.errstate(invalid="ignore"):
+        significant = ~(q[:, 2] <= 3 * s[:, 2])  # an undefined sd keeps it
+    # an indenter held at the largest load is kept, to be refused (never dropped silently)
+    keep = (q[:, 2] >= MIN_LOAD_FRACTION * lib.load_N[1]) & significant
+    keep |= q[:, 2] >= 0.995 * lib.max_load_N
+    kept: list[int] = []
+    for i in np.argsort(-q[:, 2]):  # strongest first; a handful of indenters
+        clash = any(np.hypot(*(q[i, :2] - q[j, :2])) < 0.5e3 * (diam[i] + diam[j])
+                    for j in kept)  # fmt: skip
+        if keep[i] and not clash:
+            kept.append(int(i))
+    kept.sort()
+    return q[kept].ravel(), [diam[i] for i in kept]
 
 
 def _fit_all(model, fine, p, diam, noise, its):
-    """Fit the far field on every 2nd pixel, then every pixel on every 2nd; returns (p,
-    result, iterations)."""
+    """Fit the far field on ``model`` (every 4th pixel), then every pixel of ``fine``
+    (every 2nd); returns (p, result, iterations)."""
     res = None
-    for m in (replace(fine, inner=FAR_MM * 1e-3), fine):
+    for m in (
+        replace(model, inner=FAR_MM * 1e-3, exact=False),
+        replace(fine, exact=EXACT_MM * 1e-3),
+    ):
         if not diam:
             return p, None, its
         res = _fit(m, p, diam, noise)
@@ -254,23 +306,35 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
     t_detect = time.perf_counter() - t0
     p, diam = _start(coarse, pos)
     its, res = 0, None
-    for _ in range(max_rounds):  # model selection rounds (at most a few)
+    for round_ in range(max_rounds + 1):  # model selection rounds (at most a few)
         p, res, its = _fit_all(coarse, fine, p, diam, noise, its)
-        if res is None:
+        if res is None or round_ == max_rounds:
             break
-        used = int(np.count_nonzero(res.fun))
-        sd = _uncertainty(fine, res, used)
+        sd = _uncertainty(fine, res, int(np.count_nonzero(res.fun)))
         p2, diam2 = _prune(p, sd, diam, model.lib)
         fitted = unpack(p2, diam2)
         model_img, outside = fine.linear(fitted)
         fitted_img, _, _ = fine.project(model_img, fine.usable & outside)
         resid = replace(fine, measured=np.where(outside[:, None], fine.measured - fitted_img, 0.0))
-        taken = p2.reshape(-1, N_PARAMS)[:, :2]
-        new = detect(resid, noise, exclude=taken)
+        new = detect(resid, noise, exclude=p2.reshape(-1, N_PARAMS)[:, :2])
         if len(diam2) == len(diam) and not len(new):
             break
         pn, dn = _start(coarse, new)
         p, diam = np.concatenate([p2, pn]), diam2 + dn
+    if res is not None:  # the last fit may have let two indenters meet
+        sd = _uncertainty(fine, res, int(np.count_nonzero(res.fun)))
+        p2, diam2 = _prune(p, sd, diam, model.lib)
+        if len(diam2) < len(diam):
+            p, res, its = _fit_all(coarse, fine, p2, diam2, noise, its)
+            diam = diam2
+    if not diam and len(pos):
+        x, y = pos[0]
+        raise InvertError(
+            f"the library cannot explain this image: it shows fringes about ({x:.2f}, "
+            f"{y:.2f}) mm (and {len(pos) - 1} more place(s)) that no load in the library's "
+            f"range (up to {model.lib.max_load_N:g} N) fits; check the sensor, the pixel "
+            "size and the method, or build a library with larger --load-N"
+        )
     return _finish(model, fine, p, diam, res, noise, its, t0, t_detect)
 
 

@@ -28,7 +28,7 @@ from optics import (
 )
 
 from .library import Library, LoadedIndenter
-from .synth import synthesise
+from .synth import ray_quaternions
 
 __all__ = ["METHODS", "ImageModel", "N_PARAMS", "unpack"]
 
@@ -65,6 +65,9 @@ class ImageModel:
         (the far-field stage of the fit)
     keep : (P,) bool or None — when set, the pixels fitted, held fixed (a mask that moved
         with the parameters would let the fit lower its cost by leaving pixels out)
+    exact : bool or float — Jones integration of every ray, of the rays within this
+        distance (m) of an indenter axis, or (False) of none: one equivalent retarder per
+        ray (:func:`fringekit.synth.synthesise`)
     """
 
     lib: Library
@@ -77,6 +80,7 @@ class ImageModel:
     groups: list
     inner: float = 0.0
     keep: np.ndarray | None = None
+    exact: bool | float = True
 
     @classmethod
     def build(cls, lib, grid, method, measured, usable, optics, *, light="LED",
@@ -104,16 +108,50 @@ class ImageModel:
     def linear(self, indenters) -> tuple[np.ndarray, np.ndarray]:
         """Model intensities (P, C) before gain and offset, and the pixels outside every
         (widened) contact circle."""
+        xy = self.grid.xy()
+        ab = np.zeros((len(xy), self.lib.lattice.n_slabs, 2), np.float32)
+        for ind in indenters:  # a handful of indenters
+            ab += self.lib.slabs(ind, xy)[0]
+        return self.intensities(ab, indenters), self.outside_contacts(indenters)
+
+    def intensities(self, ab: np.ndarray, indenters) -> np.ndarray:
+        """Model intensities (P, C) of summed slab pairs ab (P, S, 2)."""
         lam = self.setup.get("wavelengths")
-        sm = synthesise(self.lib, indenters, self.grid, self.law, lam)
-        q = sm.q.reshape(-1, len(sm.wavelengths), 4)
+        lam = np.array([self.law.wavelength_ref]) if lam is None else lam
+        q = ray_quaternions(ab, self.grid.xy(), indenters, self.law, lam, self.exact)
         if self.method == "rgb":
             s = self.setup
-            img = white_light_image(q[:, None], s["spectrum"], s["camera"], s["arrangement"],
-                                    linear=True)[:, 0]  # fmt: skip
-        else:
-            img = np.stack([intensity(q[:, 0], a) for a in self.setup["arrangements"]], axis=1)
-        return img, self.outside_contacts(indenters)
+            return white_light_image(q[:, None], s["spectrum"], s["camera"], s["arrangement"],
+                                     linear=True)[:, 0]  # fmt: skip
+        return np.stack([intensity(q[:, 0], a) for a in self.setup["arrangements"]], axis=1)
+
+    def jacobian(self, p: np.ndarray, diameters, step: float = 1e-3) -> np.ndarray:
+        """Forward-difference Jacobian (P * C, n) of :meth:`residual` (``keep`` must be
+        set). A column moves one indenter: only its field is sampled again, the others'
+        sum is reused (``step`` times max(1, |p|), as scipy's 2-point rule)."""
+        inds = unpack(p, diameters)
+        xy = self.grid.xy()
+        own = [self.lib.slabs(ind, xy)[0] for ind in inds]
+        total = np.sum(own, axis=0) if own else np.zeros((len(xy), 1, 2), np.float32)
+        r0 = self._residual_of(total, inds)
+        J = np.empty((r0.size, p.size))
+        for j in range(p.size):  # 5 per indenter
+            i = j // N_PARAMS
+            h = step * max(1.0, abs(p[j]))
+            pj = p.copy()
+            pj[j] += h
+            moved = unpack(pj, diameters)
+            ab = total - own[i] + self.lib.slabs(moved[i], xy)[0]
+            J[:, j] = (self._residual_of(ab, moved) - r0) / h
+        return J
+
+    def _residual_of(self, ab: np.ndarray, indenters) -> np.ndarray:
+        model = self.intensities(ab, indenters)
+        use = self.usable & self.keep
+        fitted, _, _ = self.project(model, use)
+        res = self.measured - fitted
+        res[~use] = 0.0
+        return res.ravel()
 
     def outside_contacts(self, indenters) -> np.ndarray:
         xy = self.grid.xy()

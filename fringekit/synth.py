@@ -16,12 +16,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from optics import PixelGrid, integrate_path
+from optics import PixelGrid, integrate_path, retarder
 from optics.jones import qmul, qtranspose
 
 from .library import Library, LoadedIndenter
 
-__all__ = ["SynthMap", "superpose", "synthesise"]
+__all__ = ["SynthMap", "ray_quaternions", "superpose", "synthesise"]
 
 
 @dataclass(frozen=True)
@@ -57,15 +57,42 @@ def superpose(lib: Library, indenters, xy: np.ndarray):
     return ab, contact
 
 
-def _quaternions(ab: np.ndarray, law, wavelengths: np.ndarray) -> np.ndarray:
-    """Double-pass quaternions (P, W, 4) of rays with slab pairs ab (P, S, 2)."""
+def _quaternions(ab: np.ndarray, law, wavelengths: np.ndarray, exact: bool) -> np.ndarray:
+    """Double-pass quaternions (P, W, 4) of rays with slab pairs ab (P, S, 2).
+
+    ``exact``: the Jones integration slab by slab. Otherwise the ray is one linear
+    retarder with the summed slab vector (its magnitude the retardation, half its angle
+    the axis): exact where the secondary principal axes do not turn along the ray, and
+    within 0.0004 fringe RMS of the Jones integration beyond twice the contact radius of
+    the reference case (0.016 RMS, 0.13 at most, between one and two contact radii).
+    The double pass of a linear retarder doubles its retardation (U^T = U)."""
+    k = law.retardation_per_stress_length(wavelengths)
+    if not exact:
+        tot = ab.astype(float).sum(axis=1)
+        theta = 0.5 * np.arctan2(tot[:, 1], tot[:, 0])
+        delta = 2.0 * np.hypot(tot[:, 0], tot[:, 1])[:, None] * k[None, :]
+        return retarder(delta, np.broadcast_to(theta[:, None], delta.shape))
     a = ab[..., 0].astype(float)
     b = ab[..., 1].astype(float)
     ds = np.hypot(a, b)  # (Pa m): the slab thickness is already in
     theta = 0.5 * np.arctan2(b, a)
-    k = law.retardation_per_stress_length(wavelengths)
     q = integrate_path(ds, theta, np.ones_like(ds), k)
     return qmul(qtranspose(q), q)
+
+
+def ray_quaternions(ab, xy, indenters, law, lam, exact: bool | float = True) -> np.ndarray:
+    """Double-pass quaternions (P, W, 4) of rays at ``xy`` (P, 2) (m) with summed slab
+    pairs ``ab`` (P, S, 2): all by Jones integration (``exact=True``), none (``False``:
+    one equivalent retarder per ray) or those within ``exact`` (m) of an indenter axis."""
+    if isinstance(exact, bool):
+        return _quaternions(ab, law, lam, exact)
+    close = np.zeros(len(xy), bool)
+    for ind in indenters:  # a handful of indenters
+        close |= np.hypot(xy[:, 0] - ind.x, xy[:, 1] - ind.y) < exact
+    q = np.empty((len(xy), len(lam), 4))
+    q[close] = _quaternions(ab[close], law, lam, True)
+    q[~close] = _quaternions(ab[~close], law, lam, False)
+    return q
 
 
 def synthesise(
@@ -74,11 +101,15 @@ def synthesise(
     grid: PixelGrid,
     law,
     wavelengths=None,
+    *,
+    exact: bool | float = True,
 ) -> SynthMap:
     """Quaternions of the sheet under ``indenters`` on ``grid``.
 
     Only rays within the lattice radius of some indenter are integrated; the rest carry
-    no stress (identity). ``wavelengths`` (m) default to the law's reference one.
+    no stress (identity). ``wavelengths`` (m) default to the law's reference one;
+    ``exact`` as :func:`ray_quaternions` (``False`` and a distance serve the early and
+    late stages of ``invert``).
     """
     lam = np.atleast_1d(np.asarray(
         law.wavelength_ref if wavelengths is None else wavelengths, float))  # fmt: skip
@@ -94,7 +125,7 @@ def synthesise(
     mask = np.ones(P, bool)
     if idx.size:
         ab, contact = superpose(lib, indenters, xy[idx])
-        q[idx] = _quaternions(ab, law, lam)
+        q[idx] = ray_quaternions(ab, xy[idx], indenters, law, lam, exact)
         k_ref = law.retardation_per_stress_length(np.array([law.wavelength_ref]))[0]
         mag = np.hypot(ab[..., 0].astype(float), ab[..., 1]).sum(axis=1)
         simple[idx] = 2.0 * mag * k_ref / (2 * np.pi)

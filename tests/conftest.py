@@ -39,3 +39,17 @@ def cache_dir(tmp_path_factory):
 def small_meshes(cache_dir):
     """Full, half and quarter meshes of the small block, keyed by symmetry."""
     return {s: build_mesh(small_spec(s), cache_dir=cache_dir) for s in ("full", "half", "quarter")}
+
+
+@pytest.fixture(scope="session")
+def test_library(cache_dir, tmp_path_factory):
+    """The coarse library of tests/library_fixtures.py (built once, two Dask workers)."""
+    from library_fixtures import LOADS, RATIOS, sensor_config
+
+    from fringekit.library import load_library
+    from fringekit.library_build import build_library
+
+    out = tmp_path_factory.mktemp("library") / "lib"
+    build_library(sensor_config(), out, loads=LOADS, ratios=RATIOS, workers=2,
+                  cache_dir=cache_dir, progress=False)  # fmt: skip
+    return load_library(out)

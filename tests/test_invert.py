@@ -1,0 +1,202 @@
+"""fringekit invert: exact recovery of library images, FEM images with camera noise,
+detection, and the refusals."""
+
+from __future__ import annotations
+
+import csv
+import shutil
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from library_fixtures import sensor_config
+
+from fringekit.cli import main
+from fringekit.config import to_toml
+from fringekit.inputs import optics_setup
+from fringekit.invert import detect, invert_image, noise_sd
+from fringekit.invert_model import ImageModel
+from fringekit.invert_run import LOAD_COLUMNS
+from fringekit.library import LoadedIndenter
+from fringekit.render import no_data_fill
+from optics import Camera, write_image
+
+TWO = [LoadedIndenter(-2.0e-3, 0.8e-3, 3.5e-3, 0.5, -0.4, 3.3),
+       LoadedIndenter(2.5e-3, -1.2e-3, 3.5e-3, -0.3, 0.6, 2.3)]  # fmt: skip
+
+
+def _model(lib, method, inds, grid=None):
+    """A noise-free library image of ``inds`` (gain 0.8, offset 0.02) as an ImageModel."""
+    cfg = sensor_config()
+    opt = optics_setup(cfg)
+    grid = grid or opt.grid
+    n = grid.n_pixels
+    blank = ImageModel.build(lib, grid, method, np.zeros((n, 1)), np.ones(n, bool), opt,
+                             white_light_wavelengths=15)  # fmt: skip
+    img, outside = blank.linear(inds)
+    return replace(blank, measured=0.8 * img + 0.02, usable=outside)
+
+
+def _truth(inds):
+    return np.array([[i.x * 1e3, i.y * 1e3, i.fz, i.fx, i.fy] for i in inds])
+
+
+@pytest.mark.parametrize("method, n", [("mono", 2), ("phase", 2), ("rgb", 1)])
+def test_a_library_image_gives_back_its_parameters(test_library, method, n):
+    inds = TWO[:n]
+    res = invert_image(_model(test_library, method, inds))
+    assert len(res.params) == n
+    got = res.params[np.argsort(res.params[:, 0])]
+    want = _truth(inds)[np.argsort(_truth(inds)[:, 0])]
+    scale = np.array([1.0, 1.0, 1.0, 1.0, 1.0]) * np.array([1, 1, 3.3, 3.3, 3.3])
+    assert np.all(np.abs(got - want) <= 1e-3 * scale), (got, want)
+
+
+def test_no_load_gives_no_indenter_and_close_ones_are_two(test_library):
+    cfg = sensor_config()
+    opt = optics_setup(cfg)
+    n = opt.grid.n_pixels
+    rng = np.random.default_rng(0)
+    flat = 0.02 + rng.normal(0, 0.004, (n, 1))
+    empty = ImageModel.build(test_library, opt.grid, "mono", flat, np.ones(n, bool), opt)
+    assert len(invert_image(empty).params) == 0
+    close = [LoadedIndenter(-2.0e-3, 0.0, 3.5e-3, 0.0, 0.0, 3.0),
+             LoadedIndenter(2.0e-3, 0.0, 3.5e-3, 0.0, 0.0, 2.4)]  # fmt: skip
+    model = _model(test_library, "mono", close)
+    assert len(detect(model, noise_sd(model))) == 2
+    res = invert_image(model)
+    assert len(res.params) == 2
+    assert np.allclose(np.sort(res.params[:, 0]), [-2.0, 2.0], atol=1e-3)
+
+
+NOISY_FEM = """
+case = "two"
+[sheet]
+width_mm = 20.0
+length_mm = 20.0
+[substrate]
+thickness_mm = 4.0
+[mesh]
+h_contact_mm = 0.6
+refine_radius_mm = 1.5
+h_far_mm = 4.0
+h_sheet_mm = 1.5
+growth = 0.5
+[contact]
+friction = "stick"
+[optics]
+field_of_view_mm = 12.0
+pixels = 96
+white_light_wavelengths = 15
+full_well_e = 10000.0
+read_noise_e = 5.0
+[[indenter]]
+x_mm = -3.0
+load_N = [3.3, 3.3]
+shear_N = [[0.0, 0.0], [0.9, 0.0]]
+[[indenter]]
+x_mm = 3.0
+load_N = [2.3, 2.3]
+shear_N = [[0.0, 0.0], [-0.6, 0.0]]
+"""
+
+
+@pytest.fixture(scope="module")
+def noisy_fem(tmp_path_factory, cache_dir):
+    """predict's images of two sheared indenters 6 mm apart, 8-bit with camera noise."""
+    d = tmp_path_factory.mktemp("fem")
+    (d / "two.toml").write_text(NOISY_FEM)
+    assert main(["predict", str(d / "two.toml"), "--out", str(d / "two"), "--cache-dir",
+                 str(cache_dir), "--quiet"]) == 0  # fmt: skip
+    return d / "two" / "state_02"
+
+
+def _loads(path) -> np.ndarray:
+    with open(path) as f:
+        rows = list(csv.reader(f))
+    assert tuple(rows[0]) == LOAD_COLUMNS
+    return np.array(rows[1:], float)
+
+
+@pytest.mark.parametrize("method", ["mono", "phase", "rgb"])
+def test_a_noisy_fem_image_within_coarse_targets(test_library, noisy_fem, tmp_path, method):
+    images = {
+        "mono": [noisy_fem / "dark_field.png"],
+        "rgb": [noisy_fem / "white_light.png"],
+        "phase": [noisy_fem / "six_step" / f"step{k}.png" for k in range(1, 7)],
+    }[method]
+    out = tmp_path / "inv"
+    args = ["invert", *map(str, images), "--library", str(test_library.folder), "--out",
+            str(out), "--pixel-mm", "0.125", "--method", method, "--quiet"]  # fmt: skip
+    assert main(args) == 0
+    rows = _loads(out / "loads.csv")
+    rows = rows[np.argsort(rows[:, 0])]
+    assert len(rows) == 2
+    want = np.array([[-3.0, 0.0, 0.9, 0.0, 3.3], [3.0, 0.0, -0.6, 0.0, 2.3]])
+    print(method, np.round(rows[:, [0, 1, 3, 4, 5]] - want, 3))
+    # coarse library (3 loads, 3 ratios) and mesh: Fz within 5 %, position within 0.15 mm,
+    # tangential load within 0.15 N (docs/library.md has the default library's figures)
+    assert np.all(np.abs(rows[:, 5] - want[:, 4]) < 0.05 * want[:, 4])
+    assert np.all(np.hypot(rows[:, 0] - want[:, 0], rows[:, 1] - want[:, 1]) < 0.15)
+    assert np.all(np.hypot(rows[:, 3] - want[:, 2], rows[:, 4] - want[:, 3]) < 0.25)
+    assert (out / "fit.png").is_file() and (out / "summary.json").is_file()
+
+
+def _one_line_exit_2(args, capsys, words):
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    for w in words:
+        assert w in err, err
+    return err
+
+
+def test_bad_inputs_are_one_line_and_write_nothing(test_library, tmp_path, capsys):
+    lib = test_library.folder
+    cam = Camera(sensitivities="mono")
+    # an image with 1.6 times the stress of the library's largest load (about 7 N)
+    fields = {d: dict(f, AB=1.6 * f["AB"]) for d, f in test_library.fields.items()}
+    beyond = replace(test_library, fields=fields)
+    at_max = _model(beyond, "mono", [LoadedIndenter(0, 0, 3.5e-3, 0, 0, 4.0)])
+    img = cam.encode(at_max.measured.reshape(*at_max.grid.shape))
+    write_image(tmp_path / "max.png", no_data_fill(img, at_max.usable.reshape(img.shape)))
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "loads.csv").write_text("earlier\n")
+    base = ["invert", str(tmp_path / "max.png"), "--library", str(lib), "--out", str(out)]
+    _one_line_exit_2(base + ["--pixel-mm", "0.125"], capsys, ["cannot explain", "4 N"])
+    _one_line_exit_2(base, capsys, ["--pixel-mm is required"])
+    other = sensor_config(**{"sheet.thickness_mm": 2.0})
+    (tmp_path / "other.toml").write_text(to_toml(other))
+    _one_line_exit_2(base + ["--pixel-mm", "0.125", "--sensor", str(tmp_path / "other.toml")],
+                     capsys, ["sheet.thickness_mm", "3.0", "2.0"])  # fmt: skip
+    bad = tmp_path / "badlib"
+    shutil.copytree(lib, bad)
+    f = next(bad.glob("fields_*.npz"))
+    f.write_bytes(f.read_bytes()[:-100])
+    _one_line_exit_2(["invert", str(tmp_path / "max.png"), "--library", str(bad), "--out",
+                      str(out), "--pixel-mm", "0.125"], capsys, ["checksum"])  # fmt: skip
+    (bad / "manifest.json").write_text("{not json")
+    _one_line_exit_2(["invert", str(tmp_path / "max.png"), "--library", str(bad), "--out",
+                      str(out), "--pixel-mm", "0.125"], capsys, ["corrupt"])  # fmt: skip
+    assert (out / "loads.csv").read_text() == "earlier\n"  # the earlier result is intact
+    assert not list(tmp_path.glob(".out*"))  # no half-written run folder left behind
+
+
+def test_predict_from_a_library(test_library, tmp_path):
+    cfg = sensor_config(**{"contact.friction": "stick"})
+    cfg["indenter"] = [dict(cfg["indenter"][0], x_mm=-2.0, load_N=[3.0], shear_N=[[0.4, 0.2]]),
+                       dict(cfg["indenter"][0], x_mm=3.0, load_N=[2.2])]  # fmt: skip
+    (tmp_path / "c.toml").write_text(to_toml(cfg))
+    out = tmp_path / "pred"
+    assert main(["predict", str(tmp_path / "c.toml"), "--library", str(test_library.folder),
+                 "--out", str(out), "--quiet"]) == 0  # fmt: skip
+    for name in ("maps.npz", "dark_field.png", "white_light.png", "six_step/step6.png"):
+        assert (out / "state_01" / name).is_file()
+    maps = np.load(out / "state_01" / "maps.npz")
+    assert np.nanmax(maps["fringe_order"]) > 1.0
+    cfg["indenter"][0]["load_N"] = [5.0]
+    (tmp_path / "c.toml").write_text(to_toml(cfg))
+    assert main(["predict", str(tmp_path / "c.toml"), "--library", str(test_library.folder),
+                 "--out", str(out), "--quiet"]) == 2  # fmt: skip
+    assert (out / "state_01" / "maps.npz").is_file()  # the earlier run is kept

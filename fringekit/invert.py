@@ -1,17 +1,13 @@
 """From one image to every indenter's position and load vector, by fitting the library.
 
-1. **Detection.** A no-data disc (the contact zone ``predict`` marks) is an indenter.
-   Elsewhere, fringes crowd about each indenter: the local energy of the image
-   gradient, smoothed over about a millimetre, peaks there. Peaks above a noise
-   floor (``DETECT_SNR`` times the gradient energy of the image noise, estimated by
-   Immerkaer's estimator) and above ``DETECT_REL`` of the strongest peak are
-   candidates; none means no indenter.
+1. **Detection** (:mod:`fringekit.invert_detect`): candidate positions; none means no
+   indenter.
 2. **Start.** Each candidate's normal load (and diameter, when the library holds several)
-   is the library load whose single-indenter image fits best within ``WINDOW_MM`` of it;
-   tangential load zero.
+   is the one of START_LOADS whose single-indenter image fits the far field about it
+   best; tangential load zero.
 3. **Joint fit.** All indenters' x, y, Fz, Fx, Fy by nonlinear least squares of the
    synthesised image against the measured one (scipy's trust-region reflective method,
-   soft-L1 robust loss at 3 noise sd, exposure/gain/offset by variable projection) on
+   soft-L1 robust loss at 3 noise sd, exposure/gain/offset by variable projection):
    first the far field only (FAR_MM from every indenter, every 4th pixel: the order is
    low and smooth there) with one equivalent retarder per ray, then every 2nd pixel with
    the Jones integration within EXACT_MM of each indenter.
@@ -22,8 +18,8 @@
 5. **Uncertainty and refusal.** 1-sigma from the Jacobian at the solution scaled by the
    residual variance (pixels are treated as independent, so spatially correlated model
    error makes these optimistic); a load at the edge of the library's range, or a
-   residual above ``MAX_RESIDUAL`` of the fringe amplitude, is refused rather than
-   returned.
+   residual above ``MAX_RESIDUAL`` of the fringe amplitude, or fringes that no load in
+   range explains, are refused rather than returned.
 """
 
 from __future__ import annotations
@@ -34,19 +30,14 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .config import ConfigError
+from .invert_detect import detect, noise_sd
 from .invert_model import N_PARAMS, ImageModel, unpack
 
-__all__ = ["DETECT_REL", "DETECT_SNR", "InvertError", "InvertResult", "detect", "invert_image"]
+__all__ = ["InvertError", "InvertResult", "invert_image"]
 
-DETECT_SNR = 30.0
-DETECT_REL = 0.04
-#: Two peaks are two indenters when the energy between them dips by this fraction.
-DETECT_DIP = 0.05
 WINDOW_MM = 3.0
 MIN_LOAD_FRACTION = 0.5
 MAX_RESIDUAL = 0.2
-#: Candidates closer than this (mm) are one.
-MIN_SEPARATION_MM = 2.0
 #: The first stage fits only pixels this far (mm) from every indenter, where the order is
 #: low and the cost varies smoothly with the parameters; the second stage fits them all.
 FAR_MM = 2.0
@@ -94,110 +85,6 @@ def _subsample(model: ImageModel, k: int) -> ImageModel:
     grid = PixelGrid((len(r), len(c)), model.grid.pixel_size * k, centre)
     pick = (rr * cols + cc).ravel()
     return replace(model, grid=grid, measured=model.measured[pick], usable=model.usable[pick])
-
-
-def _energy(model: ImageModel, smooth_px: float) -> np.ndarray:
-    """Smoothed gradient energy (rows, cols) of the measured image, no-data discs filled
-    with their rim's energy."""
-    from scipy import ndimage
-
-    rows, cols = model.grid.shape
-    img = model.measured.reshape(rows, cols, -1)
-    use = model.usable.reshape(rows, cols)
-    e = np.zeros((rows, cols))
-    for c in range(img.shape[-1]):  # channels (1, 3 or 6)
-        gy, gx = np.gradient(img[..., c])
-        e += gx**2 + gy**2
-    good = ndimage.binary_erosion(use, iterations=2)
-    e = np.where(good, e, 0.0)
-    holes = ~use
-    if holes.any():
-        rim = ndimage.grey_dilation(e, size=5)
-        lab, n = ndimage.label(holes)
-        top = ndimage.maximum(rim, lab, np.arange(1, n + 1)) if n else []
-        e = np.where(holes, np.concatenate([[0.0], top])[lab], e)
-    w = ndimage.gaussian_filter(np.where(good | holes, 1.0, 0.0), smooth_px)
-    return ndimage.gaussian_filter(e, smooth_px) / np.maximum(w, 1e-6)
-
-
-def noise_sd(model: ImageModel) -> float:
-    """Noise sd of the measured image (Immerkaer's estimator, the channels' median), at
-    least the quantisation noise of 8 bits."""
-    from analysis import noise_sd as image_noise
-
-    rows, cols = model.grid.shape
-    img = model.measured.reshape(rows, cols, -1)
-    use = model.usable.reshape(rows, cols)
-    sig = [image_noise(img[..., c], use) for c in range(img.shape[-1])]
-    return float(max(np.median(sig), 1.0 / (255 * np.sqrt(12))))
-
-
-def _separated(e: np.ndarray, peaks: np.ndarray, min_px: float) -> list[int]:
-    """Peaks (strongest first) kept when at least ``min_px`` from every kept one and the
-    energy dips by DETECT_DIP of the weaker peak on the straight line between them (one
-    indenter's ridge is not a second indenter)."""
-    kept: list[int] = []
-    t = np.linspace(0.0, 1.0, 64)[:, None]
-    for i, p in enumerate(peaks):
-        ok = True
-        for j in kept:
-            q = peaks[j]
-            if np.hypot(*(p - q)) < min_px:
-                ok = False
-                break
-            line = np.rint(p[None] * (1 - t) + q[None] * t).astype(int)
-            if e[line[:, 0], line[:, 1]].min() > (1 - DETECT_DIP) * e[p[0], p[1]]:
-                ok = False
-                break
-        if ok:
-            kept.append(i)
-    return kept
-
-
-def detect(model: ImageModel, noise: float, exclude=()) -> np.ndarray:
-    """Candidate indenter positions (k, 2) (mm), strongest first; ``exclude`` (m, 2) mm
-    positions already taken (candidates within MIN_SEPARATION_MM of them are dropped)."""
-    from skimage.feature import peak_local_max
-
-    px = model.grid.pixel_size * 1e3
-    taken = np.reshape(np.asarray(exclude, float), (-1, 2))
-    discs = _far_from(_discs(model), taken)
-    taken = np.concatenate([taken, discs])
-    e = _energy(model, smooth_px=0.6 / px)
-    floor = DETECT_SNR * noise**2 * model.measured.shape[1]
-    peaks = peak_local_max(e, min_distance=max(1, int(0.5 * MIN_SEPARATION_MM / px)),
-                           threshold_abs=floor, threshold_rel=DETECT_REL,
-                           exclude_border=False)  # fmt: skip
-    peaks = peaks[_separated(e, peaks, MIN_SEPARATION_MM / px)]
-    x, y = model.grid.pixel_to_xy(peaks[:, 0], peaks[:, 1])
-    pos = np.column_stack([x, y]) * 1e3
-    return np.concatenate([discs, _far_from(pos, taken)])
-
-
-def _far_from(pos: np.ndarray, taken: np.ndarray) -> np.ndarray:
-    """The positions (k, 2) farther than MIN_SEPARATION_MM from every taken one (mm)."""
-    if not len(taken) or not len(pos):
-        return pos
-    d = np.hypot(*(pos[:, None, :] - taken[None]).transpose(2, 0, 1))
-    return pos[d.min(axis=1) > MIN_SEPARATION_MM]
-
-
-def _discs(model: ImageModel) -> np.ndarray:
-    """Centres (k, 2) (mm) of the no-data discs of the image (pixels at the no-data fill
-    level: where ``predict`` marks an indenter's contact), at least 12 pixels each."""
-    from scipy import ndimage
-
-    holes = (~model.usable).reshape(model.grid.shape)
-    lab, n = ndimage.label(holes)
-    if not n:
-        return np.zeros((0, 2))
-    idx = np.arange(1, n + 1)
-    big = idx[ndimage.sum(holes, lab, idx) >= 12]
-    if not len(big):
-        return np.zeros((0, 2))
-    rc = np.array(ndimage.center_of_mass(holes, lab, big))
-    x, y = model.grid.pixel_to_xy(rc[:, 0], rc[:, 1])
-    return np.column_stack([x, y]) * 1e3
 
 
 def _start(model: ImageModel, pos_mm: np.ndarray):

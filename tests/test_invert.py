@@ -14,7 +14,8 @@ from library_fixtures import sensor_config
 from fringekit.cli import main
 from fringekit.config import to_toml
 from fringekit.inputs import optics_setup
-from fringekit.invert import detect, invert_image, noise_sd
+from fringekit.invert import invert_image
+from fringekit.invert_detect import detect, noise_sd
 from fringekit.invert_model import ImageModel
 from fringekit.invert_run import LOAD_COLUMNS
 from fringekit.library import LoadedIndenter

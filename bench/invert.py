@@ -1,0 +1,296 @@
+"""Benchmark ``fringekit invert`` on held-out images rendered by full FEM solves.
+
+Usage: python bench/invert.py [--preset coarse|reference] [--n-indenters 1 2 4 6]
+       [--methods rgb mono phase] [--seed 0] [--library DIR] [--work DIR] [--json FILE]
+
+Builds (or reuses) the library of the preset's sensor, then for each number of indenters
+draws one case (seeded): positions at random over the field of view at least 6 mm apart
+(the first pair exactly 6 mm when there are two or more), Fz uniform over the library's
+range (0.5-10 N for the reference preset), tangential load 0-0.8 Fz in a random
+direction. Each case is solved by ``fringekit predict`` (full model, full stick; the FEM,
+not the library), photographed 8-bit with 10k e- full well and 5 e- read noise, and
+inverted with each method. Prints per case and in summary the Fz error (N and %),
+tangential magnitude error (N and % of Fz), direction error (deg), position error (mm),
+missed and spurious indenters and the time per image; ``--json`` writes
+``{"cases": [...], "library_build_s"}``.
+
+Presets: ``coarse`` is the test sensor of tests/library_fixtures.py (20 mm sheet, 0.6 mm
+contact mesh, 96 px, library 1-4 N x 5 ratios: minutes); ``reference`` is the built-in
+reference sensor at 256 px with the default library (14 loads x 5 ratios: an hour or more
+on 2 cores, and full-model solves of six sheared heads take minutes each).
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import csv
+import json
+import resource
+import sys
+import time
+from pathlib import Path
+
+# this file is named like a package module: keep bench/ off the import path
+sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).parent.resolve()]
+
+import numpy as np  # noqa: E402
+
+from fringekit.cli import main  # noqa: E402
+from fringekit.config import apply_overrides, load_config, to_toml  # noqa: E402
+from fringekit.library_build import DEFAULT_LOADS_N, DEFAULT_RATIOS, build_library  # noqa: E402
+
+PRESETS = {
+    "coarse": {
+        "set": {
+            "sheet.width_mm": 20.0,
+            "sheet.length_mm": 20.0,
+            "substrate.thickness_mm": 4.0,
+            "mesh.h_contact_mm": 0.6,
+            "mesh.refine_radius_mm": 1.5,
+            "mesh.h_far_mm": 4.0,
+            "mesh.h_sheet_mm": 1.5,
+            "mesh.growth": 0.5,
+            "optics.field_of_view_mm": 12.0,
+            "optics.pixels": 96,
+            "optics.white_light_wavelengths": 15,
+        },
+        "loads": (1.0, 1.4, 2.0, 2.8, 4.0),
+        "ratios": DEFAULT_RATIOS,
+        "fz": (1.2, 3.6),
+        "half_width_mm": 3.5,
+    },
+    "reference": {
+        "set": {},
+        "loads": DEFAULT_LOADS_N,
+        "ratios": DEFAULT_RATIOS,
+        "fz": (0.5, 10.0),
+        "half_width_mm": 8.0,
+    },
+}
+NOISE = {"optics.full_well_e": 10000.0, "optics.read_noise_e": 5.0}
+
+
+def draw_case(rng, n: int, preset: dict) -> list[dict]:
+    """n indenters: positions >= 6 mm apart (the first pair exactly 6 mm), loads, shear."""
+    w = preset["half_width_mm"]
+    pos: list[np.ndarray] = []
+    while len(pos) < n:
+        if len(pos) == 1:
+            a = rng.uniform(0, 2 * np.pi)
+            p = pos[0] + 6.0 * np.array([np.cos(a), np.sin(a)])
+        else:
+            p = rng.uniform(-w, w, 2)
+        if np.all(np.abs(p) <= w) and all(np.hypot(*(p - q)) >= 6.0 - 1e-9 for q in pos):
+            pos.append(p)
+    out = []
+    for p in pos:
+        fz = float(rng.uniform(*preset["fz"]))
+        t = float(rng.uniform(0.0, 0.8)) * fz
+        a = rng.uniform(0, 2 * np.pi)
+        out.append(
+            {
+                "x_mm": float(p[0]),
+                "y_mm": float(p[1]),
+                "Fz": fz,
+                "Fx": t * np.cos(a),
+                "Fy": t * np.sin(a),
+            }
+        )
+    return out
+
+
+def case_config(base: dict, inds: list[dict], name: str) -> dict:
+    cfg = copy.deepcopy(base)
+    cfg["case"] = name
+    cfg["contact"]["friction"] = "stick"
+    cfg["mesh"]["symmetry"] = "full"
+    proto = cfg["indenter"][0]
+    cfg["indenter"] = [
+        dict(
+            proto,
+            x_mm=d["x_mm"],
+            y_mm=d["y_mm"],
+            load_N=[d["Fz"] / 2, d["Fz"], d["Fz"]],
+            shear_N=[[0.0, 0.0], [0.0, 0.0], [d["Fx"], d["Fy"]]],
+        )
+        for d in inds
+    ]
+    return cfg
+
+
+def match(true: list[dict], est: list[dict]) -> tuple[list, int, int]:
+    """Pairs (true, est) by nearest position within 1.5 mm; missed and spurious counts."""
+    pairs, used = [], set()
+    for t in true:
+        d = [np.hypot(t["x_mm"] - e["x_mm"], t["y_mm"] - e["y_mm"]) for e in est]
+        j = int(np.argmin(d)) if d else -1
+        if j >= 0 and d[j] < 1.5 and j not in used:
+            used.add(j)
+            pairs.append((t, est[j]))
+        else:
+            pairs.append((t, None))
+    missed = sum(e is None for _, e in pairs)
+    return pairs, missed, len(est) - len(used)
+
+
+def errors(t: dict, e: dict) -> dict:
+    ft, fe = np.hypot(t["Fx"], t["Fy"]), np.hypot(e["Fx"], e["Fy"])
+    ang = np.degrees(np.arctan2(e["Fy"], e["Fx"]) - np.arctan2(t["Fy"], t["Fx"]))
+    return {
+        "Fz_N": e["Fz"] - t["Fz"],
+        "Fz_pct": 100 * (e["Fz"] - t["Fz"]) / t["Fz"],
+        "Ft_N": fe - ft,
+        "Ft_pct_of_Fz": 100 * (fe - ft) / t["Fz"],
+        "direction_deg": float((ang + 180) % 360 - 180) if ft > 0.1 else None,
+        "position_mm": float(np.hypot(e["x_mm"] - t["x_mm"], e["y_mm"] - t["y_mm"])),
+    }
+
+
+def read_loads(path: Path) -> list[dict]:
+    with open(path) as f:
+        return [
+            {
+                "x_mm": float(r["x_mm"]),
+                "y_mm": float(r["y_mm"]),
+                "Fz": float(r["Fz_N"]),
+                "Fx": float(r["Fx_N"]),
+                "Fy": float(r["Fy_N"]),
+            }
+            for r in csv.DictReader(f)
+        ]
+
+
+def images(state: Path, method: str) -> list[str]:
+    if method == "phase":
+        return [str(state / "six_step" / f"step{k}.png") for k in range(1, 7)]
+    return [str(state / ("white_light.png" if method == "rgb" else "dark_field.png"))]
+
+
+def run_case(base, inds, name, methods, lib, work: Path, pixel_mm) -> list[dict]:
+    toml = work / f"{name}.toml"
+    toml.write_text(to_toml(case_config(base, inds, name)))
+    t0 = time.perf_counter()
+    if main(["predict", str(toml), "--out", str(work / name), "--quiet"]) != 0:
+        print(f"{name}: the FEM solve failed; case skipped")
+        return []
+    fem_s = time.perf_counter() - t0
+    state = work / name / "state_03"
+    out = []
+    for m in methods:
+        t0 = time.perf_counter()
+        code = main(
+            [
+                "invert",
+                *images(state, m),
+                "--library",
+                str(lib),
+                "--out",
+                str(work / f"{name}-{m}"),
+                "--pixel-mm",
+                str(pixel_mm),
+                "--method",
+                m,
+                "--quiet",
+            ]
+        )
+        dt = time.perf_counter() - t0
+        est = read_loads(work / f"{name}-{m}" / "loads.csv") if code == 0 else []
+        pairs, missed, spurious = match(inds, est)
+        out.append(
+            {
+                "name": name,
+                "method": m,
+                "n_indenters": len(inds),
+                "time_s": dt,
+                "fem_s": fem_s,
+                "exit": code,
+                "missed": missed,
+                "spurious": spurious,
+                "indenters": [
+                    {"true": t, "est": e, "errors": errors(t, e) if e else None} for t, e in pairs
+                ],
+            }
+        )
+        print(f"{name} {m}: exit {code}, {dt:.1f} s, missed {missed}, spurious {spurious}")
+        for t, e in pairs:
+            if e:
+                er = errors(t, e)
+                d = er["direction_deg"]
+                print(
+                    f"  Fz {t['Fz']:.2f} N: dFz {er['Fz_N']:+.3f} N ({er['Fz_pct']:+.1f} %), "
+                    f"dFt {er['Ft_N']:+.3f} N ({er['Ft_pct_of_Fz']:+.1f} % of Fz), "
+                    f"dir {'-' if d is None else f'{d:+.1f}'} deg, pos {er['position_mm']:.3f} mm"
+                )
+    return out
+
+
+def summary(cases: list[dict]) -> None:
+    for m in sorted({c["method"] for c in cases}):
+        errs = [
+            i["errors"] for c in cases if c["method"] == m for i in c["indenters"] if i["errors"]
+        ]
+        if not errs:
+            continue
+
+        def col(k, errs=errs):
+            return np.array([abs(e[k]) for e in errs if e[k] is not None])
+
+        t = [c["time_s"] for c in cases if c["method"] == m]
+        dirs = col("direction_deg")
+        print(
+            f"{m}: |dFz| median {np.median(col('Fz_pct')):.1f} % max {col('Fz_pct').max():.1f} %;"
+            f" |dFt| median {np.median(col('Ft_pct_of_Fz')):.1f} % of Fz; direction median "
+            f"{np.median(dirs) if len(dirs) else float('nan'):.1f} deg; "
+            f"position median {np.median(col('position_mm')):.3f} mm max "
+            f"{col('position_mm').max():.3f} mm; missed "
+            f"{sum(c['missed'] for c in cases if c['method'] == m)}, spurious "
+            f"{sum(c['spurious'] for c in cases if c['method'] == m)}; "
+            f"time per image median {np.median(t):.1f} s"
+        )
+
+
+def main_bench(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--preset", choices=sorted(PRESETS), default="coarse")
+    ap.add_argument("--n-indenters", nargs="+", type=int, default=[1, 2, 4, 6])
+    ap.add_argument("--methods", nargs="+", default=["rgb", "mono", "phase"])
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--library", default=None, help="library folder (built when missing)")
+    ap.add_argument("--work", default="bench-invert-work")
+    ap.add_argument("--json", default=None)
+    a = ap.parse_args(argv)
+    preset = PRESETS[a.preset]
+    base = (
+        apply_overrides(apply_overrides(load_config(None), preset["set"]), NOISE)
+        if preset["set"]
+        else apply_overrides(load_config(None), NOISE)
+    )
+    work = Path(a.work)
+    work.mkdir(parents=True, exist_ok=True)
+    lib = Path(a.library or work / f"library-{a.preset}")
+    t0 = time.perf_counter()
+    build_library(base, lib, loads=preset["loads"], ratios=preset["ratios"], progress=True)
+    build_s = time.perf_counter() - t0
+    print(f"library {lib}: {build_s:.1f} s (0 when reused)")
+    rng = np.random.default_rng(a.seed)
+    pixel_mm = base["optics"]["field_of_view_mm"] / base["optics"]["pixels"]
+    cases = []
+    for n in a.n_indenters:
+        inds = draw_case(rng, n, preset)
+        cases += run_case(base, inds, f"{a.preset}-{n}", a.methods, lib, work, pixel_mm)
+    summary(cases)
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"peak memory {peak:.0f} MB")
+    if a.json:
+        Path(a.json).write_text(
+            json.dumps(
+                {"cases": cases, "library_build_s": build_s, "peak_mb": peak},
+                indent=1,
+                default=float,
+            )
+        )
+
+
+if __name__ == "__main__":
+    main_bench()

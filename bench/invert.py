@@ -4,8 +4,8 @@ Usage: python bench/invert.py [--preset coarse|reference] [--n-indenters 1 2 4 6
        [--methods rgb mono phase] [--seed 0] [--library DIR] [--work DIR] [--json FILE]
 
 Builds (or reuses) the library of the preset's sensor, then for each number of indenters
-draws one case (seeded): positions at random over the field of view at least 6 mm apart
-(the first pair exactly 6 mm when there are two or more), Fz uniform over the library's
+draws one case (seeded): positions at random over the field of view at least 4.5 mm
+apart (the first pair exactly 6 mm when there are two or more), Fz uniform over the library's
 range (0.5-10 N for the reference preset), tangential load 0-0.8 Fz in a random
 direction. Each case is solved by ``fringekit predict`` (full model, full stick; the FEM,
 not the library), photographed 8-bit with 10k e- full well and 5 e- read noise, and
@@ -69,34 +69,35 @@ PRESETS = {
     },
 }
 NOISE = {"optics.full_well_e": 10000.0, "optics.read_noise_e": 5.0}
+MIN_APART_MM = 4.5
 
 
 def draw_case(rng, n: int, preset: dict) -> list[dict]:
-    """n indenters: positions >= 6 mm apart (the first pair exactly 6 mm), loads, shear."""
+    """n indenters: the first pair exactly 6 mm apart, every other centre at least
+    MIN_APART_MM from the rest (3.5 mm spheres plus a margin); loads and shear."""
     w = preset["half_width_mm"]
     pos: list[np.ndarray] = []
-    while len(pos) < n:
+    for _ in range(200000):  # rejection sampling; bounded
+        if len(pos) == n:
+            break
         if len(pos) == 1:
             a = rng.uniform(0, 2 * np.pi)
             p = pos[0] + 6.0 * np.array([np.cos(a), np.sin(a)])
         else:
             p = rng.uniform(-w, w, 2)
-        if np.all(np.abs(p) <= w) and all(np.hypot(*(p - q)) >= 6.0 - 1e-9 for q in pos):
+        if np.all(np.abs(p) <= w) and all(np.hypot(*(p - q)) >= MIN_APART_MM for q in pos):
             pos.append(p)
+    else:
+        raise SystemExit(f"cannot place {n} indenters {MIN_APART_MM} mm apart within +-{w} mm")
     out = []
     for p in pos:
         fz = float(rng.uniform(*preset["fz"]))
         t = float(rng.uniform(0.0, 0.8)) * fz
         a = rng.uniform(0, 2 * np.pi)
         out.append(
-            {
-                "x_mm": float(p[0]),
-                "y_mm": float(p[1]),
-                "Fz": fz,
-                "Fx": t * np.cos(a),
-                "Fy": t * np.sin(a),
-            }
-        )
+            {"x_mm": float(p[0]), "y_mm": float(p[1]), "Fz": fz, "Fx": t * np.cos(a),
+             "Fy": t * np.sin(a)}
+        )  # fmt: skip
     return out
 
 

@@ -41,7 +41,10 @@ def fit_figure(path, model, res) -> None:
     for ax, (title, v) in zip(axes, panels, strict=True):
         img = _shown(model, v)
         if title == "residual":
-            im = ax.imshow(img if img.ndim == 2 else np.nanmean(img, -1), extent=ext,
+            if img.ndim == 3:  # the channels' mean; all-NaN pixels (no data) stay NaN
+                n = np.isfinite(img).sum(-1)
+                img = np.where(n > 0, np.nansum(img, -1) / np.maximum(n, 1), np.nan)
+            im = ax.imshow(img, extent=ext,
                            cmap="coolwarm", vmin=-0.3, vmax=0.3)  # fmt: skip
             fig.colorbar(im, ax=ax, fraction=0.046, label="of full scale")
         else:

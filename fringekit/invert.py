@@ -84,7 +84,9 @@ def _subsample(model: ImageModel, k: int) -> ImageModel:
     centre = (float(x.mean()), float(y.mean()))
     grid = PixelGrid((len(r), len(c)), model.grid.pixel_size * k, centre)
     pick = (rr * cols + cc).ravel()
-    return replace(model, grid=grid, measured=model.measured[pick], usable=model.usable[pick])
+    nodata = None if model.nodata is None else model.nodata[pick]
+    return replace(model, grid=grid, measured=model.measured[pick], usable=model.usable[pick],
+                   nodata=nodata)  # fmt: skip
 
 
 def _start(model: ImageModel, pos_mm: np.ndarray):

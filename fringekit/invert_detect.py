@@ -19,8 +19,9 @@ __all__ = ["DETECT_DIP", "DETECT_REL", "DETECT_SNR", "MIN_SEPARATION_MM", "detec
 DETECT_SNR = 30.0
 DETECT_REL = 0.04
 #: Two peaks are two indenters when the energy between them dips by this fraction.
-DETECT_DIP = 0.05
-#: Candidates closer than this (mm) are one.
+DETECT_DIP = 0.2
+#: Candidates closer than this (mm) are one (discs; a fringe-energy peak must also be a
+#: sphere diameter from every disc and stronger peak: two spheres' axes cannot be closer).
 MIN_SEPARATION_MM = 2.0
 
 
@@ -84,7 +85,8 @@ def _separated(e: np.ndarray, peaks: np.ndarray, min_px: float) -> list[int]:
 
 def detect(model: ImageModel, noise: float, exclude=()) -> np.ndarray:
     """Candidate indenter positions (k, 2) (mm), strongest first; ``exclude`` (m, 2) mm
-    positions already taken (candidates within MIN_SEPARATION_MM of them are dropped)."""
+    positions already taken (discs within MIN_SEPARATION_MM of them, and fringe-energy
+    peaks within a sphere diameter, are dropped)."""
     from skimage.feature import peak_local_max
 
     px = model.grid.pixel_size * 1e3
@@ -96,18 +98,19 @@ def detect(model: ImageModel, noise: float, exclude=()) -> np.ndarray:
     peaks = peak_local_max(e, min_distance=max(1, int(0.5 * MIN_SEPARATION_MM / px)),
                            threshold_abs=floor, threshold_rel=DETECT_REL,
                            exclude_border=False)  # fmt: skip
-    peaks = peaks[_separated(e, peaks, MIN_SEPARATION_MM / px)]
+    apart = max(MIN_SEPARATION_MM, min(model.lib.diameters_mm))
+    peaks = peaks[_separated(e, peaks, apart / px)]
     x, y = model.grid.pixel_to_xy(peaks[:, 0], peaks[:, 1])
     pos = np.column_stack([x, y]) * 1e3
-    return np.concatenate([discs, _far_from(pos, taken)])
+    return np.concatenate([discs, _far_from(pos, taken, apart)])
 
 
-def _far_from(pos: np.ndarray, taken: np.ndarray) -> np.ndarray:
-    """The positions (k, 2) farther than MIN_SEPARATION_MM from every taken one (mm)."""
+def _far_from(pos: np.ndarray, taken: np.ndarray, apart: float = MIN_SEPARATION_MM):
+    """The positions (k, 2) farther than ``apart`` (mm) from every taken one (mm)."""
     if not len(taken) or not len(pos):
         return pos
     d = np.hypot(*(pos[:, None, :] - taken[None]).transpose(2, 0, 1))
-    return pos[d.min(axis=1) > MIN_SEPARATION_MM]
+    return pos[d.min(axis=1) > apart]
 
 
 def _discs(model: ImageModel) -> np.ndarray:
@@ -115,7 +118,8 @@ def _discs(model: ImageModel) -> np.ndarray:
     level: where ``predict`` marks an indenter's contact), at least 12 pixels each."""
     from scipy import ndimage
 
-    holes = (~model.usable).reshape(model.grid.shape)
+    marked = ~model.usable if model.nodata is None else model.nodata
+    holes = marked.reshape(model.grid.shape)
     lab, n = ndimage.label(holes)
     if not n:
         return np.zeros((0, 2))

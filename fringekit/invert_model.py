@@ -24,7 +24,7 @@ from optics import (
     intensity,
     light_source,
     six_step_arrangements,
-    white_light_image,
+    white_light_matrix,
 )
 
 from .library import Library, LoadedIndenter
@@ -68,6 +68,8 @@ class ImageModel:
     exact : bool or float — Jones integration of every ray, of the rays within this
         distance (m) of an indenter axis, or (False) of none: one equivalent retarder per
         ray (:func:`fringekit.synth.synthesise`)
+    nodata : (P,) bool or None — pixels at the image's no-data fill level (a contact zone
+        ``predict`` marked); None: every unusable pixel counts (saturated ones included)
     """
 
     lib: Library
@@ -81,6 +83,7 @@ class ImageModel:
     inner: float = 0.0
     keep: np.ndarray | None = None
     exact: bool | float = True
+    nodata: np.ndarray | None = None
 
     @classmethod
     def build(cls, lib, grid, method, measured, usable, optics, *, light="LED",
@@ -96,11 +99,11 @@ class ImageModel:
             groups = [list(range(6))]
         else:
             lam = law.wavenumber_grid(white_light_wavelengths)
+            # per-wavelength intensity -> linear RGB is one (W, 3) matrix, made once
             setup = {
-                "arrangement": dark_field_circular(**optics.errors),
+                "arrangements": [dark_field_circular(**optics.errors)],
                 "wavelengths": lam,
-                "spectrum": light_source(light, lam),
-                "camera": optics.camera,
+                "to_rgb": white_light_matrix(light_source(light, lam), optics.camera),
             }
             groups = [[0], [1], [2]]
         return cls(lib, grid, method, measured, usable, law, setup, groups)
@@ -120,9 +123,7 @@ class ImageModel:
         lam = np.array([self.law.wavelength_ref]) if lam is None else lam
         q = ray_quaternions(ab, self.grid.xy(), indenters, self.law, lam, self.exact)
         if self.method == "rgb":
-            s = self.setup
-            return white_light_image(q[:, None], s["spectrum"], s["camera"], s["arrangement"],
-                                     linear=True)[:, 0]  # fmt: skip
+            return intensity(q, self.setup["arrangements"][0]) @ self.setup["to_rgb"]
         return np.stack([intensity(q[:, 0], a) for a in self.setup["arrangements"]], axis=1)
 
     def jacobian(self, p: np.ndarray, diameters, step: float = 1e-3) -> np.ndarray:

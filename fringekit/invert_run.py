@@ -18,6 +18,7 @@ from __future__ import annotations
 import csv
 import json
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -59,7 +60,8 @@ def _no_data(stack: np.ndarray) -> np.ndarray:
 
 
 def read_measurement(paths, method: str | None, camera_name: str):
-    """(method, measured (P, C) linear, usable (P,), shape) from the image files."""
+    """(method, measured (P, C) linear, usable (P,), no-data (P,), shape) from the image
+    files: usable pixels are neither saturated nor at the no-data fill level."""
     from analysis import load_image, load_six_step
 
     paths = [str(p) for p in paths]
@@ -83,9 +85,10 @@ def read_measurement(paths, method: str | None, camera_name: str):
         lin = _decode(f, camera_name, method == "rgb").reshape(raw.shape) if method == "rgb" \
             else raw  # fmt: skip
         sat = f.saturated
-    usable = ~sat & ~_no_data(raw)
+    nodata = _no_data(raw)
     rows, cols = raw.shape[:2]
-    return method, lin.reshape(rows * cols, -1), usable.ravel(), (rows, cols)
+    usable = (~sat & ~nodata).ravel()
+    return method, lin.reshape(rows * cols, -1), usable, nodata.ravel(), (rows, cols)
 
 
 def sensor_config(sensor, images) -> tuple[dict | None, str | None]:
@@ -146,7 +149,9 @@ def run_invert(
     else:
         check_sensor(lib, cfg, where)
     optics = optics_setup(cfg)
-    method, measured, usable, shape = read_measurement(images, method, optics.camera.sensitivities)
+    method, measured, usable, nodata, shape = read_measurement(
+        images, method, optics.camera.sensitivities
+    )
     grid = _grid(shape, pixel_mm, origin_px)
     model = ImageModel.build(
         lib,
@@ -158,6 +163,7 @@ def run_invert(
         light=cfg["optics"]["light"],
         white_light_wavelengths=cfg["optics"]["white_light_wavelengths"],
     )
+    model = replace(model, nodata=nodata)
     say = echo if progress else (lambda s: None)
     say(f"invert: {method}, {shape[0]} x {shape[1]} px, library {lib.folder} "
         f"({len(lib.load_N) - 1} loads x {len(lib.shear_ratio)} ratios)")  # fmt: skip

@@ -7,6 +7,7 @@ from .camera import (
     light_source,
     monochrome_image,
     white_light_image,
+    white_light_matrix,
     write_image,
 )
 from .fem import FEMStressField
@@ -66,5 +67,6 @@ __all__ = [
     "secondary_principal",
     "six_step_arrangements",
     "white_light_image",
+    "white_light_matrix",
     "write_image",
 ]

@@ -22,6 +22,7 @@ __all__ = [
     "light_source",
     "Camera",
     "white_light_image",
+    "white_light_matrix",
     "monochrome_image",
     "colour_chart",
     "write_image",
@@ -185,11 +186,21 @@ def white_light_image(
     """
     arrangement = arrangement or dark_field_circular()
     t = intensity(q, arrangement)  # (rows, cols, W)
+    m = white_light_matrix(spectrum, camera)
+    rgb = (t.reshape(-1, t.shape[-1]) @ m).reshape(t.shape[:-1] + (3,))
+    return rgb if linear else camera.encode(rgb, seed)
+
+
+def white_light_matrix(spectrum: Spectrum, camera: Camera) -> np.ndarray:
+    """(W, 3): linear RGB = (per-wavelength transmitted intensity, W) @ this matrix.
+
+    The source spectrum and quadrature weights times the channel sensitivities, each
+    channel normalised to 1 for full transmission, then (for the CIE observer) the linear
+    map to sRGB primaries under the source white (``_to_rgb_linear``, linear in its input,
+    applied here to the unit channel vectors)."""
     qc = camera.responses(spectrum.wavelengths)  # (W, 3)
     wq = (spectrum.power * spectrum.weights)[:, None] * qc
-    ch = (t.reshape(-1, t.shape[-1]) @ (wq / wq.sum(0))).reshape(t.shape[:-1] + (3,))
-    rgb = _to_rgb_linear(ch, spectrum, camera)
-    return rgb if linear else camera.encode(rgb, seed)
+    return (wq / wq.sum(0)) @ _to_rgb_linear(np.eye(3), spectrum, camera)
 
 
 def monochrome_image(

@@ -2,6 +2,7 @@
 
 Usage: python bench/invert.py [--preset coarse|reference] [--n-indenters 1 2 4 6]
        [--methods rgb mono phase] [--seed 0] [--library DIR] [--work DIR] [--json FILE]
+       (--work default: bench/out/invert, ignored by git)
 
 Builds (or reuses) the library of the preset's sensor, then for each number of indenters
 draws one case (seeded): positions at random over the field of view at least 4.5 mm
@@ -258,7 +259,7 @@ def main_bench(argv=None) -> None:
     ap.add_argument("--methods", nargs="+", default=["rgb", "mono", "phase"])
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--library", default=None, help="library folder (built when missing)")
-    ap.add_argument("--work", default="bench-invert-work")
+    ap.add_argument("--work", default="bench/out/invert")
     ap.add_argument("--json", default=None)
     a = ap.parse_args(argv)
     preset = PRESETS[a.preset]

@@ -98,8 +98,12 @@ def _start(model: ImageModel, pos_mm: np.ndarray):
     xy = model.grid.xy() * 1e3
     loads = np.geomspace(0.5 * lib.load_N[1], lib.max_load_N, START_LOADS)
     p, diam = [], []
-    for x, y in pos_mm:  # candidates (a handful)
-        near = model.usable & (np.hypot(xy[:, 0] - x, xy[:, 1] - y) < WINDOW_MM + FAR_MM)
+    # each candidate's own cell: pixels nearer to it than to any other candidate (its
+    # neighbours' fringes would raise its load)
+    dist = np.stack([np.hypot(xy[:, 0] - x, xy[:, 1] - y) for x, y in pos_mm]) if len(
+        pos_mm) else np.zeros((0, len(xy)))  # fmt: skip
+    for k, (x, y) in enumerate(pos_mm):  # candidates (a handful)
+        near = model.usable & (dist[k] < WINDOW_MM + FAR_MM) & (dist[k] <= dist.min(axis=0))
         best = (np.inf, None, None)
         for d in lib.diameters_mm:
             for f in loads:

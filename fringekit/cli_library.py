@@ -5,19 +5,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .options import at_least_one, finite, nonnegative, positive
+from .options import at_least_one, at_least_zero, finite, nonnegative, positive
 
 __all__ = ["add_invert", "add_library", "cmd_invert", "cmd_library"]
-
-
-def _nonneg_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"{v} is not allowed; give 0 or more")
-    return v
 
 
 def add_library(sub) -> None:
@@ -37,7 +27,7 @@ def add_library(sub) -> None:
                    help="tangential/normal ratios from 0 (default 0 0.2 0.4 0.6 0.8)")  # fmt: skip
     b.add_argument("--slabs", type=at_least_one, default=16, help="slabs per stored ray")
     b.add_argument("--scheduler", default=None, help="address of an existing Dask scheduler")
-    b.add_argument("--workers", type=_nonneg_int, default=None,
+    b.add_argument("--workers", type=at_least_zero, default=None,
                    help="local worker processes (0: solve in this process)")  # fmt: skip
     b.add_argument("--cache-dir", default=None, help="mesh and solution cache root")
     b.add_argument("--quiet", action="store_true")

@@ -29,6 +29,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from optics import PixelGrid
+
 from .config import ConfigError
 from .invert_detect import detect, noise_sd
 from .invert_model import N_PARAMS, ImageModel, unpack
@@ -47,6 +49,8 @@ FAR_MM = 2.0
 EXACT_MM = 2.5
 #: Loads tried per candidate for the start (log-spaced over the library's range).
 START_LOADS = 16
+#: A normal load at or above this fraction of the library's largest sits at its edge.
+AT_LARGEST = 0.995
 
 
 class InvertError(ConfigError):
@@ -57,7 +61,7 @@ class InvertError(ConfigError):
 class InvertResult:
     """Fitted indenters: params (n, 5) x, y (mm), Fz, Fx, Fy (N); sd (n, 5); diameters
     (n,) (m); residual_rms (n,) near each indenter, in fringe amplitudes; gains and
-    offsets per channel; noise sd; iterations; warnings."""
+    offsets per channel; noise sd; iterations; total residual; times."""
 
     params: np.ndarray
     sd: np.ndarray
@@ -68,7 +72,6 @@ class InvertResult:
     noise: float
     iterations: int
     residual: float
-    warnings: list = field(default_factory=list)
     times_s: dict = field(default_factory=dict)
 
 
@@ -79,8 +82,6 @@ def _subsample(model: ImageModel, k: int) -> ImageModel:
     c = np.arange(0, cols, k)
     rr, cc = np.meshgrid(r, c, indexing="ij")
     x, y = model.grid.pixel_to_xy(rr, cc)
-    from optics import PixelGrid
-
     centre = (float(x.mean()), float(y.mean()))
     grid = PixelGrid((len(r), len(c)), model.grid.pixel_size * k, centre)
     pick = (rr * cols + cc).ravel()
@@ -89,13 +90,19 @@ def _subsample(model: ImageModel, k: int) -> ImageModel:
                    nodata=nodata)  # fmt: skip
 
 
+def _far(model: ImageModel) -> ImageModel:
+    """The far-field stage's model: pixels FAR_MM from every indenter, one equivalent
+    retarder per ray."""
+    return replace(model, inner=FAR_MM * 1e-3, exact=False)
+
+
 def _start(model: ImageModel, pos_mm: np.ndarray):
     """Starting parameters and diameters for candidates: the load (and diameter) of
     START_LOADS whose single-indenter image fits the far field (FAR_MM out to WINDOW_MM
     + FAR_MM) of the candidate best."""
     lib = model.lib
-    far = replace(model, inner=FAR_MM * 1e-3, exact=False)
-    xy = model.grid.xy() * 1e3
+    far = _far(model)
+    xy = model.xy * 1e3
     loads = np.geomspace(0.5 * lib.load_N[1], lib.max_load_N, START_LOADS)
     p, diam = [], []
     # each candidate's own cell: pixels nearer to it than to any other candidate (its
@@ -119,7 +126,7 @@ def _start(model: ImageModel, pos_mm: np.ndarray):
 
 def _bounds(model: ImageModel, n: int):
     lib = model.lib
-    xy = model.grid.xy() * 1e3
+    xy = model.xy * 1e3
     lo_xy, hi_xy = xy.min(axis=0) - 1.0, xy.max(axis=0) + 1.0
     t = lib.max_ratio * lib.max_load_N
     lo = np.tile([lo_xy[0], lo_xy[1], 0.0, -t, -t], n)
@@ -143,7 +150,7 @@ def _fit(model: ImageModel, p0: np.ndarray, diam, noise: float):
     )  # fmt: skip
 
 
-def _uncertainty(model: ImageModel, res, n_used: int) -> np.ndarray:
+def _uncertainty(res, n_used: int) -> np.ndarray:
     """1-sigma of the parameters from the Jacobian and the residual variance."""
     J = res.jac
     dof = max(n_used - J.shape[1], 1)
@@ -164,7 +171,7 @@ def _prune(p: np.ndarray, sd: np.ndarray, diam: list, lib) -> tuple[np.ndarray, 
         significant = ~(q[:, 2] <= 3 * s[:, 2])  # an undefined sd keeps it
     # an indenter held at the largest load is kept, to be refused (never dropped silently)
     keep = (q[:, 2] >= MIN_LOAD_FRACTION * lib.load_N[1]) & significant
-    keep |= q[:, 2] >= 0.995 * lib.max_load_N
+    keep |= q[:, 2] >= AT_LARGEST * lib.max_load_N
     kept: list[int] = []
     for i in np.argsort(-q[:, 2]):  # strongest first; a handful of indenters
         clash = any(np.hypot(*(q[i, :2] - q[j, :2])) < 0.5e3 * (diam[i] + diam[j])
@@ -178,13 +185,10 @@ def _prune(p: np.ndarray, sd: np.ndarray, diam: list, lib) -> tuple[np.ndarray, 
 def _fit_all(model, fine, p, diam, noise, its):
     """Fit the far field on ``model`` (every 4th pixel), then every pixel of ``fine``
     (every 2nd); returns (p, result, iterations)."""
+    if not diam:
+        return p, None, its
     res = None
-    for m in (
-        replace(model, inner=FAR_MM * 1e-3, exact=False),
-        replace(fine, exact=EXACT_MM * 1e-3),
-    ):
-        if not diam:
-            return p, None, its
+    for m in (_far(model), replace(fine, exact=EXACT_MM * 1e-3)):
         res = _fit(m, p, diam, noise)
         p, its = res.x, its + res.nfev
     return p, res, its
@@ -203,11 +207,9 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
         p, res, its = _fit_all(coarse, fine, p, diam, noise, its)
         if res is None or round_ == max_rounds:
             break
-        sd = _uncertainty(fine, res, int(np.count_nonzero(res.fun)))
+        sd = _uncertainty(res, int(np.count_nonzero(res.fun)))
         p2, diam2 = _prune(p, sd, diam, model.lib)
-        fitted = unpack(p2, diam2)
-        model_img, outside = fine.linear(fitted)
-        fitted_img, _, _ = fine.project(model_img, fine.usable & outside)
+        fitted_img, _, _, outside = fine.fitted(unpack(p2, diam2))
         resid = replace(fine, measured=np.where(outside[:, None], fine.measured - fitted_img, 0.0))
         new = detect(resid, noise, exclude=p2.reshape(-1, N_PARAMS)[:, :2])
         if len(diam2) == len(diam) and not len(new):
@@ -215,7 +217,7 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
         pn, dn = _start(coarse, new)
         p, diam = np.concatenate([p2, pn]), diam2 + dn
     if res is not None:  # the last fit may have let two indenters meet
-        sd = _uncertainty(fine, res, int(np.count_nonzero(res.fun)))
+        sd = _uncertainty(res, int(np.count_nonzero(res.fun)))
         p2, diam2 = _prune(p, sd, diam, model.lib)
         if len(diam2) < len(diam):
             p, res, its = _fit_all(coarse, fine, p2, diam2, noise, its)
@@ -248,14 +250,13 @@ def _finish(model, fine, p, diam, res, noise, its, t0, t_detect) -> InvertResult
             times_s={"detect_s": t_detect, "total_s": time.perf_counter() - t0},
         )
     used = int(np.count_nonzero(res.fun))
-    sd = _uncertainty(fine, res, used).reshape(n, N_PARAMS)
+    sd = _uncertainty(res, used).reshape(n, N_PARAMS)
     q = p.reshape(n, N_PARAMS)
-    model_img, outside = fine.linear(unpack(p, diam))
+    fitted, gains, offs, outside = fine.fitted(unpack(p, diam))
     use = fine.usable & outside
-    fitted, gains, offs = fine.project(model_img, use)
     r = np.where(use[:, None], fine.measured - fitted, np.nan)
     amp = float(np.mean(np.abs(gains)))
-    xy = fine.grid.xy() * 1e3
+    xy = fine.xy * 1e3
     near = [np.hypot(xy[:, 0] - v[0], xy[:, 1] - v[1]) < WINDOW_MM for v in q]
     rms = np.array([np.sqrt(np.nanmean(r[m] ** 2)) / amp for m in near])
     total = float(np.sqrt(np.nanmean(r**2)) / amp)
@@ -277,7 +278,7 @@ def _finish(model, fine, p, diam, res, noise, its, t0, t_detect) -> InvertResult
 def _refuse(q: np.ndarray, lib, total: float) -> None:
     """An image the library cannot explain is refused, not returned."""
     for i, v in enumerate(q):
-        if v[2] >= 0.995 * lib.max_load_N:
+        if v[2] >= AT_LARGEST * lib.max_load_N:
             raise InvertError(
                 f"indenter {i + 1} at ({v[0]:.2f}, {v[1]:.2f}) mm needs a normal load at or "
                 f"beyond the library's largest, {lib.max_load_N:g} N; build a library with "

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .figures import sensor_extent
 from .invert_model import unpack
 
 __all__ = ["fit_figure"]
@@ -22,16 +23,12 @@ def fit_figure(path, model, res) -> None:
     """Three panels in sensor mm, indenters marked, tangential loads as arrows."""
     from matplotlib.figure import Figure
 
-    lin, outside = model.linear(unpack(res.params.ravel(), list(res.diameters)))
-    use = model.usable & outside
-    fitted, _, _ = model.project(lin, use) if len(res.params) else (
-        np.full_like(model.measured, np.median(model.measured)), None, None)  # fmt: skip
-    resid = np.where(use[:, None], model.measured - fitted, np.nan)
-    rows, cols = model.grid.shape
-    x0, y0 = model.grid.pixel_to_xy(0, 0)
-    x1, y1 = model.grid.pixel_to_xy(rows - 1, cols - 1)
-    h = model.grid.pixel_size * 0.5
-    ext = np.array([x0 - h, x1 + h, y1 - h, y0 + h]) * 1e3
+    fitted, _, _, outside = model.fitted(unpack(res.params.ravel(), list(res.diameters)))
+    if not len(res.params):
+        fitted = np.full_like(model.measured, np.median(model.measured))
+    resid = np.where((model.usable & outside)[:, None], model.measured - fitted, np.nan)
+    origin = tuple(float(v) for v in model.grid.xy_to_pixel(0.0, 0.0))
+    ext = sensor_extent(model.grid.shape, model.grid.pixel_size, origin)
     fig = Figure(figsize=(13, 4.6), dpi=100)
     axes = fig.subplots(1, 3)
     top = float(np.nanmax(model.measured)) or 1.0

@@ -15,6 +15,7 @@ nonlinear fit sees only the indenters' parameters.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -28,7 +29,7 @@ from optics import (
 )
 
 from .library import Library, LoadedIndenter
-from .synth import ray_quaternions
+from .synth import ray_quaternions, superpose
 
 __all__ = ["METHODS", "ImageModel", "N_PARAMS", "unpack"]
 
@@ -87,9 +88,9 @@ class ImageModel:
 
     @classmethod
     def build(cls, lib, grid, method, measured, usable, optics, *, light="LED",
-              white_light_wavelengths=31):  # fmt: skip
+              white_light_wavelengths=31, nodata=None):  # fmt: skip
         """``optics``: a :class:`fringekit.inputs.OpticsSetup` (law, camera, errors);
-        ``light``: the white-light source's name."""
+        ``light``: the white-light source's name; ``nodata`` as the attribute."""
         law = optics.law
         if method == "mono":
             setup = {"arrangements": [dark_field_circular(**optics.errors)]}
@@ -106,22 +107,32 @@ class ImageModel:
                 "to_rgb": white_light_matrix(light_source(light, lam), optics.camera),
             }
             groups = [[0], [1], [2]]
-        return cls(lib, grid, method, measured, usable, law, setup, groups)
+        return cls(lib, grid, method, measured, usable, law, setup, groups, nodata=nodata)
+
+    @cached_property
+    def xy(self) -> np.ndarray:
+        """(P, 2) pixel positions (m), computed once per model (``grid.xy()``)."""
+        return self.grid.xy()
 
     def linear(self, indenters) -> tuple[np.ndarray, np.ndarray]:
         """Model intensities (P, C) before gain and offset, and the pixels outside every
         (widened) contact circle."""
-        xy = self.grid.xy()
-        ab = np.zeros((len(xy), self.lib.lattice.n_slabs, 2), np.float32)
-        for ind in indenters:  # a handful of indenters
-            ab += self.lib.slabs(ind, xy)[0]
+        ab, _ = superpose(self.lib, indenters, self.xy)
         return self.intensities(ab, indenters), self.outside_contacts(indenters)
+
+    def fitted(self, indenters):
+        """The model image of ``indenters`` with its best gain and offset on the usable
+        pixels outside the contact circles: (fitted (P, C), gains (C,), offsets (C,),
+        outside (P,) the pixels outside every widened contact circle)."""
+        model, outside = self.linear(indenters)
+        fitted, gains, offs = self.project(model, self.usable & outside)
+        return fitted, gains, offs, outside
 
     def intensities(self, ab: np.ndarray, indenters) -> np.ndarray:
         """Model intensities (P, C) of summed slab pairs ab (P, S, 2)."""
         lam = self.setup.get("wavelengths")
         lam = np.array([self.law.wavelength_ref]) if lam is None else lam
-        q = ray_quaternions(ab, self.grid.xy(), indenters, self.law, lam, self.exact)
+        q = ray_quaternions(ab, self.xy, indenters, self.law, lam, self.exact)
         if self.method == "rgb":
             return intensity(q, self.setup["arrangements"][0]) @ self.setup["to_rgb"]
         return np.stack([intensity(q[:, 0], a) for a in self.setup["arrangements"]], axis=1)
@@ -131,10 +142,11 @@ class ImageModel:
         set). A column moves one indenter: only its field is sampled again, the others'
         sum is reused (``step`` times max(1, |p|), as scipy's 2-point rule)."""
         inds = unpack(p, diameters)
-        xy = self.grid.xy()
+        xy = self.xy
         own = [self.lib.slabs(ind, xy)[0] for ind in inds]
         total = np.sum(own, axis=0) if own else np.zeros((len(xy), 1, 2), np.float32)
-        r0 = self._residual_of(total, inds)
+        use = self.usable & self.keep
+        r0 = self._residual_of(total, inds, use)
         J = np.empty((r0.size, p.size))
         for j in range(p.size):  # 5 per indenter
             i = j // N_PARAMS
@@ -143,19 +155,19 @@ class ImageModel:
             pj[j] += h
             moved = unpack(pj, diameters)
             ab = total - own[i] + self.lib.slabs(moved[i], xy)[0]
-            J[:, j] = (self._residual_of(ab, moved) - r0) / h
+            J[:, j] = (self._residual_of(ab, moved, use) - r0) / h
         return J
 
-    def _residual_of(self, ab: np.ndarray, indenters) -> np.ndarray:
+    def _residual_of(self, ab: np.ndarray, indenters, use: np.ndarray) -> np.ndarray:
+        """Residuals (P * C,) of summed slab pairs, zero outside ``use``."""
         model = self.intensities(ab, indenters)
-        use = self.usable & self.keep
         fitted, _, _ = self.project(model, use)
         res = self.measured - fitted
         res[~use] = 0.0
         return res.ravel()
 
     def outside_contacts(self, indenters) -> np.ndarray:
-        xy = self.grid.xy()
+        xy = self.xy
         keep = np.ones(len(xy), bool)
         for ind in indenters:
             f = self.lib.fields[self.lib.nearest_diameter(ind.diameter * 1e3)]
@@ -180,10 +192,9 @@ class ImageModel:
         return fitted, gains, offs
 
     def residual(self, p: np.ndarray, diameters) -> np.ndarray:
-        """Residuals (P * C,) of the parameter vector; zero on pixels left out."""
-        model, outside = self.linear(unpack(p, diameters))
-        use = self.usable & (outside if self.keep is None else self.keep)
-        fitted, _, _ = self.project(model, use)
-        res = self.measured - fitted
-        res[~use] = 0.0
-        return res.ravel()
+        """Residuals (P * C,) of the parameter vector; zero on pixels left out (outside
+        ``usable``, and inside the contact circles or outside ``keep`` when it is set)."""
+        inds = unpack(p, diameters)
+        ab, _ = superpose(self.lib, inds, self.xy)
+        keep = self.outside_contacts(inds) if self.keep is None else self.keep
+        return self._residual_of(ab, inds, self.usable & keep)

@@ -18,7 +18,6 @@ from __future__ import annotations
 import csv
 import json
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -162,13 +161,12 @@ def run_invert(
         optics,
         light=cfg["optics"]["light"],
         white_light_wavelengths=cfg["optics"]["white_light_wavelengths"],
+        nodata=nodata,
     )
-    model = replace(model, nodata=nodata)
     say = echo if progress else (lambda s: None)
     say(f"invert: {method}, {shape[0]} x {shape[1]} px, library {lib.folder} "
         f"({len(lib.load_N) - 1} loads x {len(lib.shear_ratio)} ratios)")  # fmt: skip
     res = invert_image(model)
-    warnings += res.warnings
     say(f"invert: {len(res.params)} indenter(s), residual {res.residual:.3f} of the fringe "
         f"amplitude, {time.perf_counter() - t0:.1f} s")  # fmt: skip
     with run_folder(out) as work:

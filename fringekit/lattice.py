@@ -115,8 +115,9 @@ def sample_lattice(field, lattice: PolarLattice) -> tuple[np.ndarray, np.ndarray
     valid : (R, F) bool — nodes whose ray crosses the sheet outside the contact.
     """
     R, F = lattice.shape
-    a, b, dz, ok = sample_points(field, lattice.xy(), lattice.n_slabs)
-    alpha = np.arctan2(lattice.xy()[:, 1], lattice.xy()[:, 0])[:, None]
+    xy = lattice.xy()
+    a, b, dz, ok = sample_points(field, xy, lattice.n_slabs)
+    alpha = np.arctan2(xy[:, 1], xy[:, 0])[:, None]
     c, s = np.cos(2 * alpha), np.sin(2 * alpha)
     A = (a * c + b * s) * dz[:, None]  # the inverse of polar_to_cartesian
     B = (-a * s + b * c) * dz[:, None]

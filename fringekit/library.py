@@ -32,6 +32,7 @@ from .config import ConfigError
 from .lattice import PolarLattice, polar_to_cartesian
 
 __all__ = [
+    "FIELD_KEYS",
     "FORMAT",
     "Library",
     "LibraryError",
@@ -44,6 +45,8 @@ __all__ = [
 ]
 
 FORMAT = "fringekit-library/1"
+#: The arrays of a field file (module docstring).
+FIELD_KEYS = ("AB", "valid", "contact_radius_m", "centre_m", "force_N")
 
 
 class LibraryError(ConfigError):
@@ -257,7 +260,7 @@ def load_library(folder) -> Library:
             raise _bad(folder, f"{name} is missing or does not match its checksum in "
                        "manifest.json (corrupt library; rebuild it)")  # fmt: skip
         with np.load(path) as z:
-            f = {k: z[k] for k in ("AB", "valid", "contact_radius_m", "centre_m", "force_N")}
+            f = {k: z[k] for k in FIELD_KEYS}
         expect = (len(loads), len(ratios), *lattice.shape, lattice.n_slabs, 2)
         if f["AB"].shape != expect:
             raise _bad(folder, f"{name} holds fields of shape {f['AB'].shape}, the manifest "

@@ -25,7 +25,7 @@ import numpy as np
 from .cluster import run_tasks
 from .config import ConfigError, to_toml
 from .lattice import default_lattice, sample_lattice
-from .library import FORMAT, field_file, sensor_key, sha256
+from .library import FIELD_KEYS, FORMAT, field_file, sensor_key, sha256
 from .versions import run_versions
 
 __all__ = [
@@ -93,13 +93,17 @@ def _solve_branch(task: dict, out: str, cache_dir: str | None) -> dict:
         a.append(ind.contact_radius)
         centre.append([ind.centre[0], ind.centre[1], ind.depth])
         force.append([ind.force[0], ind.force[1], -ind.force[2]])
-    dest = Path(out) / "branches" / f"{task['id']}.npz"
-    part = dest.with_name(dest.name + ".part.npz")
-    np.savez(part, AB=np.array(AB), valid=np.array(valid), contact_radius_m=np.array(a),
-             centre_m=np.array(centre), force_N=np.array(force),
-             settings=json.dumps(task["settings"]))  # fmt: skip
-    os.replace(part, dest)
+    _save_npz(Path(out) / "branches" / f"{task['id']}.npz", AB=np.array(AB),
+              valid=np.array(valid), contact_radius_m=np.array(a), centre_m=np.array(centre),
+              force_N=np.array(force), settings=json.dumps(task["settings"]))  # fmt: skip
     return {"id": task["id"], "error": None, "time_s": time.perf_counter() - t0}
+
+
+def _save_npz(dest: Path, **arrays) -> None:
+    """``np.savez`` to ``dest`` through a ``.part`` file: it appears whole or not at all."""
+    part = dest.with_name(dest.name + ".part.npz")
+    np.savez(part, **arrays)
+    os.replace(part, dest)
 
 
 def _finished(path: Path, settings: dict) -> bool:
@@ -204,17 +208,15 @@ def condition_fields(AB: np.ndarray, lat) -> np.ndarray:
 def _assemble(cfg, out: Path, tasks, diameters, loads, ratios, lat, mesh, build_s) -> dict:
     files = {}
     for d in diameters:
-        parts = [np.load(out / "branches" / f"{t['id']}.npz") for t in tasks
-                 if t["settings"]["diameter_mm"] == d]  # fmt: skip
+        parts = []
+        for t in tasks:
+            if t["settings"]["diameter_mm"] == d:
+                with np.load(out / "branches" / f"{t['id']}.npz") as z:
+                    parts.append({k: z[k] for k in FIELD_KEYS})
         name = field_file(d)
-        arrays = {
-            k: np.stack([p[k] for p in parts])
-            for k in ("AB", "valid", "contact_radius_m", "centre_m", "force_N")
-        }
+        arrays = {k: np.stack([p[k] for p in parts]) for k in FIELD_KEYS}
         arrays["AB"] = condition_fields(arrays["AB"], lat)
-        part = out / (name + ".part.npz")
-        np.savez(part, **arrays)
-        os.replace(part, out / name)
+        _save_npz(out / name, **arrays)
         files[name] = {"diameter_mm": d, "sha256": sha256(out / name)}
     (out / "config.toml").write_text(to_toml(cfg))
     manifest = {

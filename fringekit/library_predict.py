@@ -18,20 +18,13 @@ import numpy as np
 
 from optics import (
     OpticalMap,
-    dark_field_circular,
-    light_source,
-    monochrome_image,
-    six_step_arrangements,
-    white_light_image,
-    write_image,
 )
 
 from .config import ConfigError, to_toml
-from .figures import map_figure
 from .inputs import optics_setup
 from .library import LoadedIndenter, check_sensor, load_library
 from .outdir import run_folder
-from .render import no_data_fill
+from .render import grid_figure, write_monochrome, write_white_light
 from .synth import synthesise
 
 __all__ = ["ACCURACY_NOTE", "config_indenters", "run_library_predict"]
@@ -69,9 +62,11 @@ def config_indenters(cfg: dict, lib) -> list[LoadedIndenter]:
 def _render(cfg, lib, inds, d: Path) -> dict:
     o = cfg["optics"]
     opt = optics_setup(cfg)
-    (d / "six_step").mkdir(parents=True)
-    sm = synthesise(lib, inds, opt.grid, opt.law)
-    omap = OpticalMap(grid=opt.grid, wavelengths=sm.wavelengths, q=sm.q,
+    d.mkdir(parents=True)
+    # one superposition for the reference wavelength (maps, grey images) and white light
+    lam = opt.law.wavenumber_grid(o["white_light_wavelengths"])
+    sm = synthesise(lib, inds, opt.grid, opt.law, np.concatenate([[opt.law.wavelength_ref], lam]))
+    omap = OpticalMap(grid=opt.grid, wavelengths=sm.wavelengths[:1], q=sm.q[:, :, :1],
                       simple_order=np.where(sm.mask, sm.simple_order, np.nan), mask=sm.mask,
                       reflection=True, law=opt.law)  # fmt: skip
     order = omap.fringe_order()
@@ -82,25 +77,10 @@ def _render(cfg, lib, inds, d: Path) -> dict:
                         isoclinic_rad=theta, mask=omap.mask, x_m=xy[..., 0], y_m=xy[..., 1],
                         pixel_size_m=opt.grid.pixel_size, wavelength_m=opt.law.wavelength_ref,
                         branch_ambiguous=omap.branch_ambiguous())  # fmt: skip
-    q = sm.q[:, :, 0]
-    write_image(d / "mask.png", np.where(sm.mask, 255, 0).astype(np.uint8))
-    for a in six_step_arrangements(**opt.errors):
-        img = monochrome_image(q, a, opt.camera, seed=o["seed"])
-        write_image(d / "six_step" / f"{a.name}.png", no_data_fill(img, sm.mask))
-    dark = monochrome_image(q, dark_field_circular(**opt.errors), opt.camera, seed=o["seed"])
-    write_image(d / "dark_field.png", no_data_fill(dark, sm.mask))
-    lam = opt.law.wavenumber_grid(o["white_light_wavelengths"])
-    sw = synthesise(lib, inds, opt.grid, opt.law, lam)
-    rgb = white_light_image(sw.q, light_source(o["light"], lam), opt.camera,
-                            dark_field_circular(**opt.errors), seed=o["seed"])  # fmt: skip
-    name = "white_light.png" if opt.camera.bit_depth == 8 else "white_light.tif"
-    write_image(d / name, no_data_fill(rgb, sm.mask))
-    x0, y0 = opt.grid.pixel_to_xy(0, 0)
-    h = opt.grid.pixel_size / 2
-    ext = (1e3 * (x0 - h), 1e3 * (-x0 + h), 1e3 * (-y0 - h), 1e3 * (y0 + h))
-    map_figure(d / "fringe_order.png", order, f"fringe order at {o['wavelength_nm']:g} nm "
-               "(library)", "fringe order", "turbo", extent=ext,
-               axis_labels=("x (mm)", "y (mm)"))  # fmt: skip
+    write_monochrome(d, sm.q[:, :, 0], cfg, opt, sm.mask)
+    write_white_light(d, sm.q[:, :, 1:], lam, cfg, opt, sm.mask)
+    title = f"fringe order at {o['wavelength_nm']:g} nm (library)"
+    grid_figure(d / "fringe_order.png", order, opt.grid, title, "fringe order", "turbo")
     valid = np.isfinite(order)
     return {"state": 1, "folder": d.name,
             "max_fringe_order": float(np.nanmax(order)) if valid.any() else None}  # fmt: skip

@@ -15,6 +15,7 @@ import sys
 __all__ = [
     "Parser",
     "at_least_one",
+    "at_least_zero",
     "finite",
     "fraction",
     "nonnegative",
@@ -78,12 +79,21 @@ def fraction(text: str) -> float:
     return v
 
 
-def at_least_one(text: str) -> int:
-    """A whole number >= 1."""
+def _whole(text: str, minimum: int) -> int:
     try:
         v = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"{text} is not allowed; give a whole number >= 1")
+    if v < minimum:
+        raise argparse.ArgumentTypeError(f"{text} is not allowed; give a whole number >= {minimum}")
     return v
+
+
+def at_least_one(text: str) -> int:
+    """A whole number >= 1."""
+    return _whole(text, 1)
+
+
+def at_least_zero(text: str) -> int:
+    """A whole number >= 0."""
+    return _whole(text, 0)

@@ -31,7 +31,16 @@ from .config import ConfigError
 from .figures import NO_DATA_IMAGE_LEVEL, map_figure, profile_figure, sensor_extent
 from .inputs import OpticsSetup, optics_setup
 
-__all__ = ["fringe_order_map", "indenter_pixels", "mono_map", "render_state"]
+__all__ = [
+    "fringe_order_map",
+    "grid_figure",
+    "indenter_pixels",
+    "mono_map",
+    "no_data_fill",
+    "render_state",
+    "write_monochrome",
+    "write_white_light",
+]
 
 
 def _integrate(
@@ -96,7 +105,7 @@ def fringe_order_map(sol, cfg: dict, optics: OpticsSetup | None = None):
     return omap.fringe_order(), optics.grid, indenter_pixels(sol, optics.grid)
 
 
-def _grid_figure(path, data, grid, title, label, cmap, **kw) -> None:
+def grid_figure(path, data, grid, title, label, cmap, **kw) -> None:
     """:func:`map_figure` on the sheet's x, y (mm) of ``grid``: the sensor frame about
     the pixel where the sensor origin falls, pixel edges on the axes."""
     origin = tuple(float(v) for v in grid.xy_to_pixel(0.0, 0.0))
@@ -131,18 +140,38 @@ def _write_maps(d: Path, sol, omap: OpticalMap, law) -> tuple[np.ndarray, np.nda
 
 def _white_light(d: Path, sol, cfg: dict, optics: OpticsSetup, samples, mask) -> np.ndarray:
     """Render and write the white-light image (dark-field circular); return it."""
-    o, law, camera = cfg["optics"], optics.law, optics.camera
     rows, cols = optics.grid.shape
-    lam = law.wavenumber_grid(o["white_light_wavelengths"])
+    lam = optics.law.wavenumber_grid(cfg["optics"]["white_light_wavelengths"])
     qw, _, _, _ = _integrate(sol, cfg, optics, lam, samples=samples)
-    spec = light_source(o["light"], lam)
+    return write_white_light(d, qw.reshape(rows, cols, len(lam), 4), lam, cfg, optics, mask)
+
+
+def write_white_light(d: Path, qw, lam, cfg: dict, optics: OpticsSetup, mask) -> np.ndarray:
+    """Write ``white_light.png`` (``.tif`` at 16 bit) of quaternions qw (rows, cols, W, 4)
+    at wavelengths lam through the config's light, camera and dark-field circular
+    polariscope, the no-data level outside ``mask``; return the image."""
+    o, camera = cfg["optics"], optics.camera
     rgb = white_light_image(
-        qw.reshape(rows, cols, len(lam), 4), spec, camera, dark_field_circular(**optics.errors),
+        qw, light_source(o["light"], lam), camera, dark_field_circular(**optics.errors),
         seed=o["seed"],
     )  # fmt: skip
     rgb = no_data_fill(rgb, mask)
     write_image(d / ("white_light.png" if camera.bit_depth == 8 else "white_light.tif"), rgb)
     return rgb
+
+
+def write_monochrome(d: Path, q_img, cfg: dict, optics: OpticsSetup, mask) -> None:
+    """Write ``mask.png``, ``six_step/step1..6.png`` and ``dark_field.png`` of quaternions
+    q_img (rows, cols, 4) at the reference wavelength, the no-data level outside ``mask``."""
+    seed = cfg["optics"]["seed"]
+    (d / "six_step").mkdir(parents=True, exist_ok=True)
+    write_image(d / "mask.png", np.where(mask, 255, 0).astype(np.uint8))
+    for a in six_step_arrangements(**optics.errors):
+        img = monochrome_image(q_img, a, optics.camera, seed=seed)
+        write_image(d / "six_step" / f"{a.name}.png", no_data_fill(img, mask))
+    dark = monochrome_image(q_img, dark_field_circular(**optics.errors), optics.camera,
+                            seed=seed)  # fmt: skip
+    write_image(d / "dark_field.png", no_data_fill(dark, mask))
 
 
 def _profile(d: Path, sol, order: np.ndarray, grid) -> None:
@@ -176,16 +205,16 @@ def no_data_fill(img: np.ndarray, mask: np.ndarray) -> np.ndarray:
 
 def _figures(d: Path, sol, cfg: dict, grid, order, theta, rgb, mask, ambiguous) -> None:
     o = cfg["optics"]
-    _grid_figure(
+    grid_figure(
         d / "fringe_order.png", order, grid, f"fringe order at {o['wavelength_nm']:g} nm",
         "fringe order", "turbo", hatch=ambiguous,
         hatch_label="branch ambiguous (maps.npz branch_ambiguous)",
     )  # fmt: skip
-    _grid_figure(d / "isoclinic.png", np.degrees(theta), grid, "isoclinic", "angle (deg)",
+    grid_figure(d / "isoclinic.png", np.degrees(theta), grid, "isoclinic", "angle (deg)",
                  "twilight")  # fmt: skip
     shown = rgb / float(np.iinfo(rgb.dtype).max)
     shown[~mask] = np.nan  # drawn as "no data"
-    _grid_figure(
+    grid_figure(
         d / "fringe_image.png", shown, grid,
         f"white light ({o['light']}), dark-field circular", "", None,
     )  # fmt: skip
@@ -202,7 +231,7 @@ def render_state(
     """
     o = cfg["optics"]
     d = out / f"state_{k + 1:02d}"
-    (d / "six_step").mkdir(parents=True, exist_ok=True)
+    d.mkdir(parents=True, exist_ok=True)
     times = {}
     t0 = time.perf_counter()
     write_solution_vtu(sol, d / "solution.vtu")
@@ -223,14 +252,7 @@ def render_state(
     times["maps_s"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    q_img = omap.q[:, :, 0]
-    write_image(d / "mask.png", np.where(omap.mask, 255, 0).astype(np.uint8))
-    for a in six_step_arrangements(**optics.errors):
-        img = monochrome_image(q_img, a, optics.camera, seed=o["seed"])
-        write_image(d / "six_step" / f"{a.name}.png", no_data_fill(img, omap.mask))
-    dark = monochrome_image(q_img, dark_field_circular(**optics.errors), optics.camera,
-                            seed=o["seed"])  # fmt: skip
-    write_image(d / "dark_field.png", no_data_fill(dark, omap.mask))
+    write_monochrome(d, omap.q[:, :, 0], cfg, optics, omap.mask)
     times["six_step_s"] = time.perf_counter() - t0
     progress("optics: six phase-stepped and dark-field images")
 

@@ -37,6 +37,9 @@ class Model:
     materials : dict region -> Material
     contact : ContactSettings
     settings : SolverSettings
+    parents : sequence of int, optional
+        The load path as a tree: load state k (1..S) is reached from state
+        ``parents[k - 1]`` (0 = unloaded). Default: from state k - 1.
     """
 
     def __init__(
@@ -46,6 +49,7 @@ class Model:
         materials: dict[int, Material],
         contact: ContactSettings,
         settings: SolverSettings,
+        parents=None,
     ):
         self.mesh = mesh
         self.indenters = tuple(indenters)
@@ -58,6 +62,9 @@ class Model:
             self._check_indenter(j, ind)
         self._indenter_dofs(fixed)
         self._contact_face()
+        S = self.indenters[0].n_states
+        self.parents = tuple(range(S)) if parents is None else tuple(int(p) for p in parents)
+        self._state_targets()
 
     # -- set-up steps ------------------------------------------------------------------
     def _sort_cells(self, materials: dict) -> None:
@@ -182,23 +189,30 @@ class Model:
         self.contact_scatter: list = []
 
     # -- loads -------------------------------------------------------------------------
-    def targets(self, s: float) -> tuple[np.ndarray, np.ndarray]:
-        """Applied indenter loads (model share, N) and prescribed centres (m) at load-path
-        position ``s`` (0 = unloaded, k = load state k; linear in between)."""
-        f = np.zeros((self.m, 3))
-        c = self.c0.copy()
+    def _state_targets(self) -> None:
+        """Loads (S + 1, m, 3) (model share, N) and centres (S + 1, m, 3) (m) of the
+        unloaded state and of every load state."""
+        S = len(self.parents)
+        f = np.zeros((S + 1, self.m, 3))
+        c = np.repeat(self.c0[None], S + 1, axis=0)
         for j, ind in enumerate(self.indenters):
-            normal = np.concatenate([[0.0], ind.normal_targets()])
-            shear = np.vstack([[0.0, 0.0], ind.shear_targets()])
-            grid = np.arange(len(normal), dtype=float)
-            val = np.interp(s, grid, normal)
-            sh = np.array([np.interp(s, grid, shear[:, a]) for a in range(2)])
             if ind.force_control:
-                f[j, 2] = -val * self.frac[j]
+                f[1:, j, 2] = -ind.normal_targets() * self.frac[j]
             else:
-                c[j, 2] = self.c0[j, 2] - val
-            f[j, :2] = sh * self.frac[j]
-        return f, c
+                c[1:, j, 2] = self.c0[j, 2] - ind.normal_targets()
+            f[1:, j, :2] = ind.shear_targets() * self.frac[j]
+        self.state_f, self.state_c = f, c
+
+    def targets(self, s: float, k: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Applied indenter loads (model share, N) and prescribed centres (m) at load-path
+        position ``s`` (0 = unloaded, k = load state k; linear from state k's parent at
+        s = k - 1 to state k at s = k). ``k`` names the segment where ``s`` is its start
+        (by default the segment ending at or after ``s``)."""
+        if k is None:
+            k = max(1, math.ceil(s - 1e-9))
+        p, t = self.parents[k - 1], s - (k - 1)
+        f0, c0 = self.state_f[p], self.state_c[p]
+        return f0 + t * (self.state_f[k] - f0), c0 + t * (self.state_c[k] - c0)
 
     def z_free(self, j: int) -> bool:
         """True when indenter ``j``'s vertical position is an unknown (force control)."""

@@ -104,7 +104,7 @@ def _reach_state(run: Run, st: State, s_done: float, k: int, ds: float, n_done: 
         model.refresh_candidates(st)
         trial = st.copy()
         _predict(model, trial, s_new)
-        run.watch.start(_reached(model, s_new))
+        run.watch.start(_reached(model, s_new, k))
         ok, reason = solve_increment(run, trial, s_new, iter_log)
         if ok:
             st = trial
@@ -115,16 +115,16 @@ def _reach_state(run: Run, st: State, s_done: float, k: int, ds: float, n_done: 
             ds *= 0.5
             log.warning(
                 "fea: cut back: %s not reached (%s); trying %s",
-                _reached(model, s_new),
+                _reached(model, s_new, k),
                 reason,
-                _reached(model, s_done + ds),
+                _reached(model, s_done + ds, k),
             )
             if ds < 0.5**model.settings.max_cutbacks:
                 S = model.indenters[0].n_states
                 raise SolverError(
                     f"the solver could not reach load state {k} of {S} "
-                    f"({_reached(model, float(k))}): {reason}; it reached "
-                    f"{_reached(model, s_done)} ({n_done} load state(s) converged); try more "
+                    f"({_reached(model, float(k), k)}): {reason}; it reached "
+                    f"{_reached(model, s_done, k)} ({n_done} load state(s) converged); try more "
                     "load states on the way, a finer contact mesh or more cut-backs",
                     [],
                 )
@@ -139,6 +139,7 @@ def solve(
     contact: ContactSettings | None = None,
     settings: SolverSettings | None = None,
     progress: bool | Callable[[int, int, Solution], None] = False,
+    parents: Sequence[int] | None = None,
 ) -> tuple[list[Solution], SolveStats]:
     """Solve the contact problem along the load path; one Solution per load state.
 
@@ -155,6 +156,11 @@ def solve(
     contact, settings : ContactSettings, SolverSettings
     progress : bool or callable
         True shows a tqdm bar over load states; a callable gets (k, S, solution).
+    parents : sequence of S int, optional
+        A load path that branches: load state k is reached from the converged state
+        ``parents[k - 1]`` (0 = unloaded, an earlier state otherwise) instead of from
+        state k - 1. A response library solves one chain of normal loads with a
+        tangential branch from each (:mod:`fringekit.library_build`).
 
     Returns
     -------
@@ -169,11 +175,12 @@ def solve(
     t_start = time.perf_counter()
     indenters = tuple(indenters)
     S = _check_indenters(indenters)
+    parents = _check_parents(parents, S)
     materials = dict(materials or {0: SHEET_DEFAULT, 1: POLYCARBONATE_DEFAULT})
     contact = contact or ContactSettings()
     settings = settings or SolverSettings()
     stats = SolveStats()
-    model = Model(mesh, indenters, materials, contact, settings)
+    model = Model(mesh, indenters, materials, contact, settings, parents)
     lin = LinearSolver(settings.backend, settings.precision)
     stats.dofs = model.n_free
     stats.backend = lin.backend
@@ -196,10 +203,17 @@ def solve(
     run = Run(model, lin, stats, watch=Watchdog(bar=bar))
     solutions: list[Solution] = []
     s_done = 0.0
+    kept = {0: (st.copy(), list(model.cand))}  # converged states later branches start from
     try:
         for k in range(1, S + 1):
             it_before = stats.newton_iterations
-            ds = _first_increment(model) if k == 1 else float(k) - s_done
+            p = parents[k - 1]
+            if p != k - 1:  # a branch: restart from state p, with its candidates
+                st, cand = kept[p]
+                st = st.copy()
+                model.set_candidates(list(cand))
+                s_done = float(k - 1)
+            ds = _first_increment(model, k) if p == 0 else float(k) - s_done
             try:
                 st, s_done, iter_log = _reach_state(run, st, s_done, k, ds, len(solutions))
             except SolverError as exc:
@@ -207,10 +221,14 @@ def solve(
             except KeyboardInterrupt:
                 raise SolveInterrupted(
                     f"interrupted by the user on the way to load state {k} of {S} "
-                    f"({_reached(model, float(k))}), at {_reached(model, s_done)}",
+                    f"({_reached(model, float(k), k)}), at {_reached(model, s_done, k)}",
                     solutions,
                 ) from None
             sol = make_solution(model, st, s_done, iter_log, stats, run.cache)
+            if k in parents[k:]:
+                kept[k] = (st.copy(), list(model.cand))
+            for q in [q for q in kept if q not in parents[k:]]:
+                del kept[q]  # no later state starts from it
             solutions.append(sol)
             stats.iterations_per_state.append(stats.newton_iterations - it_before)
             if bar is not None:
@@ -230,7 +248,20 @@ def solve(
     return solutions, stats
 
 
-def _first_increment(model: Model) -> float:
+def _check_parents(parents, S: int) -> tuple[int, ...]:
+    """The parent of every load state, after checking each names an earlier state."""
+    if parents is None:
+        return tuple(range(S))
+    out = tuple(int(p) for p in parents)
+    if len(out) != S or any(not 0 <= p < k for k, p in enumerate(out, start=1)):
+        raise ValueError(
+            f"parents = {list(parents)!r} is not allowed; give {S} values, the k-th an "
+            "earlier load state (0 = unloaded .. k - 1)"
+        )
+    return out
+
+
+def _first_increment(model: Model, k: int = 1) -> float:
     """Load fraction of the first increment towards state 1.
 
     Placing an undeformed sheet against a sphere at a deep guessed depth starts Newton
@@ -239,7 +270,7 @@ def _first_increment(model: Model) -> float:
     predicts a depth of 0.1 sheet thickness (F ~ d^1.5); the increments then double.
     8 N in one state on the coarse test block: 24 Newton iterations instead of 28.
     """
-    f1, _ = model.targets(1.0)
+    f1, _ = model.targets(float(k), k)
     frac = 1.0
     E, h = model.sheet.E, model.thickness
     for j, ind in enumerate(model.indenters):
@@ -250,9 +281,10 @@ def _first_increment(model: Model) -> float:
     return max(frac, 0.05)
 
 
-def _reached(model: Model, s: float) -> str:
-    """The loads (N) or depths (mm) at load-path position ``s``, whole indenters."""
-    f, c = model.targets(s)
+def _reached(model: Model, s: float, k: int | None = None) -> str:
+    """The loads (N) or depths (mm) at load-path position ``s`` (of segment ``k``),
+    whole indenters."""
+    f, c = model.targets(s, k)
     parts = []
     for j, ind in enumerate(model.indenters):
         if ind.force_control:

@@ -569,3 +569,24 @@ def test_indenter_out_of_contact_is_held_by_a_tangent_only_spring(cache_dir):
     assert abs(s1.indenters[1].depth) < 1e-6
     assert s2.indenters[1].force[2] == pytest.approx(-2.0, rel=1e-9)
     assert s2.indenters[1].depth == pytest.approx(s2.indenters[0].depth, rel=0.05)
+
+
+def test_branching_load_path_equals_the_straight_paths(coarse):
+    """A tree of load states (parents) gives each state what the straight path through
+    its ancestors gives: restoring a kept state restores its contact data and candidates.
+    Tree: 2 N, 2 N + 0.8 N shear (from 2 N), 4 N (from 2 N), 4 N + 1.6 N (from 4 N)."""
+    mesh = coarse["half"]
+    stick = ContactSettings(friction=math.inf)
+    tree = Indenter(normal_force=(2.0, 2.0, 4.0, 4.0),
+                    shear_force=((0, 0), (0.8, 0), (0, 0), (1.6, 0)))  # fmt: skip
+    sols, _ = solve(mesh, [tree], contact=stick, parents=(0, 1, 1, 3))
+    low, _ = solve(mesh, [Indenter(normal_force=(2.0, 2.0), shear_force=((0, 0), (0.8, 0)))],
+                   contact=stick)  # fmt: skip
+    up = Indenter(normal_force=(2.0, 4.0, 4.0), shear_force=((0, 0), (0, 0), (1.6, 0)))
+    high, _ = solve(mesh, [up], contact=stick)
+    for got, want in zip(sols, [low[0], low[1], high[1], high[2]], strict=True):
+        scale = np.abs(want.displacement).max()
+        assert np.abs(got.displacement - want.displacement).max() < 1e-9 * scale
+        assert got.indenters[0].force == pytest.approx(want.indenters[0].force, rel=1e-9)
+    with pytest.raises(ValueError, match="parents = "):
+        solve(mesh, [tree], contact=stick, parents=(0, 2, 1, 3))

@@ -1,15 +1,21 @@
 """``fringekit library build``: a sensor's response library from FEM solves, on Dask.
 
-For each indenter diameter and each normal load of the grid, one continuation solve of
-the sensor with a single indenter at the centre of its sheet, full stick: the normal
-load first, then the tangential load along +x at that normal load through the ratios of
-the grid (the seed paper's protocol). The half model about y = 0 holds that loading.
-Every converged state is sampled on the polar ray lattice (:mod:`fringekit.lattice`).
+For each indenter diameter, one continuation solve of the sensor with a single indenter
+at the centre of its sheet, full stick, whose load path is a tree: a chain of normal
+loads through the grid, and from each normal-load state a branch of tangential loads
+along +x at that normal load through the ratios of the grid (the seed paper's protocol,
+normal load first, then shear at constant normal load). Each normal state is reached
+from the one before (4-6 Newton iterations) instead of from the unloaded sheet (20-50
+with cut-backs). The half model about y = 0 holds that loading. Every converged state is
+sampled on the polar ray lattice (:mod:`fringekit.lattice`).
 
-A branch is one task: it writes ``branches/<id>.npz`` atomically, so a killed build
-resumes where it stopped (branches whose settings match are not solved again). When all
-branches exist the field files and ``manifest.json`` (written last) are assembled; a
-folder without ``manifest.json`` is not a library.
+A branch (one normal load and its tangential states) is written to
+``branches/<id>.npz`` atomically as soon as its last state converges, so a killed build
+resumes where it stopped: branches whose settings match are not solved again (the
+normal states below them are, as the way there, so a resumed build follows the same
+path as an uninterrupted one). When all branches exist the field files and
+``manifest.json`` (written last) are assembled; a folder without ``manifest.json`` is
+not a library.
 """
 
 from __future__ import annotations
@@ -31,7 +37,7 @@ from .versions import run_versions
 __all__ = [
     "DEFAULT_LOADS_N",
     "DEFAULT_RATIOS",
-    "branch_config",
+    "chain_config",
     "build_library",
     "library_lattice",
 ]
@@ -40,6 +46,9 @@ __all__ = [
 DEFAULT_LOADS_N = (0.25, 0.35, 0.5, 0.7, 1.0, 1.4, 2.0, 2.8, 4.0, 5.0, 6.3, 8.0, 10.0, 12.0)
 #: Tangential / normal load ratios of the default grid (full stick).
 DEFAULT_RATIOS = (0.0, 0.2, 0.4, 0.6, 0.8)
+#: The load path of a branch, stored with its settings (a branch solved another way is
+#: solved again).
+PATH = "normal-load chain, tangential branch at constant normal load"
 
 
 def library_lattice(cfg: dict, n_slabs: int = 16):
@@ -52,51 +61,108 @@ def library_lattice(cfg: dict, n_slabs: int = 16):
     return default_lattice(r_max, fine_step=0.1e-3, fine_radius=fine, n_slabs=n_slabs)
 
 
-def branch_config(cfg: dict, diameter_mm: float, load_n: float, ratios) -> dict:
-    """The config of one branch: one indenter at the origin, ``load_n`` then tangential
-    loads ``ratio * load_n`` along +x, full stick, half model."""
+def chain_config(cfg: dict, diameter_mm: float, loads, ratios, todo) -> tuple[dict, list, list]:
+    """The config of one diameter's chain, its parents and what each state is.
+
+    The normal loads ``loads`` in order, each from the one before; after each load whose
+    ``todo`` is true, its tangential states ``ratio * load`` along +x (ratios[1:]), each
+    from the one before. Loads above the last one to do are left out.
+
+    Returns
+    -------
+    config : dict, one indenter at the origin, full stick, half model
+    parents : list of int, the parent of each load state (fea.solve)
+    states : list of (load index, ratio index), one per load state
+    """
+    last = max(i for i, t in enumerate(todo) if t)
+    normal, shear, parents, states = [], [], [], []
+    prev = 0
+    for i in range(last + 1):
+        for r, ratio in enumerate(ratios if todo[i] else ratios[:1]):
+            normal.append(float(loads[i]))
+            shear.append([float(ratio * loads[i]), 0.0])
+            parents.append(prev if r == 0 else len(states))
+            states.append((i, r))
+        prev = len(states) - len(ratios) + 1 if todo[i] else len(states)
     b = copy.deepcopy(cfg)
-    b["case"] = f"library-d{diameter_mm:g}-F{load_n:g}"
-    n = len(ratios)
-    b["indenter"] = [{
-        "x_mm": 0.0, "y_mm": 0.0, "diameter_mm": float(diameter_mm),
-        "load_N": [float(load_n)] * n, "depth_mm": None,
-        "shear_N": [[float(r * load_n), 0.0] for r in ratios],
-    }]  # fmt: skip
+    b["case"] = f"library-d{diameter_mm:g}"
+    b["indenter"] = [{"x_mm": 0.0, "y_mm": 0.0, "diameter_mm": float(diameter_mm),
+                      "load_N": normal, "depth_mm": None, "shear_N": shear}]  # fmt: skip
     b["contact"]["friction"] = "stick"
     b["mesh"]["symmetry"] = "half"
-    return b
+    return b, parents, states
 
 
 def _branch_id(diameter_mm: float, load_n: float) -> str:
     return f"d{int(round(diameter_mm * 1000)):05d}_F{int(round(load_n * 1000)):06d}"
 
 
-def _solve_branch(task: dict, out: str, cache_dir: str | None) -> dict:
-    """Solve one branch and write ``branches/<id>.npz`` (runs on a worker)."""
+def _solve_chain(task: dict, out: str, cache_dir: str | None, progress: bool = False) -> dict:
+    """Solve one diameter's chain, writing ``branches/<id>.npz`` as each branch's last
+    state converges (runs on a worker, or in this process with a progress bar)."""
+    from fea import SolveInterrupted, SolverError, solve
+    from meshes import build_mesh
     from optics import FEMStressField
 
+    from .inputs import build_inputs
     from .lattice import PolarLattice
-    from .pipeline import solve_config
 
     lat = PolarLattice(np.array(task["r"]), np.array(task["phi"]), task["n_slabs"])
+    branches, ratios = task["branches"], task["ratios"]
+    cfg, parents, states = chain_config(task["config"], task["diameter_mm"],
+                                        [b["load_N"] for b in branches], ratios,
+                                        [b["todo"] for b in branches])  # fmt: skip
+    inp = build_inputs(cfg)
     t0 = time.perf_counter()
-    _, sols, _, failure = solve_config(task["config"], cache_dir=cache_dir, progress=False)
-    if failure:
-        return {"id": task["id"], "error": failure}
-    AB, valid, a, centre, force = [], [], [], [], []
-    for sol in sols:
-        ab, v = sample_lattice(FEMStressField(sol), lat)
-        ind = sol.indenters[0]
-        AB.append(ab)
-        valid.append(v)
-        a.append(ind.contact_radius)
-        centre.append([ind.centre[0], ind.centre[1], ind.depth])
-        force.append([ind.force[0], ind.force[1], -ind.force[2]])
-    _save_npz(Path(out) / "branches" / f"{task['id']}.npz", AB=np.array(AB),
-              valid=np.array(valid), contact_radius_m=np.array(a), centre_m=np.array(centre),
-              force_N=np.array(force), settings=json.dumps(task["settings"]))  # fmt: skip
-    return {"id": task["id"], "error": None, "time_s": time.perf_counter() - t0}
+    mesh = build_mesh(inp.spec, cache_dir=cache_dir)
+    done, samples = [], []
+
+    def keep(k: int, S: int, sol) -> None:
+        i, r = states[k - 1]
+        if not branches[i]["todo"]:
+            return
+        samples.append(_sample(sol, FEMStressField(sol), lat))
+        if r == len(ratios) - 1:
+            b = branches[i]
+            _save_npz(Path(out) / "branches" / f"{b['id']}.npz",
+                      **{key: np.array([s[key] for s in samples]) for key in samples[0]},
+                      settings=json.dumps(b["settings"]))  # fmt: skip
+            done.append(b["id"])
+            samples.clear()
+        if bar is not None:
+            bar.update(1)
+
+    bar = _state_bar(len(states), progress)
+    try:
+        solve(mesh, inp.indenters, materials=inp.materials, contact=inp.contact,
+              settings=inp.settings, parents=parents, progress=keep)  # fmt: skip
+        error = None
+    except SolveInterrupted:
+        raise KeyboardInterrupt from None  # the branches written so far are kept
+    except SolverError as exc:
+        error = str(exc)
+    finally:
+        if bar is not None:
+            bar.close()
+    return {"id": task["id"], "error": error, "done": done, "time_s": time.perf_counter() - t0}
+
+
+def _state_bar(total: int, show: bool):
+    if not show:
+        return None
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, desc="library load states", unit="state")
+
+
+def _sample(sol, field, lat) -> dict:
+    """One converged state on the lattice, with the indenter's contact radius (m),
+    centre and depth (m) and load (N, Fz positive pressing)."""
+    ab, v = sample_lattice(field, lat)
+    ind = sol.indenters[0]
+    return {"AB": ab, "valid": v, "contact_radius_m": ind.contact_radius,
+            "centre_m": [ind.centre[0], ind.centre[1], ind.depth],
+            "force_N": [ind.force[0], ind.force[1], -ind.force[2]]}  # fmt: skip
 
 
 def _save_npz(dest: Path, **arrays) -> None:
@@ -146,41 +212,64 @@ def build_library(
     key = sensor_key(cfg)
     mesh = dict(cfg["mesh"], symmetry="half")
     settings = {"sensor": key, "mesh": mesh, "solver": cfg["solver"], "ratios": list(ratios),
-                "lattice_r_mm": list(lat.r * 1e3), "n_slabs": n_slabs}  # fmt: skip
-    tasks = []
+                "lattice_r_mm": list(lat.r * 1e3), "n_slabs": n_slabs, "path": PATH}  # fmt: skip
+    branches, chains = [], []
     for d in diameters:
+        mine = []
         for f in loads:
-            tid = _branch_id(d, f)
-            tasks.append({"id": tid, "config": branch_config(cfg, d, f, ratios),
-                          "settings": dict(settings, diameter_mm=d, load_N=float(f)),
-                          "r": lat.r, "phi": lat.phi, "n_slabs": n_slabs})  # fmt: skip
+            below = [float(v) for v in loads if v < f]  # the way there is part of the path
+            b = {
+                "id": _branch_id(d, f),
+                "load_N": float(f),
+                "settings": dict(settings, diameter_mm=d, load_N=float(f), loads_below=below),
+            }
+            b["todo"] = not _finished(out / "branches" / f"{b['id']}.npz", b["settings"])
+            mine.append(b)
+        branches += mine
+        if any(b["todo"] for b in mine):
+            chains.append({"id": f"d{int(round(d * 1000)):05d}", "diameter_mm": d,
+                           "config": cfg, "branches": mine, "ratios": list(ratios),
+                           "r": lat.r, "phi": lat.phi, "n_slabs": n_slabs})  # fmt: skip
     (out / "branches").mkdir(parents=True, exist_ok=True)
     (out / "manifest.json").unlink(missing_ok=True)  # not a library until assembled again
-    todo = [t for t in tasks
-            if not _finished(out / "branches" / f"{t['id']}.npz", t["settings"])]  # fmt: skip
+    n_todo = sum(b["todo"] for b in branches)
     say = echo if progress else (lambda s: None)
-    say(f"library: {len(tasks)} branches ({len(diameters)} diameter(s) x {len(loads)} loads, "
-        f"{len(ratios)} states each), {len(tasks) - len(todo)} already solved")  # fmt: skip
+    say(f"library: {len(branches)} branches ({len(diameters)} diameter(s) x {len(loads)} "
+        f"loads, {len(ratios)} states each), {len(branches) - n_todo} already solved")  # fmt: skip
     t0 = time.perf_counter()
+    failed = _run_chains(chains, out, str(cache_dir or default_cache_dir()), scheduler,
+                         workers, progress, say)  # fmt: skip
+    if failed:
+        from .pipeline import PredictError
+
+        raise PredictError(f"library: the solve failed for diameter {failed[0]['id']}: "
+                           f"{failed[0]['error']}; the {failed[0]['n_done']} branch(es) "
+                           "solved are kept, re-run to resume")  # fmt: skip
+    build_s = time.perf_counter() - t0
+    return _assemble(cfg, out, branches, diameters, loads, ratios, lat, mesh, build_s)
+
+
+def _run_chains(chains, out: Path, cache: str, scheduler, workers, progress, say) -> list:
+    """Solve the chains: in this process (all cores to one solve, a bar over its load
+    states) when there is one and no scheduler or ``workers=0``, else one Dask task
+    per chain. Returns the failed chains' results."""
     failed = []
 
     def report(res: dict) -> None:
         if res["error"]:
-            failed.append(res)
-            say(f"library: branch {res['id']} failed: {res['error']}")
+            failed.append(dict(res, n_done=len(res["done"])))
+            say(f"library: diameter {res['id']} failed: {res['error']}")
 
-    cache = str(cache_dir or default_cache_dir())
-    run_tasks(_solve_branch, todo, [f"branch-{t['id']}" for t in todo], str(out.resolve()),
-              cache, scheduler=scheduler, workers=workers, progress=progress,
-              desc="library branches", unit="branch", on_result=report)  # fmt: skip
-    if failed:
-        from .pipeline import PredictError
-
-        raise PredictError(f"library: {len(failed)} branch(es) failed ({failed[0]['id']}: "
-                           f"{failed[0]['error']}); the solved ones are kept, re-run to "
-                           "resume")  # fmt: skip
-    build_s = time.perf_counter() - t0
-    return _assemble(cfg, out, tasks, diameters, loads, ratios, lat, mesh, build_s)
+    inline = not scheduler and (workers == 0 or (workers is None and len(chains) == 1))
+    if inline:
+        for t in chains:
+            report(_solve_chain(t, str(out.resolve()), cache, progress))
+    else:
+        run_tasks(_solve_chain, chains, [f"chain-{t['id']}" for t in chains],
+                  str(out.resolve()), cache, scheduler=scheduler, workers=workers,
+                  progress=progress, desc="library diameters", unit="diameter",
+                  on_result=report)  # fmt: skip
+    return failed
 
 
 #: The stored field is tapered to zero over this outer fraction of the lattice radius

@@ -43,13 +43,13 @@ def small_meshes(cache_dir):
 
 @pytest.fixture(scope="session")
 def test_library(cache_dir, tmp_path_factory):
-    """The coarse library of tests/library_fixtures.py (built once, two Dask workers)."""
+    """The coarse library of tests/library_fixtures.py (built once, in this process)."""
     from library_fixtures import LOADS, RATIOS, sensor_config
 
     from fringekit.library import load_library
     from fringekit.library_build import build_library
 
     out = tmp_path_factory.mktemp("library") / "lib"
-    build_library(sensor_config(), out, loads=LOADS, ratios=RATIOS, workers=2,
+    build_library(sensor_config(), out, loads=LOADS, ratios=RATIOS,
                   cache_dir=cache_dir, progress=False)  # fmt: skip
     return load_library(out)

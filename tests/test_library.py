@@ -8,12 +8,13 @@ default library.
 from __future__ import annotations
 
 import json
+import shutil
 
 import numpy as np
 from library_fixtures import fem_config, fem_order, outside, sensor_config
 
 from fringekit.inputs import optics_setup
-from fringekit.library import LoadedIndenter
+from fringekit.library import LoadedIndenter, load_library
 from fringekit.synth import synthesise
 from optics import OpticalMap
 
@@ -55,6 +56,48 @@ def test_manifest_resume_and_checksums(test_library, capsys):
     assert "3 already solved" in msgs[0]
     assert {n: f["sha256"] for n, f in m2["files"].items()} == before
     assert json.loads((test_library.folder / "manifest.json").read_text())["files"] == m2["files"]
+
+
+def test_the_chain_of_a_build_and_of_a_resumed_one():
+    """Normal loads in a chain, each branch from its normal state; finished branches keep
+    only their normal state (the way there); nothing above the last branch to do."""
+    from fringekit.library_build import chain_config
+
+    cfg = sensor_config()
+    c, parents, states = chain_config(cfg, 3.5, [1.0, 2.0, 3.0], [0.0, 0.5], [True, True, True])
+    assert parents == [0, 1, 1, 3, 3, 5]
+    assert states == [(0, 0), (0, 1), (1, 0), (1, 1), (2, 0), (2, 1)]
+    ind = c["indenter"][0]
+    assert ind["load_N"] == [1.0, 1.0, 2.0, 2.0, 3.0, 3.0]
+    assert ind["shear_N"][3] == [1.0, 0.0] and c["contact"]["friction"] == "stick"
+    assert c["mesh"]["symmetry"] == "half"
+    _, parents, states = chain_config(cfg, 3.5, [1.0, 2.0, 3.0], [0.0, 0.5], [True, False, True])
+    assert parents == [0, 1, 1, 3, 4] and states[2:] == [(1, 0), (2, 0), (2, 1)]
+    _, parents, states = chain_config(cfg, 3.5, [1.0, 2.0, 3.0], [0.0, 0.5], [False, True, False])
+    assert parents == [0, 1, 2] and states == [(0, 0), (1, 0), (1, 1)]
+
+
+def test_a_resumed_build_follows_the_same_path(test_library, cache_dir, tmp_path):
+    """With the middle branch lost, a re-build (here on a one-worker Dask cluster) solves
+    the normal load below it again as the way there, then that branch alone: the fields
+    equal the uninterrupted build's (to the solver's tolerance: the worker's direct
+    solver runs on one thread, the first build's on two)."""
+    from library_fixtures import LOADS, RATIOS
+
+    from fringekit.library_build import build_library
+
+    folder = tmp_path / "lib"
+    shutil.copytree(test_library.folder, folder)
+    lost = sorted((folder / "branches").glob("*.npz"))[1]
+    lost.unlink()
+    msgs = []
+    build_library(sensor_config(), folder, loads=LOADS, ratios=RATIOS, workers=1,
+                  cache_dir=cache_dir, echo=msgs.append, progress=True)  # fmt: skip
+    assert "2 already solved" in msgs[0]
+    again = load_library(folder)
+    for key in ("AB", "force_N", "contact_radius_m"):
+        a, b = test_library.fields[3.5][key], again.fields[3.5][key]
+        assert np.abs(a - b).max() <= 1e-6 * np.abs(a).max(), key
 
 
 def _single(lib, cache_dir, fz, fx, fy, turned=0.0):

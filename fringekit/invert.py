@@ -286,9 +286,10 @@ def _refuse(q: np.ndarray, lib, total: float) -> None:
         ratio = np.hypot(v[3], v[4]) / max(v[2], 1e-12)
         if ratio > lib.max_ratio + 0.01:
             raise InvertError(
-                f"indenter {i + 1} at ({v[0]:.2f}, {v[1]:.2f}) mm needs a tangential load of "
-                f"{ratio:.2f} of its normal load, beyond the library's {lib.max_ratio:g}"
-            )
+                f"indenter {i + 1} at ({v[0]:.2f}, {v[1]:.2f}) mm needs a load beyond the "
+                f"library's range: {v[2]:.3g} N with a tangential load of {ratio:.2f} of it "
+                f"(the library goes to {lib.max_ratio:g}, up to {lib.max_load_N:g} N); build "
+                "a library with larger --shear-ratio or --load-N")  # fmt: skip
     if total > MAX_RESIDUAL:
         raise InvertError(
             f"the library cannot explain this image: the fit leaves a residual of {total:.2f} "

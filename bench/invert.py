@@ -27,6 +27,7 @@ import argparse
 import copy
 import csv
 import json
+import math
 import resource
 import sys
 import time
@@ -108,17 +109,27 @@ def case_config(base: dict, inds: list[dict], name: str) -> dict:
     cfg["contact"]["friction"] = "stick"
     cfg["mesh"]["symmetry"] = "full"
     proto = cfg["indenter"][0]
+    # under full stick the state depends on the load steps (docs/library.md, "Load path
+    # and friction"): the normal load in steps of 1.4x from 1/8, then the tangential load
+    # in steps of at most 0.2 of the normal load, as the library's chain takes them
+    n_shear = max(1, math.ceil(max(np.hypot(d["Fx"], d["Fy"]) / d["Fz"] for d in inds) / 0.2))
+    normal = list(NORMAL_STEPS) + [1.0] * n_shear
+    shear = [0.0] * len(NORMAL_STEPS) + [(k + 1) / n_shear for k in range(n_shear)]
     cfg["indenter"] = [
         dict(
             proto,
             x_mm=d["x_mm"],
             y_mm=d["y_mm"],
-            load_N=[d["Fz"] / 2, d["Fz"], d["Fz"]],
-            shear_N=[[0.0, 0.0], [0.0, 0.0], [d["Fx"], d["Fy"]]],
+            load_N=[f * d["Fz"] for f in normal],
+            shear_N=[[t * d["Fx"], t * d["Fy"]] for t in shear],
         )
         for d in inds
     ]
     return cfg
+
+
+#: The normal-load fractions of a held-out case's path (steps of about 1.4x).
+NORMAL_STEPS = (0.125, 0.18, 0.25, 0.35, 0.5, 0.7, 1.0)
 
 
 def match(true: list[dict], est: list[dict]) -> tuple[list, int, int]:
@@ -177,7 +188,7 @@ def run_case(base, inds, name, methods, lib, work: Path, pixel_mm) -> list[dict]
         print(f"{name}: the FEM solve failed; case skipped")
         return []
     fem_s = time.perf_counter() - t0
-    state = work / name / "state_03"
+    state = sorted((work / name).glob("state_*"))[-1]
     out = []
     for m in methods:
         t0 = time.perf_counter()

@@ -184,14 +184,7 @@ def solve(
     lin = LinearSolver(settings.backend, settings.precision)
     stats.dofs = model.n_free
     stats.backend = lin.backend
-    log.info(
-        "fea: %d free DOFs, %d indenters, %d load states, linear solver %s (%s)",
-        model.n_free,
-        len(indenters),
-        S,
-        lin.backend,
-        "symmetric indefinite" if model.symmetric else "unsymmetric",
-    )
+    _log_start(model, lin)
     st = State.initial(model)
     model.recandidate(st, model.candidates_near(mesh.points, st.c))
     stats.time_setup = time.perf_counter() - t_start
@@ -209,10 +202,7 @@ def solve(
             it_before = stats.newton_iterations
             p = parents[k - 1]
             if p != k - 1:  # a branch: restart from state p, with its candidates
-                st, cand = kept[p]
-                st = st.copy()
-                model.set_candidates(list(cand))
-                s_done = float(k - 1)
+                st, s_done = _restart(kept, model, p), float(k - 1)
             ds = _first_increment(model, k) if p == 0 else float(k) - s_done
             try:
                 st, s_done, iter_log = _reach_state(run, st, s_done, k, ds, len(solutions))
@@ -225,10 +215,7 @@ def solve(
                     solutions,
                 ) from None
             sol = make_solution(model, st, s_done, iter_log, stats, run.cache)
-            if k in parents[k:]:
-                kept[k] = (st.copy(), list(model.cand))
-            for q in [q for q in kept if q not in parents[k:]]:
-                del kept[q]  # no later state starts from it
+            _keep(kept, model, st, k, parents)
             solutions.append(sol)
             stats.iterations_per_state.append(stats.newton_iterations - it_before)
             if bar is not None:
@@ -238,14 +225,46 @@ def solve(
     finally:
         if bar is not None:
             bar.close()
-        stats.time_analysis = lin.time_analysis
-        stats.time_factorize = lin.time_factorize
-        stats.time_solve = lin.time_solve
-        stats.factorizations = lin.n_factorizations
-        stats.factor_reuses = lin.n_reuses
-        lin.release()
-        stats.time_total = time.perf_counter() - t_start
+        _close(stats, lin, t_start)
     return solutions, stats
+
+
+def _log_start(model: Model, lin: LinearSolver) -> None:
+    log.info(
+        "fea: %d free DOFs, %d indenters, %d load states, linear solver %s (%s)",
+        model.n_free,
+        model.m,
+        len(model.parents),
+        lin.backend,
+        "symmetric indefinite" if model.symmetric else "unsymmetric",
+    )
+
+
+def _restart(kept: dict, model: Model, p: int) -> State:
+    """A copy of kept state ``p``, with the model switched to its candidates."""
+    st, cand = kept[p]
+    model.set_candidates(list(cand))
+    return st.copy()
+
+
+def _keep(kept: dict, model: Model, st: State, k: int, parents: tuple) -> None:
+    """Keep converged state ``k`` (with its candidates) when a later state starts from it;
+    drop the kept states no later state starts from."""
+    if k in parents[k:]:
+        kept[k] = (st.copy(), list(model.cand))
+    for q in [q for q in kept if q not in parents[k:]]:
+        del kept[q]
+
+
+def _close(stats: SolveStats, lin: LinearSolver, t_start: float) -> None:
+    """The linear solver's counters into ``stats``; its memory released."""
+    stats.time_analysis = lin.time_analysis
+    stats.time_factorize = lin.time_factorize
+    stats.time_solve = lin.time_solve
+    stats.factorizations = lin.n_factorizations
+    stats.factor_reuses = lin.n_reuses
+    lin.release()
+    stats.time_total = time.perf_counter() - t_start
 
 
 def _check_parents(parents, S: int) -> tuple[int, ...]:

@@ -205,16 +205,18 @@ def _slide_anchors(model: Model, st: State, j: int, res) -> None:
     st.anchor[j][res.slip] = a[res.slip]
 
 
-def solve_increment(run: Run, st: State, s_new: float, iter_log: list) -> tuple[bool, str]:
+def solve_increment(run: Run, st: State, s_new: float, iter_log: list, final=True):
     """Newton with augmented-Lagrangian updates for one increment. Mutates ``st``.
-
-    Returns (converged, reason for failure).
-    """
+    Returns (converged, reason for failure). An increment on the way to a load state
+    (not ``final``) of frictionless contact, which is path-independent, is solved to
+    equilibrium without multiplier updates (its pressure still becomes the next
+    increment's multiplier); with friction every increment is solved in full."""
     model = run.model
     f_ind, _ = model.targets(s_new)
     fscale = float(np.abs(f_ind).max())
+    penalty_only = not final and model.contact.friction == 0
     for _attempt in range(4):
-        ok, reason, results = newton(run, st, f_ind, fscale, iter_log)
+        ok, reason, results = newton(run, st, f_ind, fscale, iter_log, penalty_only)
         if not ok:
             return False, reason
         # penetration check against EVERY contact facet, not only the candidates
@@ -313,7 +315,7 @@ def _update_multipliers(run: Run, st: State, results, f_ind):
     return evaluate(run.model, st, f_ind, tangent=has_k, stats=run.stats, cache=run.cache)
 
 
-def newton(run: Run, st: State, f_ind: np.ndarray, fscale: float, iter_log: list):
+def newton(run: Run, st: State, f_ind, fscale: float, iter_log: list, penalty_only=False):
     """Newton-Raphson with line search; multiplier updates once the residual is small.
 
     The multipliers are updated (lambda <- p) whenever the residual has dropped below
@@ -350,7 +352,7 @@ def newton(run: Run, st: State, f_ind: np.ndarray, fscale: float, iter_log: list
             e_last = None
             continue
         if rnorm <= AL_SWITCH * scale:
-            ratio = penetration_ratio(model, st, results)
+            ratio = 0.0 if penalty_only else penetration_ratio(model, st, results)
             if ratio > contact.penetration_tol:
                 if updates >= contact.max_updates:
                     return (

@@ -105,7 +105,7 @@ def _reach_state(run: Run, st: State, s_done: float, k: int, ds: float, n_done: 
         trial = st.copy()
         _predict(model, trial, s_new)
         run.watch.start(_reached(model, s_new, k))
-        ok, reason = solve_increment(run, trial, s_new, iter_log)
+        ok, reason = solve_increment(run, trial, s_new, iter_log, final=s_new >= k - 1e-12)
         if ok:
             st = trial
             s_done = s_new

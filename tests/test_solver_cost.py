@@ -123,3 +123,34 @@ def test_an_earlier_factor_solves_a_nearby_matrix_exactly(change, reused):
     assert np.linalg.norm(full2 @ x - b) <= REFINE_RTOL * np.linalg.norm(b)
     assert lin.n_reuses == int(reused) and lin.n_factorizations == 2 - int(reused)
     lin.release()
+
+
+def test_increments_on_the_way_skip_multiplier_updates_when_frictionless(small_meshes, monkeypatch):
+    """Frictionless contact is path-independent: an increment on the way to a load state
+    needs equilibrium, not the penetration tolerance. 8 N in one state (several increments)
+    with and without that rule: the same state to within the multiplier loop's stopping
+    tolerance (1 % of the depth in penetration), in fewer multiplier updates and Newton
+    iterations. With friction every increment is solved in full."""
+    import fea.solver
+    from fea import ContactSettings
+
+    mesh = small_meshes["quarter"]
+    fast, fs = solve(mesh, [Indenter(normal_force=(8.0,))])
+    full_increment = fea.solver.solve_increment
+
+    def always_final(run, st, s_new, iter_log, final=True):
+        return full_increment(run, st, s_new, iter_log, True)
+
+    monkeypatch.setattr(fea.solver, "solve_increment", always_final)
+    slow, ss = solve(mesh, [Indenter(normal_force=(8.0,))])
+    assert fs.al_updates < ss.al_updates and fs.newton_iterations < ss.newton_iterations
+    a, b = fast[-1].indenters[0], slow[-1].indenters[0]
+    assert a.depth == pytest.approx(b.depth, rel=2e-3)
+    assert a.force[2] == pytest.approx(-8.0, rel=1e-6)
+    # with friction the rule is off: the same counts either way
+    mu = ContactSettings(friction=0.3)
+    _, s_mu_full = solve(mesh, [Indenter(normal_force=(8.0,))], contact=mu)
+    monkeypatch.setattr(fea.solver, "solve_increment", full_increment)
+    _, s_mu = solve(mesh, [Indenter(normal_force=(8.0,))], contact=mu)
+    assert s_mu.al_updates == s_mu_full.al_updates
+    assert s_mu.newton_iterations == s_mu_full.newton_iterations

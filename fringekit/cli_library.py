@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from .options import at_least_one, at_least_zero, finite, nonnegative, positive
@@ -87,6 +88,8 @@ def cmd_invert(args: argparse.Namespace) -> int:
     s = run_invert(args.images, args.library, Path(args.out), method=args.method,
                    pixel_mm=args.pixel_mm, origin_px=args.origin_px, sensor=args.sensor,
                    progress=not args.quiet)  # fmt: skip
+    for w in s["warnings"]:
+        print(f"fringekit invert: warning: {w}", file=sys.stderr)
     if not args.quiet:
         print(f"fringekit invert: {s['n_indenters']} indenter(s) -> {args.out}/loads.csv")
     return 0

@@ -130,7 +130,7 @@ def run_invert(
 ) -> dict:  # fmt: skip
     """Invert one image (or six) against a library; write ``out``; return the summary."""
     from .inputs import optics_setup
-    from .invert import invert_image
+    from .invert import WARN_RESIDUAL, invert_image, residual_warnings
     from .invert_figure import fit_figure
     from .invert_model import ImageModel
 
@@ -167,6 +167,8 @@ def run_invert(
     say(f"invert: {method}, {shape[0]} x {shape[1]} px, library {lib.folder} "
         f"({len(lib.load_N) - 1} loads x {len(lib.shear_ratio)} ratios)")  # fmt: skip
     res = invert_image(model)
+    flagged = residual_warnings(res.params, res.residual_rms)
+    warnings += flagged
     say(f"invert: {len(res.params)} indenter(s), residual {res.residual:.3f} of the fringe "
         f"amplitude, {time.perf_counter() - t0:.1f} s")  # fmt: skip
     with run_folder(out) as work:
@@ -180,6 +182,7 @@ def run_invert(
             "residual": res.residual, "noise_sd": res.noise,
             "gains": [float(g) for g in res.gains], "offsets": [float(o) for o in res.offsets],
             "warnings": warnings,
+            "reliable": [bool(r <= WARN_RESIDUAL) for r in res.residual_rms],
             "times_s": {**res.times_s, "total_s": time.perf_counter() - t0},
         }  # fmt: skip
         (work / "summary.json").write_text(json.dumps(summary, indent=2))

@@ -4,6 +4,7 @@ detection, and the refusals."""
 from __future__ import annotations
 
 import csv
+import json
 import shutil
 from dataclasses import replace
 
@@ -141,6 +142,17 @@ def test_a_noisy_fem_image_within_coarse_targets(test_library, noisy_fem, tmp_pa
     assert np.all(np.hypot(rows[:, 0] - want[:, 0], rows[:, 1] - want[:, 1]) < 0.15)
     assert np.all(np.hypot(rows[:, 3] - want[:, 2], rows[:, 4] - want[:, 3]) < 0.25)
     assert (out / "fit.png").is_file() and (out / "summary.json").is_file()
+    # a good fit is not flagged (residuals near each 0.04-0.19 on the bench)
+    assert json.loads((out / "summary.json").read_text())["reliable"] == [True, True]
+
+
+def test_an_indenter_with_a_large_residual_near_it_is_flagged():
+    from fringekit.invert import WARN_RESIDUAL, residual_warnings
+
+    params = np.array([[1.0, 2.0, 3.0, 0.0, 0.0], [-1.5, 0.5, 2.0, 0.3, 0.0]])
+    assert residual_warnings(params, np.array([0.1, WARN_RESIDUAL])) == []
+    (w,) = residual_warnings(params, np.array([0.1, 0.31]))
+    assert "indenter 2 at (-1.50, 0.50) mm is not reliable" in w and "0.31" in w
 
 
 def _one_line_exit_2(args, capsys, words):

@@ -118,9 +118,11 @@ def _solve_chain(task: dict, out: str, cache_dir: str | None, progress: bool = F
     done, samples = [], []
 
     def keep(k: int, S: int, sol) -> None:
+        if bar is not None:
+            bar.update(1)
         i, r = states[k - 1]
         if not branches[i]["todo"]:
-            return
+            return  # a normal load below a branch to do: only the way there
         samples.append(_sample(sol, FEMStressField(sol), lat))
         if r == len(ratios) - 1:
             b = branches[i]
@@ -129,8 +131,6 @@ def _solve_chain(task: dict, out: str, cache_dir: str | None, progress: bool = F
                       settings=json.dumps(b["settings"]))  # fmt: skip
             done.append(b["id"])
             samples.clear()
-        if bar is not None:
-            bar.update(1)
 
     bar = _state_bar(len(states), progress)
     try:

@@ -29,7 +29,9 @@ def add_library(sub) -> None:
     b.add_argument("--slabs", type=at_least_one, default=16, help="slabs per stored ray")
     b.add_argument("--scheduler", default=None, help="address of an existing Dask scheduler")
     b.add_argument("--workers", type=at_least_zero, default=None,
-                   help="local worker processes (0: solve in this process)")  # fmt: skip
+                   help="local single-threaded worker processes, one diameter's chain "
+                        "each (default: one diameter is solved in this process on every "
+                        "core; 0: always in this process)")  # fmt: skip
     b.add_argument("--cache-dir", default=None, help="mesh and solution cache root")
     b.add_argument("--quiet", action="store_true")
     b.set_defaults(func=cmd_library)

@@ -15,10 +15,11 @@ tangential magnitude error (N and % of Fz), direction error (deg), position erro
 missed and spurious indenters and the time per image; ``--json`` writes
 ``{"cases": [...], "library_build_s"}``.
 
-Presets: ``coarse`` is the test sensor of tests/library_fixtures.py (20 mm sheet, 0.6 mm
-contact mesh, 96 px, library 1-4 N x 5 ratios: minutes); ``reference`` is the built-in
-reference sensor at 256 px with the default library (14 loads x 5 ratios: an hour or more
-on 2 cores, and full-model solves of six sheared heads take minutes each).
+Presets: ``coarse`` is examples/coarse_sensor.toml, the tests' sensor (20 mm sheet,
+0.6 mm contact mesh, 96 px, library 1-4 N x 5 ratios: minutes); ``reference`` is the
+built-in reference sensor at 256 px with the default library (14 loads x 5 ratios: about
+9 min on 2 cores; a full-model FEM case of two sheared heads took 15 min, more heads take
+longer).
 """
 
 from __future__ import annotations
@@ -42,28 +43,18 @@ from fringekit.cli import main  # noqa: E402
 from fringekit.config import apply_overrides, load_config, to_toml  # noqa: E402
 from fringekit.library_build import DEFAULT_LOADS_N, DEFAULT_RATIOS, build_library  # noqa: E402
 
+#: the repository (the coarse preset is examples/coarse_sensor.toml)
+ROOT = Path(__file__).resolve().parents[1]
 PRESETS = {
     "coarse": {
-        "set": {
-            "sheet.width_mm": 20.0,
-            "sheet.length_mm": 20.0,
-            "substrate.thickness_mm": 4.0,
-            "mesh.h_contact_mm": 0.6,
-            "mesh.refine_radius_mm": 1.5,
-            "mesh.h_far_mm": 4.0,
-            "mesh.h_sheet_mm": 1.5,
-            "mesh.growth": 0.5,
-            "optics.field_of_view_mm": 12.0,
-            "optics.pixels": 96,
-            "optics.white_light_wavelengths": 15,
-        },
+        "config": ROOT / "examples" / "coarse_sensor.toml",
         "loads": (1.0, 1.4, 2.0, 2.8, 4.0),
         "ratios": DEFAULT_RATIOS,
         "fz": (1.2, 3.6),
         "half_width_mm": 3.5,
     },
     "reference": {
-        "set": {},
+        "config": None,
         "loads": DEFAULT_LOADS_N,
         "ratios": DEFAULT_RATIOS,
         "fz": (0.5, 10.0),
@@ -274,11 +265,7 @@ def main_bench(argv=None) -> None:
     ap.add_argument("--json", default=None)
     a = ap.parse_args(argv)
     preset = PRESETS[a.preset]
-    base = (
-        apply_overrides(apply_overrides(load_config(None), preset["set"]), NOISE)
-        if preset["set"]
-        else apply_overrides(load_config(None), NOISE)
-    )
+    base = apply_overrides(load_config(preset["config"]), NOISE)
     work = Path(a.work)
     work.mkdir(parents=True, exist_ok=True)
     lib = Path(a.library or work / f"library-{a.preset}")

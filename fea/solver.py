@@ -281,7 +281,7 @@ def _check_parents(parents, S: int) -> tuple[int, ...]:
 
 
 def _first_increment(model: Model, k: int = 1) -> float:
-    """Load fraction of the first increment towards state 1.
+    """Load fraction of the first increment towards state k from the unloaded sheet.
 
     Placing an undeformed sheet against a sphere at a deep guessed depth starts Newton
     with a huge penalty residual (113 N for 8 N on the test block, 28 iterations of

@@ -1,13 +1,14 @@
 """The coarse test sensor and its library, shared by the library and invert tests.
 
-A 20 x 20 mm, 3 mm sheet on 4 mm PC with the small block's coarse mesh sizes; a library
-of 3 normal loads (2, 2.8, 4 N) x 3 tangential ratios (0, 0.4, 0.8), built once per session
-on a two-worker Dask cluster (about 30 s).
+The sensor of examples/coarse_sensor.toml (a 20 x 20 mm, 3 mm sheet on 4 mm PC with the
+small block's coarse mesh sizes); a library of 3 normal loads (2, 2.8, 4 N) x 3 tangential
+ratios (0, 0.4, 0.8), built once per session in the test process (about 30 s).
 """
 
 from __future__ import annotations
 
 import copy
+from pathlib import Path
 
 import numpy as np
 
@@ -15,25 +16,14 @@ from fringekit.config import apply_overrides, load_config
 from fringekit.inputs import optics_setup
 from fringekit.render import mono_map
 
-SENSOR = {
-    "sheet.width_mm": 20.0,
-    "sheet.length_mm": 20.0,
-    "substrate.thickness_mm": 4.0,
-    "mesh.h_contact_mm": 0.6,
-    "mesh.refine_radius_mm": 1.5,
-    "mesh.h_far_mm": 4.0,
-    "mesh.h_sheet_mm": 1.5,
-    "mesh.growth": 0.5,
-    "optics.field_of_view_mm": 12.0,
-    "optics.pixels": 96,
-    "optics.white_light_wavelengths": 15,
-}
+#: The coarse sensor of examples/coarse_sensor.toml (also bench/invert.py's coarse preset).
+SENSOR = Path(__file__).resolve().parents[1] / "examples" / "coarse_sensor.toml"
 LOADS = (2.0, 2.8, 4.0)
 RATIOS = (0.0, 0.4, 0.8)
 
 
 def sensor_config(**extra) -> dict:
-    return apply_overrides(load_config(None), {**SENSOR, **extra})
+    return apply_overrides(load_config(SENSOR), extra)
 
 
 def fem_config(indenters: list[dict], **extra) -> dict:

@@ -7,10 +7,14 @@
    best; tangential load zero.
 3. **Joint fit.** All indenters' x, y, Fz, Fx, Fy by nonlinear least squares of the
    synthesised image against the measured one (scipy's trust-region reflective method,
-   soft-L1 robust loss at 3 noise sd, exposure/gain/offset by variable projection):
-   first the far field only (FAR_MM from every indenter, every 4th pixel: the order is
-   low and smooth there) with one equivalent retarder per ray, then every 2nd pixel with
-   the Jones integration within EXACT_MM of each indenter.
+   soft-L1 robust loss at 3 noise sd, exposure/gain/offset by variable projection; a
+   tangential load beyond the library's ratio is penalised, not extrapolated): first the
+   far field only (FAR_MM from every indenter, every 4th pixel: the order is low and
+   smooth there) with one equivalent retarder per ray, then every 2nd pixel with the
+   Jones integration within EXACT_MM of each indenter, the axes held within START_BOX_MM
+   of where detection put them.
+   Then each indenter's tangential basin is searched (:mod:`fringekit.invert_hop`) and
+   the joint fit repeated, free, while an indenter moves to another basin.
 4. **Model selection.** An indenter whose fitted Fz is not significant (below 3 sd or
    ``MIN_LOAD_FRACTION`` of the library's first load), or that sits closer to a stronger
    one than two spheres can (a diameter), is dropped; a residual peak that
@@ -33,9 +37,17 @@ from optics import PixelGrid
 
 from .config import ConfigError
 from .invert_detect import detect, noise_sd
-from .invert_model import N_PARAMS, ImageModel, unpack
+from .invert_hop import hop
+from .invert_model import N_PARAMS, ImageModel, range_penalty, unpack
 
-__all__ = ["InvertError", "InvertResult", "invert_image", "residual_warnings"]
+__all__ = [
+    "InvertError",
+    "InvertResult",
+    "fit_indenters",
+    "invert_image",
+    "residual_warnings",
+    "subsample",
+]
 
 WINDOW_MM = 3.0
 MIN_LOAD_FRACTION = 0.5
@@ -53,9 +65,17 @@ FAR_MM = 2.0
 #: slab (Jones) and the others as one equivalent retarder (0.0004 fringe RMS apart beyond
 #: two contact radii in the reference case; fringekit.synth).
 EXACT_MM = 2.5
+#: Before the basin search, the axes stay within this distance (mm) of where detection
+#: put them: the far field cannot tell a moved axis from a tangential load, and a free
+#: first fit moved them by up to 1 mm.
+START_BOX_MM = 0.15
+#: Rounds of the per-indenter basin search (fringekit.invert_hop), each followed by a
+#: joint fit when an indenter moved.
+HOP_ROUNDS = 3
 #: Loads tried per candidate for the start (log-spaced over the library's range).
 START_LOADS = 16
-#: A normal load at or above this fraction of the library's largest sits at its edge.
+#: A normal load (or a tangential ratio) at or above this fraction of the library's
+#: largest sits at its edge.
 AT_LARGEST = 0.995
 
 
@@ -81,7 +101,7 @@ class InvertResult:
     times_s: dict = field(default_factory=dict)
 
 
-def _subsample(model: ImageModel, k: int) -> ImageModel:
+def subsample(model: ImageModel, k: int) -> ImageModel:
     """Every k-th pixel in both directions (pixel centres kept where they were)."""
     rows, cols = model.grid.shape
     r = np.arange(0, rows, k)
@@ -140,19 +160,30 @@ def _bounds(model: ImageModel, n: int):
     return lo, hi
 
 
-def _fit(model: ImageModel, p0: np.ndarray, diam, noise: float):
+def fit_indenters(model: ImageModel, p0: np.ndarray, diam, noise: float, box=None):
     """One joint least-squares fit; returns scipy's result. The cost is the sum of the
     squared residuals in intensity; it stops when it changes by less than 1e-6 of itself
-    (the parameters then move by far less than their sd)."""
+    (the parameters then move by far less than their sd). ``box`` (mm): the axes stay
+    within it of where they start."""
     from scipy.optimize import least_squares
 
     lo, hi = _bounds(model, len(diam))
+    if box is not None:
+        w = np.tile([box, box, np.inf, np.inf, np.inf], len(diam))
+        lo, hi = np.maximum(lo, p0 - w), np.minimum(hi, p0 + w)
     p0 = np.clip(p0, lo + 1e-9, hi - 1e-9)
     fixed = replace(model, keep=model.outside_contacts(unpack(p0, diam)))
+    f_scale, R = 3.0 * noise, model.lib.max_ratio
+
+    def fun(p):
+        return np.concatenate([fixed.residual(p, diam), range_penalty(p, R, f_scale)[0]])
+
+    def jac(p):
+        return np.vstack([fixed.jacobian(p, diam), range_penalty(p, R, f_scale)[1]])
+
     return least_squares(
-        fixed.residual, p0, jac=fixed.jacobian, args=(diam,), bounds=(lo, hi), loss="soft_l1",
-        f_scale=3.0 * noise, x_scale="jac", max_nfev=40, ftol=1e-6,
-        xtol=1e-6,
+        fun, p0, jac=jac, bounds=(lo, hi), loss="soft_l1", f_scale=f_scale, x_scale="jac",
+        max_nfev=40, ftol=1e-6, xtol=1e-6,
     )  # fmt: skip
 
 
@@ -190,12 +221,20 @@ def _prune(p: np.ndarray, sd: np.ndarray, diam: list, lib) -> tuple[np.ndarray, 
 
 def _fit_all(model, fine, p, diam, noise, its):
     """Fit the far field on ``model`` (every 4th pixel), then every pixel of ``fine``
-    (every 2nd); returns (p, result, iterations)."""
+    (every 2nd), then search each indenter's tangential basin (:func:`hop`) and fit again
+    while one moves (HOP_ROUNDS at most); returns (p, result, iterations)."""
     if not diam:
         return p, None, its
     res = None
-    for m in (_far(model), replace(fine, exact=EXACT_MM * 1e-3)):
-        res = _fit(m, p, diam, noise)
+    exact = replace(fine, exact=EXACT_MM * 1e-3)
+    for m in (_far(model), exact):
+        res = fit_indenters(m, p, diam, noise, box=START_BOX_MM)
+        p, its = res.x, its + res.nfev
+    for _ in range(HOP_ROUNDS):
+        p, changed = hop(model, exact, p, diam, noise)
+        if not changed:
+            break
+        res = fit_indenters(exact, p, diam, noise)
         p, its = res.x, its + res.nfev
     return p, res, its
 
@@ -204,7 +243,7 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
     """Detect and fit every indenter of ``model``'s measured image (full resolution)."""
     t0 = time.perf_counter()
     noise = noise_sd(model)
-    coarse, fine = _subsample(model, 4), _subsample(model, 2)
+    coarse, fine = subsample(model, 4), subsample(model, 2)
     pos = detect(fine, noise)
     t_detect = time.perf_counter() - t0
     p, diam = _start(coarse, pos)
@@ -301,10 +340,10 @@ def _refuse(q: np.ndarray, lib, total: float) -> None:
                 f"beyond the library's largest, {lib.max_load_N:g} N; build a library with "
                 "larger --load-N")  # fmt: skip
         ratio = np.hypot(v[3], v[4]) / max(v[2], 1e-12)
-        if ratio > lib.max_ratio + 0.01:
+        if ratio >= AT_LARGEST * lib.max_ratio:  # the fit is held at the largest ratio
             raise InvertError(
-                f"indenter {i + 1} at ({v[0]:.2f}, {v[1]:.2f}) mm needs a load beyond the "
-                f"library's range: {v[2]:.3g} N with a tangential load of {ratio:.2f} of it "
+                f"indenter {i + 1} at ({v[0]:.2f}, {v[1]:.2f}) mm needs a load at or beyond "
+                f"the library's range: {v[2]:.3g} N with a tangential load of {ratio:.2f} of it "
                 f"(the library goes to {lib.max_ratio:g}, up to {lib.max_load_N:g} N); build "
                 "a library with larger --shear-ratio or --load-N")  # fmt: skip
     if total > MAX_RESIDUAL:

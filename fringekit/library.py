@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from .config import ConfigError
-from .lattice import PolarLattice, polar_to_cartesian
+from .lattice import PolarLattice, interpolate_turned
 
 __all__ = [
     "FIELD_KEYS",
@@ -182,29 +182,8 @@ class Library:
         ratio = ft / fz if fz > 0 else 0.0
         psi = float(np.arctan2(ind.fy, ind.fx)) if ft > 0 else 0.0
         AB, a, c = self.state(d, fz, min(ratio, self.max_ratio))
-        lat = self.lattice
-        dx = xy[:, 0] - ind.x
-        dy = xy[:, 1] - ind.y
+        ab = interpolate_turned(AB, self.lattice, xy[:, 0] - ind.x, xy[:, 1] - ind.y, psi)
         cp, sp = np.cos(psi), np.sin(psi)
-        u = cp * dx + sp * dy
-        v = -sp * dx + cp * dy
-        r = np.hypot(u, v)
-        phi = np.arctan2(np.abs(v), u)  # [0, pi]; v < 0 is the mirror image
-        ab = np.zeros((len(xy), lat.n_slabs, 2), np.float32)
-        near = np.flatnonzero(r < lat.r_max)
-        if near.size:
-            rn, pn = r[near], phi[near]
-            ir = np.clip(np.searchsorted(lat.r, rn) - 1, 0, len(lat.r) - 2)
-            tr = ((rn - lat.r[ir]) / (lat.r[ir + 1] - lat.r[ir]))[:, None, None]
-            dphi = lat.phi[1] - lat.phi[0]
-            ip = np.clip((pn / dphi).astype(int), 0, len(lat.phi) - 2)
-            tp = (pn / dphi - ip)[:, None, None]
-            val = ((1 - tr) * (1 - tp) * AB[ir, ip] + tr * (1 - tp) * AB[ir + 1, ip]
-                   + (1 - tr) * tp * AB[ir, ip + 1] + tr * tp * AB[ir + 1, ip + 1])  # fmt: skip
-            A = val[..., 0]
-            B = val[..., 1] * np.where(v[near] < 0, -1.0, 1.0)[:, None]
-            alpha = np.arctan2(dy[near], dx[near])[:, None]
-            ab[near, :, 0], ab[near, :, 1] = polar_to_cartesian(A, B, alpha)
         cx = ind.x + cp * c[0] - sp * c[1]
         cy = ind.y + sp * c[0] + cp * c[1]
         contact = np.hypot(xy[:, 0] - cx, xy[:, 1] - cy) < a

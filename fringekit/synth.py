@@ -21,7 +21,14 @@ from optics.jones import qmul, qtranspose
 
 from .library import Library, LoadedIndenter
 
-__all__ = ["SynthMap", "ray_quaternions", "superpose", "synthesise"]
+__all__ = [
+    "SynthMap",
+    "exact_rays",
+    "quaternions_where",
+    "ray_quaternions",
+    "superpose",
+    "synthesise",
+]
 
 
 @dataclass(frozen=True)
@@ -80,19 +87,35 @@ def _quaternions(ab: np.ndarray, law, wavelengths: np.ndarray, exact: bool) -> n
     return qmul(qtranspose(q), q)
 
 
+def exact_rays(xy: np.ndarray, indenters, exact: bool | float) -> np.ndarray:
+    """(P,) bool: the rays :func:`ray_quaternions` integrates slab by slab (``exact``
+    True: all; False: none; a distance (m): those within it of an indenter axis)."""
+    if isinstance(exact, bool):
+        return np.full(len(xy), exact)
+    close = np.zeros(len(xy), bool)
+    for ind in indenters:  # a handful of indenters
+        close |= np.hypot(xy[:, 0] - ind.x, xy[:, 1] - ind.y) < exact
+    return close
+
+
+def quaternions_where(ab: np.ndarray, close: np.ndarray, law, lam) -> np.ndarray:
+    """Double-pass quaternions (P, W, 4) of rays with slab pairs ``ab`` (P, S, 2): the
+    Jones integration where ``close`` (P,) holds, one equivalent retarder elsewhere."""
+    if close.all() or not close.any():
+        return _quaternions(ab, law, lam, bool(close.all()))
+    q = np.empty((len(ab), len(lam), 4))
+    q[close] = _quaternions(ab[close], law, lam, True)
+    q[~close] = _quaternions(ab[~close], law, lam, False)
+    return q
+
+
 def ray_quaternions(ab, xy, indenters, law, lam, exact: bool | float = True) -> np.ndarray:
     """Double-pass quaternions (P, W, 4) of rays at ``xy`` (P, 2) (m) with summed slab
     pairs ``ab`` (P, S, 2): all by Jones integration (``exact=True``), none (``False``:
     one equivalent retarder per ray) or those within ``exact`` (m) of an indenter axis."""
     if isinstance(exact, bool):
         return _quaternions(ab, law, lam, exact)
-    close = np.zeros(len(xy), bool)
-    for ind in indenters:  # a handful of indenters
-        close |= np.hypot(xy[:, 0] - ind.x, xy[:, 1] - ind.y) < exact
-    q = np.empty((len(xy), len(lam), 4))
-    q[close] = _quaternions(ab[close], law, lam, True)
-    q[~close] = _quaternions(ab[~close], law, lam, False)
-    return q
+    return quaternions_where(ab, exact_rays(xy, indenters, exact), law, lam)
 
 
 def synthesise(

@@ -216,3 +216,65 @@ def test_predict_from_a_library(test_library, tmp_path):
     assert main(["predict", str(tmp_path / "c.toml"), "--library", str(test_library.folder),
                  "--out", str(out), "--quiet"]) == 2  # fmt: skip
     assert (out / "state_01" / "maps.npz").is_file()  # the earlier run is kept
+
+
+def test_the_basin_search_turns_a_wrong_tangential_load_back(test_library):
+    """fringekit.invert_hop: a start with one head's tangential load turned 150 deg, its
+    normal load 15 % low and its axis 0.28 mm off is brought back to the true basin (the
+    direction within 15 deg, the normal load within 3 %, before any joint fit; the joint
+    fit from there gives the truth to 1e-3); at the truth nothing moves."""
+    from fringekit.invert import EXACT_MM, fit_indenters, subsample
+    from fringekit.invert_hop import hop
+
+    def direction(v):
+        return np.degrees(np.arctan2(v[4], v[3]))
+
+    model = _model(test_library, "phase", TWO)
+    fine = replace(subsample(model, 2), exact=EXACT_MM * 1e-3)
+    coarse = subsample(model, 4)
+    truth = _truth(TWO)
+    start = truth.copy()
+    turned = np.radians(direction(truth[0]) + 150.0)
+    start[0, 3:] = np.hypot(*truth[0, 3:]) * np.array([np.cos(turned), np.sin(turned)])
+    start[0, 2] *= 0.85
+    start[0, :2] += 0.2
+    diam = [3.5e-3, 3.5e-3]
+    got, changed = hop(coarse, fine, start.ravel(), diam, noise=1e-3)
+    q = got.reshape(-1, 5)
+    assert changed == 1
+    assert abs((direction(q[0]) - direction(truth[0]) + 180) % 360 - 180) < 15.0
+    assert abs(q[0, 2] - truth[0, 2]) < 0.03 * truth[0, 2]
+    assert np.array_equal(q[1], truth[1])  # the other head is held
+    fitted = fit_indenters(fine, got, diam, 1e-3).x.reshape(-1, 5)
+    assert np.all(np.abs(fitted - truth) <= 1e-3 * np.array([1, 1, 3.3, 3.3, 3.3])), fitted
+    same, changed = hop(coarse, fine, truth.ravel(), diam, noise=1e-3)
+    assert changed == 0 and np.array_equal(same, truth.ravel())
+
+
+def test_the_range_penalty_and_its_jacobian():
+    from fringekit.invert_model import range_penalty
+
+    p = np.array([0.0, 0.0, 2.0, 1.0, 1.5, 1.0, 1.0, 3.0, 0.5, -0.2])  # ratio 0.90, 0.18
+    r, J = range_penalty(p, 0.8, 0.01)
+    assert r[1] == 0.0 and np.all(J[1] == 0.0)
+    assert r[0] == pytest.approx(10.0 * (np.hypot(1.0, 1.5) - 1.6))
+    for j in range(p.size):
+        h = np.zeros_like(p)
+        h[j] = 1e-6
+        fd = (range_penalty(p + h, 0.8, 0.01)[0] - range_penalty(p - h, 0.8, 0.01)[0]) / 2e-6
+        assert np.allclose(J[:, j], fd, atol=1e-6)
+
+
+@pytest.mark.parametrize("method", ["rgb", "phase"])
+def test_the_scan_table_matches_the_polariscope(test_library, method):
+    """The scan's intensity table (fringekit.invert_hop.retarder_lookup) against the model's own
+    intensities of equivalent retarders: within 1 % of the fringe amplitude."""
+    from fringekit.invert_hop import retarder_lookup
+
+    model = replace(_model(test_library, method, TWO[:1]), exact=False)
+    sub = model.restrict(np.arange(400))
+    rng = np.random.default_rng(1)
+    tot = rng.normal(0.0, 3e3, (3, 400, 2))  # Pa m: up to about 6 fringes
+    direct = sub.intensities(tot.reshape(-1, 1, 2), []).reshape(3, 400, -1)
+    amplitude = np.ptp(direct)
+    assert np.abs(retarder_lookup(sub, tot) - direct).max() < 0.01 * amplitude

@@ -199,9 +199,10 @@ def _uncertainty(res, n_used: int) -> np.ndarray:
     return np.sqrt(np.clip(np.diag(cov), 0.0, None))
 
 
-def _prune(p: np.ndarray, sd: np.ndarray, diam: list, lib) -> tuple[np.ndarray, list]:
+def _prune(p: np.ndarray, sd: np.ndarray, diam: list, lib) -> tuple[np.ndarray, list, list]:
     """Drop indenters whose normal load is not significant, and the weaker of two whose
-    axes are closer than their spheres allow (centres at least a diameter apart)."""
+    axes are closer than their spheres allow (centres at least a diameter apart); returns
+    (parameters, diameters, indices kept)."""
     q = p.reshape(-1, N_PARAMS)
     s = sd.reshape(-1, N_PARAMS)
     with np.errstate(invalid="ignore"):
@@ -216,10 +217,10 @@ def _prune(p: np.ndarray, sd: np.ndarray, diam: list, lib) -> tuple[np.ndarray, 
         if keep[i] and not clash:
             kept.append(int(i))
     kept.sort()
-    return q[kept].ravel(), [diam[i] for i in kept]
+    return q[kept].ravel(), [diam[i] for i in kept], kept
 
 
-def _fit_all(model, fine, p, diam, noise, its):
+def _fit_all(model, fine, p, diam, noise, its, anchors=None):
     """Fit the far field on ``model`` (every 4th pixel), then every pixel of ``fine``
     (every 2nd), then search each indenter's tangential basin (:func:`hop`) and fit again
     while one moves (HOP_ROUNDS at most); returns (p, result, iterations)."""
@@ -231,7 +232,7 @@ def _fit_all(model, fine, p, diam, noise, its):
         res = fit_indenters(m, p, diam, noise, box=START_BOX_MM)
         p, its = res.x, its + res.nfev
     for _ in range(HOP_ROUNDS):
-        p, changed = hop(model, exact, p, diam, noise)
+        p, changed = hop(model, exact, p, diam, noise, anchors)
         if not changed:
             break
         res = fit_indenters(exact, p, diam, noise)
@@ -247,13 +248,14 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
     pos = detect(fine, noise)
     t_detect = time.perf_counter() - t0
     p, diam = _start(coarse, pos)
+    anchors = p.reshape(-1, N_PARAMS)[:, :2].copy()  # where detection put the axes
     its, res = 0, None
     for round_ in range(max_rounds + 1):  # model selection rounds (at most a few)
-        p, res, its = _fit_all(coarse, fine, p, diam, noise, its)
+        p, res, its = _fit_all(coarse, fine, p, diam, noise, its, anchors)
         if res is None or round_ == max_rounds:
             break
         sd = _uncertainty(res, int(np.count_nonzero(res.fun)))
-        p2, diam2 = _prune(p, sd, diam, model.lib)
+        p2, diam2, kept = _prune(p, sd, diam, model.lib)
         fitted_img, _, _, outside = fine.fitted(unpack(p2, diam2))
         resid = replace(fine, measured=np.where(outside[:, None], fine.measured - fitted_img, 0.0))
         new = detect(resid, noise, exclude=p2.reshape(-1, N_PARAMS)[:, :2])
@@ -261,11 +263,12 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
             break
         pn, dn = _start(coarse, new)
         p, diam = np.concatenate([p2, pn]), diam2 + dn
+        anchors = np.concatenate([anchors[kept], pn.reshape(-1, N_PARAMS)[:, :2]])
     if res is not None:  # the last fit may have let two indenters meet
         sd = _uncertainty(res, int(np.count_nonzero(res.fun)))
-        p2, diam2 = _prune(p, sd, diam, model.lib)
+        p2, diam2, kept = _prune(p, sd, diam, model.lib)
         if len(diam2) < len(diam):
-            p, res, its = _fit_all(coarse, fine, p2, diam2, noise, its)
+            p, res, its = _fit_all(coarse, fine, p2, diam2, noise, its, anchors[kept])
             diam = diam2
     if not diam and len(pos):
         x, y = pos[0]

@@ -55,6 +55,9 @@ DISTINCT_RATIO = 0.2
 #: A refined candidate moves the axis at most this far from where it was (mm).
 HOP_BOX_MM = 0.5
 HOP_NFEV = 15
+#: An axis the fit moved farther than this (mm) from where detection put it is scanned
+#: at both places: a neighbour's wrong load can pull it off.
+ANCHOR_MM = 0.1
 ACCEPT = 0.02
 
 
@@ -119,8 +122,9 @@ def _scan_loads(lib, fz_now: float) -> np.ndarray:
                              lo, lib.max_load_N))  # fmt: skip
 
 
-def _scan(model: ImageModel, p, diam, k: int, gains, offs, f_scale):
-    """Scanned candidates for indenter k: (costs (M,), rows (M, 5)) and the current cost."""
+def _scan(model: ImageModel, p, diam, k: int, gains, offs, f_scale, centres):
+    """Scanned candidates for indenter k with its axis at each of ``centres`` (mm):
+    (costs (M,), rows (M, 5)) and the current cost."""
     lib = model.lib
     q = p.reshape(-1, N_PARAMS)
     inds = unpack(p, diam)
@@ -132,17 +136,18 @@ def _scan(model: ImageModel, p, diam, k: int, gains, offs, f_scale):
     d = lib.nearest_diameter(diam[k] * 1e3)
     psi = np.linspace(0.0, 2 * np.pi, SCAN_DIRECTIONS, endpoint=False)
     ratios = np.arange(0.0, lib.max_ratio + 1e-9, SCAN_RATIO_STEP)
-    dx, dy = (xy[:, 0] - inds[k].x)[None], (xy[:, 1] - inds[k].y)[None]
     tots = [(others + lib.slabs(inds[k], xy)[0].sum(axis=1))[None]]  # the current first
     rows = [q[k]]
     for fz in _scan_loads(lib, q[k, 2]):  # a few load states, each vectorised
         for ratio in ratios:
             AB = lib.state(d, float(fz), float(ratio))[0].sum(axis=2, keepdims=True)
             dirs = psi if ratio > 0 else psi[:1]
-            ab = interpolate_turned(AB, lib.lattice, dx, dy, dirs[:, None])[..., 0, :]
-            tots.append(others[None] + ab)
             ft = ratio * fz
-            rows += [[q[k, 0], q[k, 1], fz, ft * np.cos(a), ft * np.sin(a)] for a in dirs]
+            for cx, cy in centres:  # one or two
+                dx, dy = (xy[:, 0] - cx * 1e-3)[None], (xy[:, 1] - cy * 1e-3)[None]
+                ab = interpolate_turned(AB, lib.lattice, dx, dy, dirs[:, None])[..., 0, :]
+                tots.append(others[None] + ab)
+                rows += [[cx, cy, fz, ft * np.cos(a), ft * np.sin(a)] for a in dirs]
     lin = retarder_lookup(sub, np.concatenate(tots))
     r = sub.measured[None] - (gains * lin + offs)
     z = (r / f_scale) ** 2
@@ -161,6 +166,8 @@ def _distinct(costs: np.ndarray, rows: np.ndarray, now: float) -> list[np.ndarra
         ratio, ang = np.hypot(v[3], v[4]) / v[2], np.degrees(np.arctan2(v[4], v[3]))
         close = False
         for w in chosen:
+            if np.hypot(v[0] - w[0], v[1] - w[1]) > 0.05:  # another centre
+                continue
             rw, aw = np.hypot(w[3], w[4]) / w[2], np.degrees(np.arctan2(w[4], w[3]))
             turn = abs((ang - aw + 180.0) % 360.0 - 180.0)
             if abs(ratio - rw) < DISTINCT_RATIO and (turn < DISTINCT_DEG or min(ratio, rw) < 0.05):
@@ -210,7 +217,7 @@ def _refine(fine: ImageModel, p, diam, k, starts, gains, offs, f_scale):
     return best, now
 
 
-def hop(coarse: ImageModel, fine: ImageModel, p: np.ndarray, diam, noise: float):
+def hop(coarse: ImageModel, fine: ImageModel, p: np.ndarray, diam, noise: float, anchors=None):
     """One pass of the search over every indenter (module docstring).
 
     Parameters
@@ -220,6 +227,8 @@ def hop(coarse: ImageModel, fine: ImageModel, p: np.ndarray, diam, noise: float)
     p : (n * 5,) x, y (mm), Fz, Fx, Fy (N) of a converged joint fit
     diam : list of n sphere diameters (m)
     noise : float — the image's noise sd (intensity)
+    anchors : (n, 2) float array or None — where detection put each axis (mm); an axis
+        the fit moved more than ANCHOR_MM from it is also scanned there
 
     Returns
     -------
@@ -230,7 +239,10 @@ def hop(coarse: ImageModel, fine: ImageModel, p: np.ndarray, diam, noise: float)
     changed = 0
     for k in range(len(diam)):  # a handful of indenters, each vectorised
         _, gains, offs, _ = fine.fitted(unpack(p, diam))
-        costs, rows, now = _scan(fine, p, diam, k, gains, offs, f_scale)
+        centres = [tuple(p[k * N_PARAMS : k * N_PARAMS + 2])]
+        if anchors is not None and np.hypot(*(anchors[k] - centres[0])) > ANCHOR_MM:
+            centres.append(tuple(anchors[k]))
+        costs, rows, now = _scan(fine, p, diam, k, gains, offs, f_scale, centres)
         starts = _distinct(costs, rows, now)
         if not starts:
             continue

@@ -232,7 +232,7 @@ def _fit_all(model, fine, p, diam, noise, its, anchors=None):
         res = fit_indenters(m, p, diam, noise, box=START_BOX_MM)
         p, its = res.x, its + res.nfev
     for _ in range(HOP_ROUNDS):
-        p, changed = hop(model, exact, p, diam, noise, anchors)
+        p, changed = hop(exact, p, diam, noise, anchors)
         if not changed:
             break
         res = fit_indenters(exact, p, diam, noise)

@@ -11,10 +11,12 @@ and a neighbour's load distorted to explain the rest.
 :func:`hop` visits each indenter in turn, the others held:
 
 1. **Scan.** Tangential directions every 360/SCAN_DIRECTIONS deg x ratios every
-   SCAN_RATIO_STEP up to the library's x normal loads SCAN_LOAD_FACTORS times the fitted
-   one, position held, on the coarse pixels (every 4th) within the window, each ray one
-   equivalent retarder (:func:`fringekit.synth.ray_quaternions`), with the gain and offset
-   of the joint fit; every candidate of one load state is one vectorised evaluation.
+   SCAN_RATIO_STEP up to the library's x normal loads (SCAN_LOAD_FACTORS times the fitted
+   one and SCAN_LOADS across the library), the axis held (and also at the detected axis
+   when the fit moved it), on at most SCAN_PIXELS pixels of the window, each ray one
+   equivalent retarder whose intensities come from a table of the polariscope's response
+   (:func:`retarder_lookup`), with the gain and offset of the joint fit; every candidate
+   of one load state is one vectorised evaluation.
 2. **Refine.** The best HOP_STARTS distinct candidates that beat the current parameters
    start a least-squares fit of that indenter's five parameters on its window (every 2nd
    pixel, Jones integration near the axes), its position within HOP_BOX_MM of where it was.
@@ -217,13 +219,13 @@ def _refine(fine: ImageModel, p, diam, k, starts, gains, offs, f_scale):
     return best, now
 
 
-def hop(coarse: ImageModel, fine: ImageModel, p: np.ndarray, diam, noise: float, anchors=None):
+def hop(fine: ImageModel, p: np.ndarray, diam, noise: float, anchors=None):
     """One pass of the search over every indenter (module docstring).
 
     Parameters
     ----------
-    coarse, fine : ImageModel — every 4th and every 2nd pixel; ``fine`` with the Jones
-        integration near the axes (its ``exact``)
+    fine : ImageModel — every 2nd pixel, with the Jones integration near the axes (its
+        ``exact``)
     p : (n * 5,) x, y (mm), Fz, Fx, Fy (N) of a converged joint fit
     diam : list of n sphere diameters (m)
     noise : float — the image's noise sd (intensity)

@@ -28,8 +28,6 @@ The caller fits all indenters jointly again when one changed, and repeats.
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
 from .invert_model import N_PARAMS, ImageModel, range_penalty, unpack
@@ -63,10 +61,11 @@ ANCHOR_MM = 0.1
 ACCEPT = 0.02
 
 
-def robust_cost(r: np.ndarray, f_scale: float) -> float:
-    """scipy's soft-L1 cost of residuals ``r``: 0.5 sum f^2 2 (sqrt(1 + (r/f)^2) - 1)."""
+def robust_cost(r: np.ndarray, f_scale: float, axis=None):
+    """scipy's soft-L1 cost of residuals ``r``: 0.5 sum f^2 2 (sqrt(1 + (r/f)^2) - 1),
+    over ``axis`` (all of ``r`` by default)."""
     z = (np.asarray(r, float) / f_scale) ** 2
-    return float(f_scale**2 * np.sum(np.sqrt(1.0 + z) - 1.0))
+    return f_scale**2 * np.sum(np.sqrt(1.0 + z) - 1.0, axis=axis)
 
 
 def _window(model: ImageModel, q: np.ndarray, k: int, exclude) -> np.ndarray:
@@ -105,7 +104,8 @@ def retarder_lookup(sub: ImageModel, tot: np.ndarray) -> np.ndarray:
     a_nodes = np.linspace(-np.pi, np.pi, TABLE_ANGLES + 1)
     mm, aa = np.meshgrid(m_nodes, a_nodes, indexing="ij")
     nodes = np.stack([mm * np.cos(aa), mm * np.sin(aa)], axis=-1).reshape(-1, 1, 2)
-    table = sub.intensities(nodes, []).reshape(n_mag, TABLE_ANGLES + 1, -1)
+    flat = np.zeros(len(nodes), bool)  # every node one equivalent retarder
+    table = sub.intensities(nodes, [], flat).reshape(n_mag, TABLE_ANGLES + 1, -1)
     fm = mag / m_nodes[1]
     im = np.minimum(fm.astype(int), n_mag - 2)
     tm = (fm - im)[..., None]
@@ -132,7 +132,7 @@ def _scan(model: ImageModel, p, diam, k: int, gains, offs, f_scale, centres):
     inds = unpack(p, diam)
     win = np.flatnonzero(_window(model, q, k, [(p, diam)]))
     stride = max(1, int(np.ceil(len(win) / SCAN_PIXELS)))
-    sub = replace(model.restrict(win[::stride]), exact=False)
+    sub = model.restrict(win[::stride])
     xy = sub.xy
     others = _others(lib, inds, k, xy).sum(axis=1)  # (P, 2): one retarder per ray
     d = lib.nearest_diameter(diam[k] * 1e3)
@@ -151,9 +151,7 @@ def _scan(model: ImageModel, p, diam, k: int, gains, offs, f_scale, centres):
                 tots.append(others[None] + ab)
                 rows += [[cx, cy, fz, ft * np.cos(a), ft * np.sin(a)] for a in dirs]
     lin = retarder_lookup(sub, np.concatenate(tots))
-    r = sub.measured[None] - (gains * lin + offs)
-    z = (r / f_scale) ** 2
-    costs = f_scale**2 * np.sum(np.sqrt(1.0 + z) - 1.0, axis=(1, 2))
+    costs = robust_cost(sub.measured[None] - (gains * lin + offs), f_scale, axis=(1, 2))
     return costs[1:], np.array(rows[1:]), float(costs[0])
 
 
@@ -205,7 +203,7 @@ def _refine(fine: ImageModel, p, diam, k, starts, gains, offs, f_scale):
         return np.concatenate([r, range_penalty(v, lib.max_ratio, f_scale)[0]])
 
     t = lib.max_ratio * lib.max_load_N
-    best = (robust_cost(residual(q[k]), f_scale), q[k])
+    best = (float(robust_cost(residual(q[k]), f_scale)), q[k])
     now = best[0]
     for v in starts:
         lo = np.array([v[0] - HOP_BOX_MM, v[1] - HOP_BOX_MM, 0.0, -t, -t])
@@ -213,7 +211,7 @@ def _refine(fine: ImageModel, p, diam, k, starts, gains, offs, f_scale):
         res = least_squares(residual, np.clip(v, lo + 1e-9, hi - 1e-9), bounds=(lo, hi),
                             loss="soft_l1", f_scale=f_scale, x_scale="jac",
                             max_nfev=HOP_NFEV, ftol=1e-4, xtol=1e-4)  # fmt: skip
-        c = robust_cost(res.fun, f_scale)
+        c = float(robust_cost(res.fun, f_scale))
         if c < best[0]:
             best = (c, res.x)
     return best, now
@@ -239,8 +237,8 @@ def hop(fine: ImageModel, p: np.ndarray, diam, noise: float, anchors=None):
     p = np.array(p, float)
     f_scale = 3.0 * noise
     changed = 0
+    _, gains, offs, _ = fine.fitted(unpack(p, diam))
     for k in range(len(diam)):  # a handful of indenters, each vectorised
-        _, gains, offs, _ = fine.fitted(unpack(p, diam))
         centres = [tuple(p[k * N_PARAMS : k * N_PARAMS + 2])]
         if anchors is not None and np.hypot(*(anchors[k] - centres[0])) > ANCHOR_MM:
             centres.append(tuple(anchors[k]))
@@ -252,4 +250,5 @@ def hop(fine: ImageModel, p: np.ndarray, diam, noise: float, anchors=None):
         if c < (1.0 - ACCEPT) * c_now:
             p[k * N_PARAMS : (k + 1) * N_PARAMS] = v
             changed += 1
+            _, gains, offs, _ = fine.fitted(unpack(p, diam))  # of the image with it moved
     return p, changed

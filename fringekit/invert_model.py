@@ -167,13 +167,14 @@ class ImageModel:
         return fitted, gains, offs, outside
 
     def intensities(self, ab: np.ndarray, indenters, close=None) -> np.ndarray:
-        """Model intensities (P, C) of summed slab pairs ab (P, S, 2); ``close`` (P,) bool:
-        the rays integrated slab by slab (default: as ``exact`` and ``indenters`` say)."""
+        """Model intensities (N, C) of summed slab pairs ab (N, S, 2); ``close`` (N,) bool:
+        the rays integrated slab by slab (default, for the model's own P pixels: as
+        ``exact`` and ``indenters`` say)."""
         lam = self.setup.get("wavelengths")
         lam = np.array([self.law.wavelength_ref]) if lam is None else lam
         if close is None:
             close = exact_rays(self.xy, indenters, self.exact)
-        q = quaternions_where(ab, np.resize(close, len(ab)), self.law, lam)
+        q = quaternions_where(ab, close, self.law, lam)
         if self.method == "rgb":
             return intensity(q, self.setup["arrangements"][0]) @ self.setup["to_rgb"]
         return np.stack([intensity(q[:, 0], a) for a in self.setup["arrangements"]], axis=1)
@@ -206,18 +207,17 @@ class ImageModel:
                 batch.append(total - own[i] + self.lib.slabs(unpack(pj, diameters)[i], xy)[0])
             close = exact_rays(xy, inds[i : i + 1], self.exact)
             lin = self.intensities(np.concatenate(batch), inds, np.tile(close, len(batch)))
-            res = []
-            for m in lin.reshape(len(batch), P, -1):
-                fitted, _, _ = self.project(m, use)
-                r = self.measured - fitted
-                r[~use] = 0.0
-                res.append(r.ravel())
+            res = [self._residual_from(m, use) for m in lin.reshape(len(batch), P, -1)]
             J[:, sl] = (np.stack(res[1:], axis=1) - res[0][:, None]) / h
         return J
 
     def _residual_of(self, ab: np.ndarray, indenters, use: np.ndarray) -> np.ndarray:
         """Residuals (P * C,) of summed slab pairs, zero outside ``use``."""
-        model = self.intensities(ab, indenters)
+        return self._residual_from(self.intensities(ab, indenters), use)
+
+    def _residual_from(self, model: np.ndarray, use: np.ndarray) -> np.ndarray:
+        """Residuals (P * C,) of model intensities (P, C) with their best gain and offset
+        on ``use``, zero outside it."""
         fitted, _, _ = self.project(model, use)
         res = self.measured - fitted
         res[~use] = 0.0

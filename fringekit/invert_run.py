@@ -167,8 +167,7 @@ def run_invert(
     say(f"invert: {method}, {shape[0]} x {shape[1]} px, library {lib.folder} "
         f"({len(lib.load_N) - 1} loads x {len(lib.shear_ratio)} ratios)")  # fmt: skip
     res = invert_image(model)
-    flagged = residual_warnings(res.params, res.residual_rms)
-    warnings += flagged
+    warnings += residual_warnings(res.params, res.residual_rms)
     say(f"invert: {len(res.params)} indenter(s), residual {res.residual:.3f} of the fringe "
         f"amplitude, {time.perf_counter() - t0:.1f} s")  # fmt: skip
     with run_folder(out) as work:

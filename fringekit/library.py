@@ -38,6 +38,7 @@ __all__ = [
     "LibraryError",
     "LoadedIndenter",
     "check_sensor",
+    "diameter_id",
     "field_file",
     "load_library",
     "sensor_key",
@@ -53,8 +54,13 @@ class LibraryError(ConfigError):
     """A library folder that cannot be used (missing, corrupt, another sensor)."""
 
 
+def diameter_id(diameter_mm: float) -> str:
+    """The name part of one diameter's files and tasks: ``d`` and the diameter in um."""
+    return f"d{int(round(diameter_mm * 1000)):05d}"
+
+
 def field_file(diameter_mm: float) -> str:
-    return f"fields_d{int(round(diameter_mm * 1000)):05d}.npz"
+    return f"fields_{diameter_id(diameter_mm)}.npz"
 
 
 def sha256(path: Path) -> str:

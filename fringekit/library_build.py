@@ -31,7 +31,7 @@ import numpy as np
 from .cluster import run_tasks
 from .config import ConfigError, to_toml
 from .lattice import default_lattice, sample_lattice
-from .library import FIELD_KEYS, FORMAT, field_file, sensor_key, sha256
+from .library import FIELD_KEYS, FORMAT, diameter_id, field_file, sensor_key, sha256
 from .versions import run_versions
 
 __all__ = [
@@ -94,7 +94,7 @@ def chain_config(cfg: dict, diameter_mm: float, loads, ratios, todo) -> tuple[di
 
 
 def _branch_id(diameter_mm: float, load_n: float) -> str:
-    return f"d{int(round(diameter_mm * 1000)):05d}_F{int(round(load_n * 1000)):06d}"
+    return f"{diameter_id(diameter_mm)}_F{int(round(load_n * 1000)):06d}"
 
 
 def _solve_chain(task: dict, out: str, cache_dir: str | None, progress: bool = False) -> dict:
@@ -227,7 +227,7 @@ def build_library(
             mine.append(b)
         branches += mine
         if any(b["todo"] for b in mine):
-            chains.append({"id": f"d{int(round(d * 1000)):05d}", "diameter_mm": d,
+            chains.append({"id": diameter_id(d), "diameter_mm": d,
                            "config": cfg, "branches": mine, "ratios": list(ratios),
                            "r": lat.r, "phi": lat.phi, "n_slabs": n_slabs})  # fmt: skip
     (out / "branches").mkdir(parents=True, exist_ok=True)

@@ -61,6 +61,8 @@ PRESETS = {
         "half_width_mm": 8.0,
     },
 }
+#: The normal-load fractions of a held-out case's path (steps of about 1.4x).
+NORMAL_STEPS = (0.125, 0.18, 0.25, 0.35, 0.5, 0.7, 1.0)
 NOISE = {"optics.full_well_e": 10000.0, "optics.read_noise_e": 5.0}
 MIN_APART_MM = 4.5
 
@@ -117,10 +119,6 @@ def case_config(base: dict, inds: list[dict], name: str) -> dict:
         for d in inds
     ]
     return cfg
-
-
-#: The normal-load fractions of a held-out case's path (steps of about 1.4x).
-NORMAL_STEPS = (0.125, 0.18, 0.25, 0.35, 0.5, 0.7, 1.0)
 
 
 def match(true: list[dict], est: list[dict]) -> tuple[list, int, int]:

@@ -15,8 +15,8 @@ and a neighbour's load distorted to explain the rest.
    one and SCAN_LOADS across the library), the axis held (and also at the detected axis
    when the fit moved it), on at most SCAN_PIXELS pixels of the window, each ray one
    equivalent retarder whose intensities come from a table of the polariscope's response
-   (:func:`retarder_lookup`), with the gain and offset of the joint fit; every candidate
-   of one load state is one vectorised evaluation.
+   (:class:`RetarderTable`, built once per pass), with the gain and offset of the joint
+   fit; every candidate of one load state is one vectorised evaluation.
 2. **Refine.** The best HOP_STARTS distinct candidates that beat the current parameters
    start a least-squares fit of that indenter's five parameters on its window (every 2nd
    pixel, Jones integration near the axes), its position within HOP_BOX_MM of where it was.
@@ -28,12 +28,14 @@ The caller fits all indenters jointly again when one changed, and repeats.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .invert_model import N_PARAMS, ImageModel, range_penalty, unpack
 from .lattice import interpolate_turned
 
-__all__ = ["hop", "retarder_lookup", "robust_cost"]
+__all__ = ["hop", "retarder_lookup", "robust_cost", "RetarderTable"]
 
 #: The window about an indenter whose pixels the search fits (mm).
 WINDOW_MM = 3.0
@@ -47,6 +49,8 @@ SCAN_LOADS = 8
 SCAN_PIXELS = 600
 TABLE_PER_FRINGE = 24
 TABLE_ANGLES = 72
+#: A table is built this much beyond the magnitudes that asked for it.
+TABLE_MARGIN = 1.5
 #: Distinct candidates refined per indenter: at least this far apart in direction (deg)
 #: or ratio.
 HOP_STARTS = 3
@@ -87,33 +91,80 @@ def _others(lib, inds, k: int, xy: np.ndarray) -> np.ndarray:
     return out
 
 
-def retarder_lookup(sub: ImageModel, tot: np.ndarray) -> np.ndarray:
-    """Model intensities (M, P, C) of rays that are one linear retarder each, with summed
-    slab vectors ``tot`` (M, P, 2), from a table of the model's own intensities over the
-    vector's magnitude (TABLE_PER_FRINGE steps per fringe at the shortest wavelength) and
-    angle (every 360/TABLE_ANGLES deg), bilinear: the polariscope is evaluated on the
-    table's nodes only (0.1-1 % of the fringe amplitude from the direct evaluation)."""
-    mag = np.hypot(tot[..., 0], tot[..., 1])
-    ang = np.arctan2(tot[..., 1], tot[..., 0])
-    lam = sub.setup.get("wavelengths")
-    lam = np.array([sub.law.wavelength_ref]) if lam is None else lam
-    k = float(np.max(sub.law.retardation_per_stress_length(lam)))
-    top = float(mag.max()) * (1 + 1e-9) + 1e-30
-    n_mag = int(np.ceil(top * 2 * k / (2 * np.pi) * TABLE_PER_FRINGE)) + 2
-    m_nodes = np.linspace(0.0, top, n_mag)
-    a_nodes = np.linspace(-np.pi, np.pi, TABLE_ANGLES + 1)
-    mm, aa = np.meshgrid(m_nodes, a_nodes, indexing="ij")
-    nodes = np.stack([mm * np.cos(aa), mm * np.sin(aa)], axis=-1).reshape(-1, 1, 2)
-    flat = np.zeros(len(nodes), bool)  # every node one equivalent retarder
-    table = sub.intensities(nodes, [], flat).reshape(n_mag, TABLE_ANGLES + 1, -1)
-    fm = mag / m_nodes[1]
-    im = np.minimum(fm.astype(int), n_mag - 2)
-    tm = (fm - im)[..., None]
-    fa = (ang + np.pi) / (a_nodes[1] - a_nodes[0])
-    ia = np.minimum(fa.astype(int), TABLE_ANGLES - 1)
-    ta = (fa - ia)[..., None]
-    return ((1 - tm) * (1 - ta) * table[im, ia] + tm * (1 - ta) * table[im + 1, ia]
-            + (1 - tm) * ta * table[im, ia + 1] + tm * ta * table[im + 1, ia + 1])  # fmt: skip
+@dataclass(frozen=True)
+class RetarderTable:
+    """A model's intensities of rays that are one linear retarder each, tabulated over
+    the summed slab vector's magnitude (TABLE_PER_FRINGE steps per fringe at the
+    shortest wavelength, from 0 to ``top``) and angle (every 360/TABLE_ANGLES deg).
+
+    The polariscope is evaluated on the table's nodes only; a lookup is bilinear (0.1-1 %
+    of the fringe amplitude from the direct evaluation). The table depends on the
+    model's optics and method, not on its pixels, so one serves every scan of a pass.
+
+    Attributes
+    ----------
+    step : float — the magnitude step (Pa m, the slab vectors' unit)
+    values : (n_mag, TABLE_ANGLES + 1, C) float array — intensities per channel
+    """
+
+    step: float
+    values: np.ndarray
+
+    @property
+    def top(self) -> float:
+        """The largest magnitude the table holds."""
+        return self.step * (len(self.values) - 1)
+
+    @classmethod
+    def build(cls, sub: ImageModel, top: float) -> RetarderTable:
+        """The table of ``sub``'s optics up to magnitude ``top``."""
+        lam = sub.setup.get("wavelengths")
+        lam = np.array([sub.law.wavelength_ref]) if lam is None else lam
+        k = float(np.max(sub.law.retardation_per_stress_length(lam)))
+        top = top * (1 + 1e-9) + 1e-30
+        n_mag = int(np.ceil(top * 2 * k / (2 * np.pi) * TABLE_PER_FRINGE)) + 2
+        m_nodes = np.linspace(0.0, top, n_mag)
+        a_nodes = np.linspace(-np.pi, np.pi, TABLE_ANGLES + 1)
+        mm, aa = np.meshgrid(m_nodes, a_nodes, indexing="ij")
+        nodes = np.stack([mm * np.cos(aa), mm * np.sin(aa)], axis=-1).reshape(-1, 1, 2)
+        flat = np.zeros(len(nodes), bool)  # every node one equivalent retarder
+        values = sub.intensities(nodes, [], flat).reshape(n_mag, TABLE_ANGLES + 1, -1)
+        return cls(float(m_nodes[1]), values)
+
+    def lookup(self, tot: np.ndarray) -> np.ndarray:
+        """Intensities (M, P, C) of rays with summed slab vectors ``tot`` (M, P, 2).
+
+        Raises
+        ------
+        ValueError
+            If a magnitude exceeds the table's ``top`` (build a larger table).
+        """
+        mag = np.hypot(tot[..., 0], tot[..., 1])
+        if mag.size and float(mag.max()) > self.top:
+            top = float(mag.max())
+            raise ValueError(f"slab magnitude {top:.4g} beyond the table's {self.top:.4g}")
+        ang = np.arctan2(tot[..., 1], tot[..., 0])
+        table, n_mag = self.values, len(self.values)
+        fm = mag / self.step
+        im = np.minimum(fm.astype(int), n_mag - 2)
+        tm = (fm - im)[..., None]
+        fa = (ang + np.pi) / (2 * np.pi / TABLE_ANGLES)
+        ia = np.minimum(fa.astype(int), TABLE_ANGLES - 1)
+        ta = (fa - ia)[..., None]
+        return ((1 - tm) * (1 - ta) * table[im, ia] + tm * (1 - ta) * table[im + 1, ia]
+                + (1 - tm) * ta * table[im, ia + 1] + tm * ta * table[im + 1, ia + 1])  # fmt: skip
+
+
+def retarder_lookup(
+    sub: ImageModel, tot: np.ndarray, table: RetarderTable | None = None
+) -> tuple[np.ndarray, RetarderTable]:
+    """Intensities (M, P, C) of equivalent-retarder rays ``tot`` (M, P, 2) from ``table``,
+    built (with TABLE_MARGIN headroom, so that later scans reuse it) when it is missing or
+    too small; returns (intensities, the table used)."""
+    top = float(np.hypot(tot[..., 0], tot[..., 1]).max()) if tot.size else 0.0
+    if table is None or top > table.top:
+        table = RetarderTable.build(sub, TABLE_MARGIN * top)
+    return table.lookup(tot), table
 
 
 def _scan_loads(lib, fz_now: float) -> np.ndarray:
@@ -124,9 +175,9 @@ def _scan_loads(lib, fz_now: float) -> np.ndarray:
                              lo, lib.max_load_N))  # fmt: skip
 
 
-def _scan(model: ImageModel, p, diam, k: int, gains, offs, f_scale, centres):
+def _scan(model: ImageModel, p, diam, k: int, gains, offs, f_scale, centres, table=None):
     """Scanned candidates for indenter k with its axis at each of ``centres`` (mm):
-    (costs (M,), rows (M, 5)) and the current cost."""
+    (costs (M,), rows (M, 5)), the current cost and the intensity table used."""
     lib = model.lib
     q = p.reshape(-1, N_PARAMS)
     inds = unpack(p, diam)
@@ -150,9 +201,9 @@ def _scan(model: ImageModel, p, diam, k: int, gains, offs, f_scale, centres):
                 ab = interpolate_turned(AB, lib.lattice, dx, dy, dirs[:, None])[..., 0, :]
                 tots.append(others[None] + ab)
                 rows += [[cx, cy, fz, ft * np.cos(a), ft * np.sin(a)] for a in dirs]
-    lin = retarder_lookup(sub, np.concatenate(tots))
+    lin, table = retarder_lookup(sub, np.concatenate(tots), table)
     costs = robust_cost(sub.measured[None] - (gains * lin + offs), f_scale, axis=(1, 2))
-    return costs[1:], np.array(rows[1:]), float(costs[0])
+    return costs[1:], np.array(rows[1:]), float(costs[0]), table
 
 
 def _distinct(costs: np.ndarray, rows: np.ndarray, now: float) -> list[np.ndarray]:
@@ -237,12 +288,13 @@ def hop(fine: ImageModel, p: np.ndarray, diam, noise: float, anchors=None):
     p = np.array(p, float)
     f_scale = 3.0 * noise
     changed = 0
+    table = None  # one intensity table for every indenter's scan
     _, gains, offs, _ = fine.fitted(unpack(p, diam))
     for k in range(len(diam)):  # a handful of indenters, each vectorised
         centres = [tuple(p[k * N_PARAMS : k * N_PARAMS + 2])]
         if anchors is not None and np.hypot(*(anchors[k] - centres[0])) > ANCHOR_MM:
             centres.append(tuple(anchors[k]))
-        costs, rows, now = _scan(fine, p, diam, k, gains, offs, f_scale, centres)
+        costs, rows, now, table = _scan(fine, p, diam, k, gains, offs, f_scale, centres, table)
         starts = _distinct(costs, rows, now)
         if not starts:
             continue

@@ -267,8 +267,10 @@ def test_the_range_penalty_and_its_jacobian():
 @pytest.mark.parametrize("method", ["rgb", "phase"])
 def test_the_scan_table_matches_the_polariscope(test_library, method):
     """The scan's intensity table (fringekit.invert_hop.retarder_lookup) against the model's own
-    intensities of equivalent retarders: within 1 % of the fringe amplitude."""
-    from fringekit.invert_hop import retarder_lookup
+    intensities of equivalent retarders: within 1 % of the fringe amplitude, from a table
+    built for these rays and from one reused with headroom; a table too small for the
+    rays is rebuilt, and looking rays up beyond its range directly is an error."""
+    from fringekit.invert_hop import RetarderTable, retarder_lookup
 
     model = replace(_model(test_library, method, TWO[:1]), exact=False)
     sub = model.restrict(np.arange(400))
@@ -277,4 +279,14 @@ def test_the_scan_table_matches_the_polariscope(test_library, method):
     flat = np.zeros(3 * 400, bool)  # every ray one equivalent retarder
     direct = sub.intensities(tot.reshape(-1, 1, 2), [], flat).reshape(3, 400, -1)
     amplitude = np.ptp(direct)
-    assert np.abs(retarder_lookup(sub, tot) - direct).max() < 0.01 * amplitude
+    first, table = retarder_lookup(sub, tot)
+    assert np.abs(first - direct).max() < 0.01 * amplitude
+    again, same = retarder_lookup(sub, 0.5 * tot, table)  # within range: the same table
+    assert same is table
+    half = sub.intensities(0.5 * tot.reshape(-1, 1, 2), [], flat).reshape(3, 400, -1)
+    assert np.abs(again - half).max() < 0.01 * amplitude
+    small = RetarderTable.build(sub, 0.1 * table.top)
+    _, grown = retarder_lookup(sub, tot, small)
+    assert grown.top >= np.hypot(tot[..., 0], tot[..., 1]).max()
+    with pytest.raises(ValueError, match="beyond the table"):
+        small.lookup(tot)

@@ -137,16 +137,22 @@ def test_dark_plus_bright_field_is_unpolarised_intensity():
 
 def test_intensity_quadratic_form_equals_jones_products():
     """I = q^T M q against |A U e_in|^2 with explicit 2 x 2 complex products, for
-    misaligned arrangements and non-trivial (rotating) paths."""
+    perfect arrangements (whose forms have zero terms, skipped), misaligned ones and
+    non-trivial (rotating) paths, on a (P, W, 4) batch as the ray synthesis makes."""
     q = qmul(
         rotator(RNG.uniform(-1, 1, 50)), retarder(RNG.uniform(0, 20, 50), RNG.uniform(-2, 2, 50))
     )
     for arr in (
         *six_step_arrangements(analyser=0.03, qwp_in=0.02, qwp_error=0.05),
+        *six_step_arrangements(),
+        dark_field_circular(),
         plane_polariscope(0.4),
     ):
         e = np.einsum("ij,pjk,k->pi", arr.output_matrix(), to_matrix(q), arr.input_state())
-        np.testing.assert_allclose(intensity(q, arr), np.sum(np.abs(e) ** 2, -1), atol=1e-14)
+        expected = np.sum(np.abs(e) ** 2, -1)
+        np.testing.assert_allclose(intensity(q, arr), expected, atol=1e-14)
+        batch = intensity(q.reshape(10, 5, 4), arr, source=2.0)
+        np.testing.assert_allclose(batch, 2.0 * expected.reshape(10, 5), atol=1e-14)
 
 
 def test_wavenumber_grid_and_recurrence_match_direct_trig():

@@ -78,7 +78,7 @@ def _quaternions(ab: np.ndarray, law, wavelengths: np.ndarray, exact: bool) -> n
         tot = ab.astype(float).sum(axis=1)
         theta = 0.5 * np.arctan2(tot[:, 1], tot[:, 0])
         delta = 2.0 * np.hypot(tot[:, 0], tot[:, 1])[:, None] * k[None, :]
-        return retarder(delta, np.broadcast_to(theta[:, None], delta.shape))
+        return retarder(delta, theta[:, None])
     a = ab[..., 0].astype(float)
     b = ab[..., 1].astype(float)
     ds = np.hypot(a, b)  # (Pa m): the slab thickness is already in

@@ -54,12 +54,18 @@ def principal_from_components(a, b) -> tuple[np.ndarray, np.ndarray]:
 
 
 def retarder(delta, theta) -> np.ndarray:
-    """Quaternion of a linear retarder: retardation delta (rad), fast-axis angle theta (rad)."""
-    delta, theta = np.broadcast_arrays(np.asarray(delta, float), np.asarray(theta, float))
-    s = np.sin(0.5 * delta)
-    return np.stack(
-        [np.cos(0.5 * delta), s * np.sin(2 * theta), np.zeros_like(s), s * np.cos(2 * theta)], -1
-    )
+    """Quaternion (..., 4) of a linear retarder: retardation delta (rad), fast-axis angle
+    theta (rad), broadcast against each other. Each angle's trigonometry is evaluated
+    on its own shape (an axis per ray shared by W wavelengths costs P, not P * W)."""
+    delta, theta = np.asarray(delta, float), np.asarray(theta, float)
+    half = 0.5 * delta
+    s = np.sin(half)
+    out = np.empty(np.broadcast_shapes(delta.shape, theta.shape) + (4,))
+    out[..., 0] = np.cos(half)
+    out[..., 1] = s * np.sin(2 * theta)
+    out[..., 2] = 0.0
+    out[..., 3] = s * np.cos(2 * theta)
+    return out
 
 
 def rotator(gamma) -> np.ndarray:

@@ -70,6 +70,10 @@ def test_quaternion_algebra_matches_matrices():
     R = np.array([[np.cos(t), np.sin(t)], [-np.sin(t), np.cos(t)]])
     m = R.T @ np.diag([np.exp(-0.5j * d), np.exp(0.5j * d)]) @ R
     np.testing.assert_allclose(to_matrix(retarder(d, t)), m, atol=1e-15)
+    # an axis per ray broadcast over wavelengths, as the ray synthesis passes it
+    dd, tt = RNG.uniform(0, 9, (6, 5)), RNG.uniform(-2, 2, (6, 1))
+    one = [retarder(dd[i, w], tt[i, 0]) for i in range(6) for w in range(5)]
+    np.testing.assert_allclose(retarder(dd, tt), np.reshape(one, (6, 5, 4)), atol=1e-15)
 
 
 def test_characteristic_parameters_round_trip():

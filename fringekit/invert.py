@@ -72,6 +72,13 @@ START_BOX_MM = 0.15
 #: Rounds of the per-indenter basin search (fringekit.invert_hop), each followed by a
 #: joint fit when an indenter moved.
 HOP_ROUNDS = 3
+#: Evaluations of a joint fit at most.
+FIT_NFEV = 40
+#: A fit stops when an iteration lowers the cost by less than this fraction of it; the
+#: far-field fit only starts the full-resolution one, and crawled there for 25 of its 40
+#: evaluations at 1e-4 per iteration on the coarse bench's four-indenter image.
+FIT_FTOL = 1e-6
+FAR_FTOL = 1e-4
 #: Loads tried per candidate for the start (log-spaced over the library's range).
 START_LOADS = 16
 #: A normal load (or a tangential ratio) at or above this fraction of the library's
@@ -160,11 +167,13 @@ def _bounds(model: ImageModel, n: int):
     return lo, hi
 
 
-def fit_indenters(model: ImageModel, p0: np.ndarray, diam, noise: float, box=None):
+def fit_indenters(
+    model: ImageModel, p0, diam, noise: float, box=None, max_nfev=FIT_NFEV, ftol=FIT_FTOL
+):
     """One joint least-squares fit; returns scipy's result. The cost is the sum of the
     squared residuals in intensity; it stops when it changes by less than 1e-6 of itself
-    (the parameters then move by far less than their sd). ``box`` (mm): the axes stay
-    within it of where they start."""
+    (``ftol``; the parameters then move by far less than their sd). ``box`` (mm): the
+    axes stay within it of where they start; ``max_nfev`` bounds the evaluations."""
     from scipy.optimize import least_squares
 
     lo, hi = _bounds(model, len(diam))
@@ -183,7 +192,7 @@ def fit_indenters(model: ImageModel, p0: np.ndarray, diam, noise: float, box=Non
 
     return least_squares(
         fun, p0, jac=jac, bounds=(lo, hi), loss="soft_l1", f_scale=f_scale, x_scale="jac",
-        max_nfev=40, ftol=1e-6, xtol=1e-6,
+        max_nfev=max_nfev, ftol=ftol, xtol=1e-6,
     )  # fmt: skip
 
 
@@ -222,21 +231,26 @@ def _prune(p: np.ndarray, sd: np.ndarray, diam: list, lib) -> tuple[np.ndarray, 
 
 def _fit_all(model, fine, p, diam, noise, its, anchors=None):
     """Fit the far field on ``model`` (every 4th pixel), then every pixel of ``fine``
-    (every 2nd), then search each indenter's tangential basin (:func:`hop`) and fit again
-    while one moves (HOP_ROUNDS at most); returns (p, result, iterations)."""
+    (every 2nd), both with the axes held near their start, then search each indenter's
+    tangential basin (:func:`hop`) and fit again, free, while one moves (HOP_ROUNDS at
+    most), or once when the start fit stopped at FIT_NFEV before converging (the result
+    is then a converged fit, not a cut-short one); returns (p, result, iterations)."""
     if not diam:
         return p, None, its
     res = None
     exact = replace(fine, exact=EXACT_MM * 1e-3)
-    for m in (_far(model), exact):
-        res = fit_indenters(m, p, diam, noise, box=START_BOX_MM)
+    for m, ftol in ((_far(model), FAR_FTOL), (exact, FIT_FTOL)):
+        res = fit_indenters(m, p, diam, noise, box=START_BOX_MM, ftol=ftol)
         p, its = res.x, its + res.nfev
+    short = res.status == 0  # the start fit stopped at FIT_NFEV, not converged
     for _ in range(HOP_ROUNDS):
         p, changed = hop(exact, p, diam, noise, anchors)
-        if not changed:
+        if not changed and not short:
             break
         res = fit_indenters(exact, p, diam, noise)
-        p, its = res.x, its + res.nfev
+        p, its, short = res.x, its + res.nfev, False
+        if not changed:
+            break
     return p, res, its
 
 

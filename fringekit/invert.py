@@ -254,6 +254,19 @@ def _fit_all(model, fine, p, diam, noise, its, anchors=None):
     return p, res, its
 
 
+def _axes(p: np.ndarray, which=None) -> np.ndarray:
+    """The axes (k, 2) (mm) of parameter vector ``p``, or of the indenters ``which``."""
+    q = p.reshape(-1, N_PARAMS)[:, :2]
+    return q if which is None else q[np.asarray(which, int)]
+
+
+def _refit(fine: ImageModel, p, diam, noise, its):
+    """A free joint fit on every 2nd pixel (the indenters' basins already searched):
+    (p, result, iterations)."""
+    res = fit_indenters(replace(fine, exact=EXACT_MM * 1e-3), p, diam, noise)
+    return res.x, res, its + res.nfev
+
+
 def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
     """Detect and fit every indenter of ``model``'s measured image (full resolution)."""
     t0 = time.perf_counter()
@@ -264,16 +277,24 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
     p, diam = _start(coarse, pos)
     anchors = p.reshape(-1, N_PARAMS)[:, :2].copy()  # where detection put the axes
     its, res = 0, None
+    dropped = np.zeros((0, 2))  # where candidates were fitted and dropped (mm)
     for round_ in range(max_rounds + 1):  # model selection rounds (at most a few)
         p, res, its = _fit_all(coarse, fine, p, diam, noise, its, anchors)
         if res is None or round_ == max_rounds:
             break
         sd = _uncertainty(res, int(np.count_nonzero(res.fun)))
         p2, diam2, kept = _prune(p, sd, diam, model.lib)
+        gone = np.setdiff1d(np.arange(len(diam)), kept)
+        dropped = np.concatenate([dropped, _axes(p, gone), anchors[gone]])  # fitted, detected
         fitted_img, _, _, outside = fine.fitted(unpack(p2, diam2))
         resid = replace(fine, measured=np.where(outside[:, None], fine.measured - fitted_img, 0.0))
-        new = detect(resid, noise, exclude=p2.reshape(-1, N_PARAMS)[:, :2])
-        if len(diam2) == len(diam) and not len(new):
+        # a dropped candidate's residual peak is not detected again: on the coarse bench
+        # one at the image's edge was added, fitted to 0.3 N and dropped twice
+        new = detect(resid, noise, exclude=np.concatenate([_axes(p2), dropped]))
+        if not len(new):
+            if len(diam2) < len(diam):  # only dropped: the others are searched already
+                p, res, its = _refit(fine, p2, diam2, noise, its)
+                diam = diam2
             break
         pn, dn = _start(coarse, new)
         p, diam = np.concatenate([p2, pn]), diam2 + dn
@@ -282,7 +303,7 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
         sd = _uncertainty(res, int(np.count_nonzero(res.fun)))
         p2, diam2, kept = _prune(p, sd, diam, model.lib)
         if len(diam2) < len(diam):
-            p, res, its = _fit_all(coarse, fine, p2, diam2, noise, its, anchors[kept])
+            p, res, its = _refit(fine, p2, diam2, noise, its)
             diam = diam2
     if not diam and len(pos):
         x, y = pos[0]

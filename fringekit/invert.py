@@ -167,13 +167,12 @@ def _bounds(model: ImageModel, n: int):
     return lo, hi
 
 
-def fit_indenters(
-    model: ImageModel, p0, diam, noise: float, box=None, max_nfev=FIT_NFEV, ftol=FIT_FTOL
-):
-    """One joint least-squares fit; returns scipy's result. The cost is the sum of the
-    squared residuals in intensity; it stops when it changes by less than 1e-6 of itself
-    (``ftol``; the parameters then move by far less than their sd). ``box`` (mm): the
-    axes stay within it of where they start; ``max_nfev`` bounds the evaluations."""
+def fit_indenters(model: ImageModel, p0, diam, noise: float, box=None, ftol=FIT_FTOL):
+    """One joint least-squares fit of at most FIT_NFEV evaluations; returns scipy's
+    result. The cost is the sum of the squared residuals in intensity; it stops when it
+    changes by less than ``ftol`` of itself (at the default 1e-6 the parameters then move
+    by far less than their sd). ``box`` (mm): the axes stay within it of where they
+    start."""
     from scipy.optimize import least_squares
 
     lo, hi = _bounds(model, len(diam))
@@ -192,7 +191,7 @@ def fit_indenters(
 
     return least_squares(
         fun, p0, jac=jac, bounds=(lo, hi), loss="soft_l1", f_scale=f_scale, x_scale="jac",
-        max_nfev=max_nfev, ftol=ftol, xtol=1e-6,
+        max_nfev=FIT_NFEV, ftol=ftol, xtol=1e-6,
     )  # fmt: skip
 
 
@@ -238,19 +237,18 @@ def _fit_all(model, fine, p, diam, noise, its, anchors=None):
     if not diam:
         return p, None, its
     res = None
-    exact = replace(fine, exact=EXACT_MM * 1e-3)
+    exact = _exact(fine)
     for m, ftol in ((_far(model), FAR_FTOL), (exact, FIT_FTOL)):
         res = fit_indenters(m, p, diam, noise, box=START_BOX_MM, ftol=ftol)
         p, its = res.x, its + res.nfev
     short = res.status == 0  # the start fit stopped at FIT_NFEV, not converged
     for _ in range(HOP_ROUNDS):
         p, changed = hop(exact, p, diam, noise, anchors)
-        if not changed and not short:
-            break
-        res = fit_indenters(exact, p, diam, noise)
-        p, its, short = res.x, its + res.nfev, False
+        if changed or short:
+            p, res, its = _refit(exact, p, diam, noise, its)
         if not changed:
             break
+        short = False
     return p, res, its
 
 
@@ -260,10 +258,14 @@ def _axes(p: np.ndarray, which=None) -> np.ndarray:
     return q if which is None else q[np.asarray(which, int)]
 
 
-def _refit(fine: ImageModel, p, diam, noise, its):
-    """A free joint fit on every 2nd pixel (the indenters' basins already searched):
-    (p, result, iterations)."""
-    res = fit_indenters(replace(fine, exact=EXACT_MM * 1e-3), p, diam, noise)
+def _exact(fine: ImageModel) -> ImageModel:
+    """``fine`` with the Jones integration within EXACT_MM of each indenter."""
+    return replace(fine, exact=EXACT_MM * 1e-3)
+
+
+def _refit(exact: ImageModel, p, diam, noise, its):
+    """A free joint fit on ``exact`` (:func:`_exact`): (p, result, iterations)."""
+    res = fit_indenters(exact, p, diam, noise)
     return res.x, res, its + res.nfev
 
 
@@ -275,7 +277,7 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
     pos = detect(fine, noise)
     t_detect = time.perf_counter() - t0
     p, diam = _start(coarse, pos)
-    anchors = p.reshape(-1, N_PARAMS)[:, :2].copy()  # where detection put the axes
+    anchors = _axes(p).copy()  # where detection put the axes
     its, res = 0, None
     dropped = np.zeros((0, 2))  # where candidates were fitted and dropped (mm)
     for round_ in range(max_rounds + 1):  # model selection rounds (at most a few)
@@ -293,17 +295,17 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
         new = detect(resid, noise, exclude=np.concatenate([_axes(p2), dropped]))
         if not len(new):
             if len(diam2) < len(diam):  # only dropped: the others are searched already
-                p, res, its = _refit(fine, p2, diam2, noise, its)
+                p, res, its = _refit(_exact(fine), p2, diam2, noise, its)
                 diam = diam2
             break
         pn, dn = _start(coarse, new)
         p, diam = np.concatenate([p2, pn]), diam2 + dn
-        anchors = np.concatenate([anchors[kept], pn.reshape(-1, N_PARAMS)[:, :2]])
+        anchors = np.concatenate([anchors[kept], _axes(pn)])
     if res is not None:  # the last fit may have let two indenters meet
         sd = _uncertainty(res, int(np.count_nonzero(res.fun)))
-        p2, diam2, kept = _prune(p, sd, diam, model.lib)
-        if len(diam2) < len(diam):
-            p, res, its = _refit(fine, p2, diam2, noise, its)
+        p2, diam2, _ = _prune(p, sd, diam, model.lib)
+        if len(diam2) < len(diam):  # the basins are searched already
+            p, res, its = _refit(_exact(fine), p2, diam2, noise, its)
             diam = diam2
     if not diam and len(pos):
         x, y = pos[0]

@@ -140,10 +140,14 @@ class RetarderTable:
             If a magnitude exceeds the table's ``top`` (build a larger table).
         """
         mag = np.hypot(tot[..., 0], tot[..., 1])
-        if mag.size and float(mag.max()) > self.top:
-            top = float(mag.max())
+        top = float(mag.max()) if mag.size else 0.0
+        if top > self.top:
             raise ValueError(f"slab magnitude {top:.4g} beyond the table's {self.top:.4g}")
-        ang = np.arctan2(tot[..., 1], tot[..., 0])
+        return self._bilinear(mag, np.arctan2(tot[..., 1], tot[..., 0]))
+
+    def _bilinear(self, mag: np.ndarray, ang: np.ndarray) -> np.ndarray:
+        """Intensities (..., C) at magnitudes ``mag`` (within ``top``) and angles ``ang``
+        (rad) of the slab vectors."""
         table, n_mag = self.values, len(self.values)
         fm = mag / self.step
         im = np.minimum(fm.astype(int), n_mag - 2)
@@ -161,10 +165,11 @@ def retarder_lookup(
     """Intensities (M, P, C) of equivalent-retarder rays ``tot`` (M, P, 2) from ``table``,
     built (with TABLE_MARGIN headroom, so that later scans reuse it) when it is missing or
     too small; returns (intensities, the table used)."""
-    top = float(np.hypot(tot[..., 0], tot[..., 1]).max()) if tot.size else 0.0
+    mag = np.hypot(tot[..., 0], tot[..., 1])  # once: the scan's millions of rays
+    top = float(mag.max()) if mag.size else 0.0
     if table is None or top > table.top:
         table = RetarderTable.build(sub, TABLE_MARGIN * top)
-    return table.lookup(tot), table
+    return table._bilinear(mag, np.arctan2(tot[..., 1], tot[..., 0])), table
 
 
 def _scan_loads(lib, fz_now: float) -> np.ndarray:

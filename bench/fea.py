@@ -188,7 +188,7 @@ def _report(res: dict, stats, elapsed: float) -> None:
     )
     pf = res["outside_factorization_fraction_per_iteration"]
     print(
-        f"   inside each Newton iteration (linear solve + line search + next tangent): "
+        f"   inside each Newton iteration (tangent + linear solve + line search): "
         f"outside the factorization median {100 * pf['median']:.0f} %, max "
         f"{100 * pf['max']:.0f} %, time-weighted {100 * pf['mean_weighted']:.0f} %; the rest "
         "of the run is per load state (predictor, multiplier updates, stress recovery)"

@@ -13,11 +13,16 @@ reference volume), the isochoric energy pointwise. The discrete potential is
 so the element residual and tangent are exact derivatives of one energy (symmetric,
 testable against finite differences). With one pressure per element this is the P2/P0
 pair, free of volumetric locking as nu -> 0.5 (checked in tests/test_fea.py).
+
+Two passes: :func:`body_state` evaluates energy and internal forces and keeps the
+kinematics (F - I, F^-T, J, U'(Jbar), U''(Jbar)); :func:`body_tangent` forms the element
+tangents from them. A line search evaluates its trials with the first pass only, and
+the accepted iterate gets its tangent without repeating it.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -25,9 +30,25 @@ import scipy.sparse as sp
 from parallel import thread_pool
 
 from .element import ReferenceGradients
-from .materials import Material, NeoHookean, det_minus_one, deviatoric_piola_factor
+from .materials import (
+    Material,
+    NeoHookean,
+    cofactor,
+    det_minus_one,
+)
 
-__all__ = ["BodyState", "body_state", "Pattern"]
+__all__ = ["BodyState", "body_state", "body_tangent", "cell_dofs", "Pattern"]
+
+
+def cell_dofs(cells: np.ndarray) -> np.ndarray:
+    """(c, 30) global DOF numbers of cells in the element tangent's order: row
+    ``10 i + a`` is component ``i`` of node ``a`` (DOF ``3 node + i``).
+
+    Parameters
+    ----------
+    cells : (c, 10) int array
+    """
+    return (3 * cells[:, None, :] + np.arange(3)[None, :, None]).reshape(len(cells), 30)
 
 
 @dataclass(frozen=True)
@@ -38,10 +59,15 @@ class BodyState:
     ----------
     energy : float, stored energy (J).
     force : (n, 3) float array, internal nodal forces dPi/du (N).
-    Ke : (c, 30, 30) float array or None, element tangents (N/m), DOF order (node, comp).
+    Ke : (c, 30, 30) float array or None, element tangents (N/m) in the DOF order of
+        :func:`cell_dofs` (component-major); None until :func:`body_tangent` forms them.
     F : (c, q, 3, 3) deformation gradients.
     Jbar : (c,) element mean dilatation.
     min_J : float, smallest pointwise det F.
+    H : (c, q, 3, 3) displacement gradients F - I, as formed from the displacements.
+    G : (c, q, 3, 3) F^-T.
+    J : (c, q) det F.
+    dU, ddU : (c,) U'(Jbar) and U''(Jbar) of each element's material (Pa).
     """
 
     energy: float
@@ -50,6 +76,11 @@ class BodyState:
     F: np.ndarray
     Jbar: np.ndarray
     min_J: float
+    H: np.ndarray | None = None
+    G: np.ndarray | None = None
+    J: np.ndarray | None = None
+    dU: np.ndarray | None = None
+    ddU: np.ndarray | None = None
 
 
 def body_state(
@@ -60,7 +91,7 @@ def body_state(
     *,
     tangent: bool = True,
 ) -> BodyState:
-    """Energy, internal force and element tangents of the whole body.
+    """Energy, internal force and (optionally) element tangents of the whole body.
 
     Parameters
     ----------
@@ -71,40 +102,51 @@ def body_state(
     groups : list of (cell indices, Material)
         One entry per material region.
     tangent : bool
-        Also compute the element tangent matrices.
+        Also form the element tangent matrices (:func:`body_tangent`).
     """
-    c = len(cells)
-    blocks = _blocks(c, groups)
-    if len(blocks) == 1:
-        return _body_block(u, cells, grads, groups, tangent, None)
-    # the element kernels are numpy batched products that release the GIL: cell blocks
-    # run on the cores in threads, each writing its slice of one tangent array
-    Ke = np.zeros((c, 10, 3, 10, 3)) if tangent else None
-
-    def run(b):
-        lo, hi = b
-        sub = ReferenceGradients(grads.dNdX[lo:hi], grads.dV[lo:hi], grads.N)
-        sub_groups = [(idx[(idx >= lo) & (idx < hi)] - lo, mat) for idx, mat in groups]
-        return _body_block(
-            u, cells[lo:hi], sub, sub_groups, tangent, None if Ke is None else Ke[lo:hi]
-        )
-
-    parts = list(thread_pool().map(run, blocks))
+    parts = _blockwise(
+        lambda lo, hi, sub, sub_groups: _residual_block(u, cells[lo:hi], sub, sub_groups),
+        len(cells),
+        grads,
+        groups,
+    )
     min_J = min(p.min_J for p in parts)
     F = np.concatenate([p.F for p in parts])
     if min_J <= 0:
-        return BodyState(np.inf, np.zeros_like(u), None, F, np.zeros(c), min_J)
+        return BodyState(np.inf, np.zeros_like(u), None, F, np.zeros(len(cells)), min_J)
     force = parts[0].force
     for p in parts[1:]:
         force += p.force
-    return BodyState(
-        float(sum(p.energy for p in parts)),
-        force,
-        None if Ke is None else Ke.reshape(c, 30, 30),
-        F,
-        np.concatenate([p.Jbar for p in parts]),
-        min_J,
-    )
+    cat = {k: np.concatenate([getattr(p, k) for p in parts]) for k in "H G J dU ddU".split()}
+    st = BodyState(
+        float(sum(p.energy for p in parts)), force, None, F,
+        np.concatenate([p.Jbar for p in parts]), min_J, **cat,
+    )  # fmt: skip
+    return body_tangent(st, grads, groups) if tangent else st
+
+
+def body_tangent(
+    st: BodyState, grads: ReferenceGradients, groups: list[tuple[np.ndarray, Material]]
+) -> BodyState:
+    """``st`` with its element tangents, formed from the kinematics it holds (the
+    residual pass is not repeated: a line search evaluates residuals only and the
+    accepted iterate gets its tangent here).
+
+    Raises
+    ------
+    ValueError
+        If ``st`` has an inverted element (no tangent exists).
+    """
+    if st.min_J <= 0:
+        raise ValueError("no tangent at a state with an inverted element")
+    c = len(st.F)
+    Ke = np.zeros((c, 3, 10, 3, 10))
+
+    def run(lo, hi, sub, sub_groups):
+        _tangent_block(st, slice(lo, hi), sub, sub_groups, Ke[lo:hi])
+
+    _blockwise(run, c, grads, groups)
+    return replace(st, Ke=Ke.reshape(c, 30, 30))
 
 
 #: cells per block: ~1000 keeps a block's temporaries in cache (measured 2.4x faster
@@ -128,12 +170,32 @@ def _blocks(c: int, groups) -> list[tuple[int, int]]:
     return out
 
 
-def _body_block(u, cells, grads, groups, tangent, Ke_out) -> BodyState:
-    """:func:`body_state` on a block of cells; the tangent goes into ``Ke_out``
-    ((c, 10, 3, 10, 3), zero) when given."""
+def _blockwise(fn, c: int, grads: ReferenceGradients, groups) -> list:
+    """``fn(lo, hi, gradients, groups)`` on each block of cells, the gradients and the
+    group indices restricted to the block; the element kernels are numpy batched
+    products that release the GIL, so the blocks run on the cores in threads."""
+    blocks = _blocks(c, groups)
+    if len(blocks) == 1:
+        return [fn(0, c, grads, groups)]
+
+    def run(b):
+        lo, hi = b
+        sub = ReferenceGradients(grads.dNdX[lo:hi], grads.dV[lo:hi], grads.N)
+        sub_groups = [(idx[(idx >= lo) & (idx < hi)] - lo, mat) for idx, mat in groups]
+        return fn(lo, hi, sub, sub_groups)
+
+    return list(thread_pool().map(run, blocks))
+
+
+def _one_material(idx, c: int):
+    """A view-making index: the whole block when the group covers it."""
+    return slice(None) if len(idx) == c else idx
+
+
+def _residual_block(u, cells, grads, groups) -> BodyState:
+    """Energy, internal force and the kinematics of a block of cells."""
     c = len(cells)
-    ue = u[cells]  # (c, 10, 3)
-    H = ue.swapaxes(1, 2)[:, None] @ grads.dNdX  # H_iJ = u_ai dN_aJ
+    H = np.einsum("cai,cqaJ->cqiJ", u[cells], grads.dNdX, optimize=True)  # H_iJ = u_ai dN_aJ
     F = np.eye(3) + H
     # J - 1, Jbar - 1 and the stresses are formed from H, never as differences of numbers
     # near 1: that round-off (modulus * 1e-16) left a residual floor above the force
@@ -143,52 +205,64 @@ def _body_block(u, cells, grads, groups, tangent, Ke_out) -> BodyState:
     min_J = float(J.min())
     if min_J <= 0:
         return BodyState(np.inf, np.zeros_like(u), None, F, np.zeros(c), min_J)
-    G = np.linalg.inv(F).swapaxes(-1, -2)
+    G = cofactor(F) / J[..., None, None]
     dV = grads.dV
     Ve = dV.sum(axis=1)
     dJbar = (dJ * dV).sum(axis=1) / Ve
-    Jbar = 1.0 + dJbar
-
     energy = 0.0
-    P = np.empty_like(F)
-    dU = np.empty(c)
-    ddU = np.empty(c)
-    Ke = (Ke_out if Ke_out is not None else np.zeros((c, 10, 3, 10, 3))) if tangent else None
-    wdN = grads.dNdX * dV[..., None, None]
+    S = np.empty_like(F)  # P + U'(Jbar) J G: what the shape-function gradients integrate
+    dU, ddU = np.empty(c), np.empty(c)
     for idx, mat in groups:
         if len(idx) == 0:
             continue
-        if len(idx) == c:  # the block is one material: views instead of copies
-            idx = slice(None)
-        Fi, Gi, Ji, Hi = F[idx], G[idx], J[idx], H[idx]
-        U, dUi, ddUi = mat.volumetric(Jbar[idx], dJbar[idx])
-        dU[idx], ddU[idx] = dUi, ddUi
-        pJ = dUi[:, None] * Ji  # (c, q): mean-dilatation pressure times J
-        if tangent and isinstance(mat, NeoHookean):
-            W, Pi = _neo_hookean_stiffness(
-                mat, Fi, Gi, Ji, pJ, grads.dNdX[idx], dV[idx], Ke, idx, H=Hi
-            )
-        else:
-            W, Pi, Ai = mat.isochoric(Fi, tangent=tangent, H=Hi)
-            if tangent:
-                # geometric part of the volume: d(J G_iJ)/dF_kL = J (G_iJ G_kL - G_iL G_kJ)
-                At = Ai + pJ[..., None, None, None, None] * (
-                    np.einsum("cqiJ,cqkL->cqiJkL", Gi, Gi) - np.einsum("cqiL,cqkJ->cqiJkL", Gi, Gi)
-                )
-                T = np.einsum("cqaJ,cqiJkL->cqaikL", wdN[idx], At, optimize=True)
-                Ke[idx] += np.einsum("cqaikL,cqbL->caibk", T, grads.dNdX[idx], optimize=True)
+        idx = _one_material(idx, c)
+        U, dU[idx], ddU[idx] = mat.volumetric(1.0 + dJbar[idx], dJbar[idx])
+        W, P, _ = mat.isochoric(F[idx], tangent=False, H=H[idx], G=G[idx], J=J[idx])
         energy += float((W * dV[idx]).sum() + (U * Ve[idx]).sum())
-        P[idx] = Pi
-    # d v_e / d u_ai = sum_q w J G_iJ dN_aJ
-    g = ((grads.dNdX * (dV * J)[..., None, None]) @ G.swapaxes(-1, -2)).sum(axis=1)
-    fe = (wdN @ P.swapaxes(-1, -2)).sum(axis=1) + dU[:, None, None] * g
+        S[idx] = P + (dU[idx][:, None] * J[idx])[..., None, None] * G[idx]
+    S *= dV[..., None, None]
+    # f_ai = sum_q w (P_iJ + U' J G_iJ) dN_aJ; d v_e / d u_ai = sum_q w J G_iJ dN_aJ
+    fe = np.einsum("cqaJ,cqiJ->cai", grads.dNdX, S, optimize=True)
     force = np.zeros_like(u)
     _scatter_add(force, cells, fe)
-    if tangent:
-        Ke = Ke.reshape(c, 30, 30)  # a view: Ke_out is filled in place
-        gf = g.reshape(c, 30)
-        Ke += (ddU / Ve)[:, None, None] * gf[:, :, None] * gf[:, None, :]
-    return BodyState(energy, force, Ke, F, Jbar, min_J)
+    return BodyState(energy, force, None, F, 1.0 + dJbar, min_J, H, G, J, dU, ddU)
+
+
+def _tangent_block(st: BodyState, cut: slice, grads, groups, Ke) -> None:
+    """Element tangents of the cells ``cut`` of ``st`` into ``Ke`` ((c, 3, 10, 3, 10),
+    zero): the material and geometric part per group, plus the mean-dilatation term
+    U''(Jbar) / V_e (dv_e/du)(dv_e/du)."""
+    F, G, H, J = st.F[cut], st.G[cut], st.H[cut], st.J[cut]
+    dU, ddU = st.dU[cut], st.ddU[cut]
+    c = len(F)
+    dV = grads.dV
+    g = np.einsum("cqiJ,cqaJ->cqia", G, grads.dNdX, optimize=True)  # g_ai = G_iJ dN_aJ
+    dv = ((dV * J)[..., None, None] * g).sum(axis=1).reshape(c, 30)  # d v_e / d u
+    kv = ddU / dV.sum(axis=1)
+    for idx, mat in groups:
+        if len(idx) == 0:
+            continue
+        idx = _one_material(idx, c)
+        pJ = dU[idx][:, None] * J[idx]  # (c, q): mean-dilatation pressure times J
+        if isinstance(mat, NeoHookean):
+            _neo_hookean_stiffness(
+                mat, F[idx], g[idx], J[idx], pJ, grads.dNdX[idx], dV[idx], Ke, idx,
+                vol=(dv[idx], kv[idx]),
+            )  # fmt: skip
+            continue
+        _, _, A = mat.isochoric(F[idx], tangent=True, H=H[idx], G=G[idx], J=J[idx])
+        Gi = G[idx]
+        # geometric part of the volume: d(J G_iJ)/dF_kL = J (G_iJ G_kL - G_iL G_kJ)
+        At = A + pJ[..., None, None, None, None] * (
+            np.einsum("cqiJ,cqkL->cqiJkL", Gi, Gi) - np.einsum("cqiL,cqkJ->cqiJkL", Gi, Gi)
+        )
+        wdN = grads.dNdX[idx] * dV[idx][..., None, None]
+        T = np.einsum("cqaJ,cqiJkL->cqiakL", wdN, At, optimize=True)
+        Ke[idx] += np.einsum("cqiakL,cqbL->ciakb", T, grads.dNdX[idx], optimize=True)
+        dvi = dv[idx]
+        Ke[idx] += (kv[idx][:, None, None] * dvi[:, :, None] * dvi[:, None, :]).reshape(
+            -1, 3, 10, 3, 10
+        )
 
 
 def _scatter_add(target: np.ndarray, cells: np.ndarray, values: np.ndarray) -> None:
@@ -267,8 +341,8 @@ class Pattern:
         return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
 
 
-def _neo_hookean_stiffness(mat, F, G, J, pJ, dNdX, wq, Ke, idx, H):
-    """Neo-Hookean + mean-dilatation geometric tangent as sums of outer products.
+def _neo_hookean_stiffness(mat, F, g, J, pJ, dNdX, wq, Ke, idx, vol):
+    """Neo-Hookean + mean-dilatation tangent as sums of outer products.
 
     With f_a = F dN_a, g_a = G dN_a (G = F^-T), a = J^(-2/3), I1 = tr C, the tangent
     d^2 Pi / du_ai du_bk of the isochoric energy plus the volumetric geometric term
@@ -278,37 +352,33 @@ def _neo_hookean_stiffness(mat, F, G, J, pJ, dNdX, wq, Ke, idx, H):
                   - 2/3 mu a (f_ai g_bk + g_ai f_bk) + (2/9 mu a I1 + pJ) g_ai g_bk
                   + (1/3 mu a I1 - pJ) g_bi g_ak ],
 
-    which a batched matrix product evaluates several times faster than the 4th-order
-    tensor contraction. ``wq`` (c, q) are the volume weights (m^3). Writes ``Ke[idx]``
-    ((c, 10, 3, 10, 3)); with ``idx`` a full slice the product is formed in place.
-    ``H`` (c, q, 3, 3) is F - I as formed from the displacements. Returns (W, P).
+    plus the mean-dilatation term k dv_ai dv_bk, which a batched matrix product of the
+    stacked vectors evaluates several times faster than the 4th-order tensor
+    contraction. ``g`` (c, q, 3, 10) holds g_ai as [i, a]; ``wq`` (c, q) are the volume
+    weights (m^3); ``vol`` is (dv (c, 30), k (c,)). Writes ``Ke[idx]`` ((c, 3, 10, 3,
+    10), DOF order (i, a)); with ``idx`` a full slice the product is formed in place.
     """
     I1 = np.einsum("...ij,...ij->...", F, F)
-    a = J ** (-2.0 / 3.0)
-    mu = mat.mu
-    W = 0.5 * mu * (a * I1 - 3.0)
-    P = (mu * a)[..., None, None] * deviatoric_piola_factor(H, G)
+    mua = mat.mu * J ** (-2.0 / 3.0)
     c = len(F)
-    mua = mu * a
-    f = dNdX @ F.swapaxes(-1, -2)  # (c, q, 10, 3): f_ai = F_iJ dN_aJ
-    g = dNdX @ G.swapaxes(-1, -2)
-    D = ((dNdX * (wq * mua)[..., None, None]) @ dNdX.swapaxes(-1, -2)).sum(axis=1)  # (c,10,10)
+    f = np.einsum("cqiJ,cqaJ->cqia", F, dNdX, optimize=True)  # f_ai = F_iJ dN_aJ
+    D = np.einsum("cqaJ,cqbJ->cab", dNdX * (wq * mua)[..., None, None], dNdX, optimize=True)
     c_fg = (wq * (-2.0 / 3.0) * mua)[..., None]
     c_gg = (wq * ((2.0 / 9.0) * mua * I1 + pJ))[..., None]
     c_sw = (wq * ((1.0 / 3.0) * mua * I1 - pJ))[..., None]
-    fl = f.reshape(c, -1, 30)  # (c, q, 30), column index (a, i)
+    fl = f.reshape(c, -1, 30)  # (c, q, 30), column index (i, a)
     gl = g.reshape(c, -1, 30)
-    left = np.concatenate([fl, gl], axis=1)  # (c, 2q, 30)
-    right = np.concatenate([c_fg * gl, c_fg * fl + c_gg * gl], axis=1)
+    dv, k = vol
+    left = np.concatenate([fl, gl, dv[:, None]], axis=1)  # (c, 2q + 1, 30)
+    right = np.concatenate([c_fg * gl, c_fg * fl + c_gg * gl, (k[:, None] * dv)[:, None]], axis=1)
     whole = isinstance(idx, slice)
     K = np.matmul(
         left.transpose(0, 2, 1), right, out=Ke.reshape(c, 30, 30) if whole else None
-    ).reshape(c, 10, 3, 10, 3)
+    ).reshape(c, 3, 10, 3, 10)
     for i in range(3):
-        K[:, :, i, :, i] += D
-    # swap term: Y[(a,k),(b,i)] = sum_q c_sw g_ak g_bi, added as K[a,i,b,k]
-    Y = np.matmul(gl.transpose(0, 2, 1), c_sw * gl).reshape(c, 10, 3, 10, 3)
-    K += Y.transpose(0, 1, 4, 3, 2)
+        K[:, i, :, i, :] += D
+    # swap term: Y[(k,a),(i,b)] = sum_q c_sw g_ak g_bi, added as K[i,a,k,b]
+    Y = np.matmul(gl.transpose(0, 2, 1), c_sw * gl).reshape(c, 3, 10, 3, 10)
+    K += Y.transpose(0, 3, 2, 1, 4)
     if not whole:
         Ke[idx] = K
-    return W, P

@@ -17,7 +17,7 @@ import numpy as np
 from meshes import Mesh
 
 from .analytic import depth_guess, dimitriadis_force
-from .assembly import Pattern
+from .assembly import Pattern, cell_dofs
 from .contact import ContactFace
 from .element import reference_gradients
 from .materials import Material
@@ -184,7 +184,7 @@ class Model:
         self.eps_n = np.zeros(self.m)
         self.pattern: Pattern | None = None
         self.pattern_id = 0
-        self.elem_dofs = self._node_dofs(self.cells)
+        self.elem_dofs = self.dofmap[cell_dofs(self.cells)]  # in the element tangent's order
         self.elem_scatter = None
         self.contact_scatter: list = []
 

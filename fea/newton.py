@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .assembly import body_state
+from .assembly import body_state, body_tangent
 from .contact import sphere_contact
 from .linsolve import LinearSolver
 from .model import Model, State
@@ -53,18 +53,19 @@ class BodyCache:
     """The body's last element evaluation and the displacements it was made at.
 
     The body part (energy, internal forces, element tangents) depends on the
-    displacements only. Multiplier updates, the start of an increment and the stress
-    recovery happen at displacements the last Newton iterate was already evaluated at,
-    so they reuse it and recompute the contact terms alone.
+    displacements only. A line search's accepted trial, multiplier updates, the start of
+    an increment and the stress recovery happen at displacements already evaluated, so
+    they reuse it (forming the tangent on it when first needed) and recompute the
+    contact terms alone.
     """
 
     def __init__(self) -> None:
         self.u: np.ndarray | None = None
         self.body = None
 
-    def get(self, u: np.ndarray, tangent: bool):
-        """The cached body state at ``u`` (with its tangent when asked), else None."""
-        if self.body is None or (tangent and self.body.Ke is None):
+    def get(self, u: np.ndarray):
+        """The cached body state at ``u``, else None."""
+        if self.body is None:
             return None
         return self.body if np.array_equal(u, self.u) else None
 
@@ -85,16 +86,18 @@ class Run:
 
 
 def _body(model: Model, st: State, tangent: bool, stats: SolveStats, cache: BodyCache | None):
-    """The body's element evaluation at ``st.u``: reused from ``cache`` when it holds one
-    at the same displacements, else assembled (and counted in ``stats``)."""
-    body = cache.get(st.u, tangent) if cache is not None else None
-    if body is not None:
-        return body
-    body = body_state(st.u, model.cells, model.grads, model.groups, tangent=tangent)
-    if tangent:
-        stats.tangent_assemblies += 1
-    else:
+    """The body's element evaluation at ``st.u`` (with its tangent when asked): reused
+    from ``cache`` when it holds one at the same displacements, the tangent formed on it
+    when missing; what is computed is counted in ``stats``."""
+    body = cache.get(st.u) if cache is not None else None
+    if body is None:
+        body = body_state(st.u, model.cells, model.grads, model.groups, tangent=False)
         stats.residual_evaluations += 1
+    elif not tangent or body.Ke is not None:
+        return body
+    if tangent and body.min_J > 0:
+        body = body_tangent(body, model.grads, model.groups)
+        stats.tangent_assemblies += 1
     if cache is not None and body.min_J > 0:
         cache.put(st.u, body)
     return body
@@ -242,13 +245,13 @@ def solve_increment(run: Run, st: State, s_new: float, iter_log: list, final=Tru
     return False, "the contact zone kept growing beyond the candidate facets"
 
 
-def _line_search(run: Run, st: State, f_ind, dx, energy: float, rnorm: float, tangent: bool):
+def _line_search(run: Run, st: State, f_ind, dx, energy: float, rnorm: float):
     """Backtracking on energy or residual; never an inverted element.
 
-    Returns (accepted evaluation or None, step length alpha). With ``tangent`` the full
-    step's trial also assembles the tangent (used when the previous step was taken
-    whole: the full step is then usually accepted); every other trial evaluates energy
-    and residual only.
+    Returns (accepted evaluation or None, step length alpha). Trials evaluate energy and
+    residual only; the accepted iterate gets its tangent when a linear solve needs it
+    (:func:`fea.assembly.body_tangent`, on the trial's kinematics), so a rejected trial
+    costs no tangent.
     """
     model = run.model
     alpha = 1.0
@@ -256,12 +259,10 @@ def _line_search(run: Run, st: State, f_ind, dx, energy: float, rnorm: float, ta
     dfull = np.zeros((model.n + model.m) * 3)
     dfull[model.free] = dx
     du = dfull.reshape(-1, 3)
-    for k in range(8):
+    for _ in range(8):
         st.u = base_u + alpha * du[: model.n]
         st.c = base_c + alpha * du[model.n :]
-        trial = evaluate(
-            model, st, f_ind, tangent=tangent and k == 0, stats=run.stats, cache=run.cache
-        )
+        trial = evaluate(model, st, f_ind, tangent=False, stats=run.stats, cache=run.cache)
         if trial is not None:
             e_t, r_t = trial[0], trial[1]
             if e_t <= energy + 1e-12 * abs(energy) or np.linalg.norm(r_t) < rnorm:
@@ -280,38 +281,14 @@ def is_cycling(history: list[float]) -> bool:
     return abs(d - b) <= 1e-3 * d and abs(c - a) <= 1e-3 * c and abs(d - c) > 1e-3 * d
 
 
-#: a step is trusted to be taken whole, and its trial given the tangent, when the last
-#: step cut the residual at least by this factor
-CONTRACTION = 0.5
-
-
-def trial_with_tangent(history: list[float], whole: bool, tol: float) -> bool:
-    """Whether the next step's full trial should assemble the tangent with the residual.
-
-    Worth it when the trial will be accepted and iterated from: the last step was taken
-    whole and cut the residual by :data:`CONTRACTION` (Newton is converging, so the full
-    step will pass), and the trial is not predicted to converge - with quadratic
-    convergence r_next ~ r^3 / r_prev^2; below half the tolerance no next step (and no
-    tangent) is needed. Otherwise the trial evaluates the residual only and an accepted
-    iterate gets its tangent once (a residual evaluation costs about a third of one).
-    """
-    if not whole:
-        return False
-    if len(history) < 2:
-        return True
-    r, r_prev = history[-1], history[-2]
-    if r_prev > 0 and r**3 / r_prev**2 < 0.5 * tol:
-        return False
-    return r <= CONTRACTION * r_prev
-
-
 def _update_multipliers(run: Run, st: State, results, f_ind):
     """Uzawa step lambda <- p; returns the evaluation at the same displacements (the
     tangent only when the body's is at hand: Newton assembles it when it needs it)."""
     for j, res in enumerate(results):
         st.lam[j] = res.p.copy()
     run.stats.al_updates += 1
-    has_k = run.cache.get(st.u, True) is not None
+    body = run.cache.get(st.u)
+    has_k = body is not None and body.Ke is not None
     return evaluate(run.model, st, f_ind, tangent=has_k, stats=run.stats, cache=run.cache)
 
 
@@ -330,7 +307,6 @@ def newton(run: Run, st: State, f_ind, fscale: float, iter_log: list, penalty_on
     e0 = None
     e_last = None
     history: list[float] = []  # residual norms of this Newton run (N)
-    whole = True  # the last step was taken whole: try the next one with its tangent
     prev = evaluate(model, st, f_ind, tangent=True, stats=stats, cache=run.cache)
     if prev is None:
         return False, "inverted element at the start of the increment", None
@@ -370,10 +346,10 @@ def newton(run: Run, st: State, f_ind, fscale: float, iter_log: list, penalty_on
             ):
                 iter_log.append({"iteration": it, "residual_N": rnorm, "energy_norm_J": 0.0})
                 return True, "", results
-        if K is None:  # accepted on a residual-only trial and not converged: assemble now
+        t_it, f_it = time.perf_counter(), lin.time_factorize
+        if K is None:  # an accepted trial, not converged: its tangent, on its kinematics
             prev = evaluate(model, st, f_ind, tangent=True, stats=stats, cache=run.cache)
             energy, r, K, results, body, _ = prev
-        t_it, f_it = time.perf_counter(), lin.time_factorize
         dx = lin.solve(
             K, -r, symmetric=model.symmetric, pattern_id=model.pattern_id,
             reuse=rnorm < REUSE_BELOW * scale,
@@ -384,16 +360,13 @@ def newton(run: Run, st: State, f_ind, fscale: float, iter_log: list, penalty_on
         enorm = abs(float(dx @ r))
         e0 = enorm if e0 is None else max(e0, enorm)
         e_last = enorm
-        with_k = trial_with_tangent(history, whole, settings.force_tol * scale)
-        accepted, alpha = _line_search(run, st, f_ind, dx, energy, rnorm, with_k)
-        row = {"iteration": it, "residual_N": rnorm, "energy_norm_J": enorm, "alpha": alpha,
-               "tangent_trial": with_k}  # fmt: skip
+        accepted, alpha = _line_search(run, st, f_ind, dx, energy, rnorm)
+        row = {"iteration": it, "residual_N": rnorm, "energy_norm_J": enorm, "alpha": alpha}
         iter_log.append(row)
         log.debug("fea: %s", row)
         if accepted is None:
             return False, "the line search found no decreasing, admissible step", None
-        prev = accepted  # without its tangent when the trial had none: assembled if needed
-        whole = alpha == 1.0
+        prev = accepted  # without its tangent: formed at the next step if one is needed
         stats.iteration_times.append((time.perf_counter() - t_it, lin.time_factorize - f_it))
         run.watch.check(it, rnorm, settings.max_iterations)
     return False, f"Newton did not converge in {settings.max_iterations} iterations", None

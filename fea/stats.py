@@ -25,15 +25,17 @@ class SolveStats:
     time_total: float = 0.0
     newton_iterations: int = 0
     iterations_per_state: list = field(default_factory=list)
-    #: per Newton iteration: (wall time, factorization time) in s, from the linear
-    #: solve through the line search (whose first trial assembles the next tangent)
+    #: per Newton iteration: (wall time, factorization time) in s, from the tangent
+    #: through the linear solve and the line search
     iteration_times: list = field(default_factory=list)
     cutbacks: int = 0
     al_updates: int = 0
     #: multiplier updates made to break a two-value cycle of the Newton iterates
     cycle_breaks: int = 0
-    #: element-kernel evaluations of the body with its tangent, and without (energy and
-    #: residual only: line-search trials, stress recovery)
+    #: element tangents formed (each on the kinematics of a residual evaluation, see
+    #: fea.assembly.body_tangent), and body evaluations of energy and residual (the
+    #: line-search trials and the unloaded start; reused by multiplier updates,
+    #: increment starts and the stress recovery)
     tangent_assemblies: int = 0
     residual_evaluations: int = 0
     #: sparse factorizations, and Newton steps solved exactly on an earlier factor

@@ -21,7 +21,7 @@ from fea import (
     solve,
     write_solution_vtu,
 )
-from fea.assembly import Pattern, body_state
+from fea.assembly import Pattern, body_state, cell_dofs
 from fea.contact import sphere_contact
 from fea.element import reference_gradients, tet10_shape
 from meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh, mirror
@@ -96,7 +96,7 @@ def _groups(mesh):
 
 
 def _full_matrix(mesh, Ke):
-    dofs = (3 * mesh.cells[..., None] + np.arange(3)).reshape(len(mesh.cells), -1)
+    dofs = cell_dofs(mesh.cells)
     pat = Pattern(3 * mesh.n_points, [dofs], symmetric=True)
     U = pat.matrix([(*pat.scatter(dofs), Ke.ravel())])
     return U + sp.triu(U, k=1).T

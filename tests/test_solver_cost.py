@@ -9,55 +9,77 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from fea import Indenter, LinearSolver, SolverSettings, available_backends, solve
+from fea import (
+    SHEET_DEFAULT,
+    Indenter,
+    LinearSolver,
+    SolverSettings,
+    available_backends,
+    solve,
+)
 from fea.linsolve import REFINE_RTOL
 
 PARDISO = "pardiso" in available_backends()
 
 
 def _expected_evaluations(log) -> tuple[int, int]:
-    """(tangents, residual-only evaluations) the Newton log implies when the body is
-    assembled once per iterate and never again for multiplier updates, increment starts
-    or recovery.
+    """(tangents, residual evaluations) the Newton log implies when the body is
+    evaluated once per line-search trial and never again for multiplier updates,
+    increment starts or recovery, and a tangent is formed once per linear solve, on
+    the accepted iterate's kinematics.
 
-    The full step's trial assembles the tangent when the log says so
-    (``tangent_trial``, :func:`fea.newton.trial_with_tangent`); every other trial
-    evaluates the residual only, and an iterate accepted on a residual-only trial gets
-    its tangent once, when a linear solve needs it - never for the solve's last iterate.
-    A step of length 2^-k took k + 1 trials. A row without ``alpha`` (converged) ends a
-    Newton run.
+    A step of length 2^-k took k + 1 trials; every step (row with ``alpha``) is one
+    linear solve on one tangent. The unloaded start is one residual evaluation.
     """
-    steps = [i for i, row in enumerate(log) if "alpha" in row]
-    tangents, residuals = 1, 0  # 1: the unloaded start
-    for i in steps:
-        k = round(-math.log2(log[i]["alpha"]))
-        with_k = log[i]["tangent_trial"]
-        later = i != steps[-1]  # another linear solve follows in this solve
-        tangents += (1 if with_k else 0) + (1 if not (with_k and k == 0) and later else 0)
-        residuals += k if with_k else k + 1
-    return tangents, residuals
-
-
-def test_the_trial_tangent_rule():
-    """A full trial carries the tangent only while Newton contracts and is not about to
-    converge."""
-    from fea.newton import trial_with_tangent
-
-    assert trial_with_tangent([10.0], True, 1e-6)  # the first step
-    assert not trial_with_tangent([10.0], False, 1e-6)  # after a shortened step
-    assert trial_with_tangent([10.0, 4.0], True, 1e-6)  # contracting
-    assert not trial_with_tangent([10.0, 8.0], True, 1e-6)  # stalling: it may be cut back
-    assert not trial_with_tangent([1e-2, 1e-4], True, 1e-6)  # next ~1e-8: converged
+    steps = [row for row in log if "alpha" in row]
+    residuals = 1 + sum(round(-math.log2(row["alpha"])) + 1 for row in steps)
+    return len(steps), residuals
 
 
 def test_body_is_assembled_once_per_newton_iteration(small_meshes):
-    """Increment starts, multiplier updates and stress recovery reuse the last iterate's
-    body evaluation, and line-search trials after a shortened step evaluate the residual
-    only: the counts are exactly those the Newton log implies."""
+    """One tangent per Newton iteration, whatever the line search does: trials evaluate
+    the residual only, and increment starts, multiplier updates and stress recovery
+    reuse the last iterate's evaluation. The counts are exactly those the Newton log
+    implies, and some step was shortened (so a rejected trial cost no tangent)."""
     sols, stats = solve(small_meshes["quarter"], [Indenter(normal_force=(1.0, 2.0, 4.0))])
     rows = [row for s in sols for row in s.log]
     assert stats.al_updates > 0 and len(sols) == 3 and stats.cutbacks == 0
+    assert any(row.get("alpha", 1.0) < 1.0 for row in rows)
+    assert stats.tangent_assemblies == stats.newton_iterations
     assert (stats.tangent_assemblies, stats.residual_evaluations) == _expected_evaluations(rows)
+
+
+@pytest.mark.parametrize("kernel", ["neo-hookean", "mooney-rivlin"])
+def test_a_tangent_formed_later_matches_finite_differences(small_meshes, kernel):
+    """body_tangent on a residual-only evaluation (what an accepted line-search trial
+    gets) is the derivative of the internal force, for both element kernels (the
+    neo-Hookean outer products and the general 4th-order contraction), on a mesh of two
+    materials; it is the same as evaluating both at once."""
+    from fea import MooneyRivlin
+    from fea.assembly import Pattern, body_state, body_tangent, cell_dofs
+    from fea.element import reference_gradients
+
+    mesh = small_meshes["quarter"]
+    grads = reference_gradients(mesh.points, mesh.cells)
+    mat = SHEET_DEFAULT if kernel == "neo-hookean" else MooneyRivlin(0.4e6, 0.2e6, 60e6)
+    half = mesh.n_cells // 2
+    groups = [(np.arange(half), mat), (np.arange(half, mesh.n_cells), SHEET_DEFAULT)]
+    u = 1e-4 * np.sin(500 * mesh.points[:, [1, 2, 0]])
+    res = body_state(u, mesh.cells, grads, groups, tangent=False)
+    assert res.Ke is None
+    later = body_tangent(res, grads, groups)
+    dofs = cell_dofs(mesh.cells)
+    pat = Pattern(3 * mesh.n_points, [dofs], symmetric=True)
+    U = pat.matrix([(*pat.scatter(dofs), later.Ke.ravel())])
+    K = U + sp.triu(U, k=1).T
+    v = np.random.default_rng(5).standard_normal(u.shape)
+    h = 1e-9
+    fp = body_state(u + h * v, mesh.cells, grads, groups, tangent=False).force
+    fm = body_state(u - h * v, mesh.cells, grads, groups, tangent=False).force
+    an = K @ v.ravel()
+    assert np.linalg.norm(((fp - fm) / (2 * h)).ravel() - an) <= 1e-6 * np.linalg.norm(an)
+    both = body_state(u, mesh.cells, grads, groups, tangent=True)
+    np.testing.assert_array_equal(later.Ke, both.Ke)
 
 
 @pytest.mark.skipif(not PARDISO, reason="PARDISO (pypardiso) is not available here")

@@ -47,6 +47,9 @@ CURVATURE_CAP = 1.0
 #: residual (relative to the load) below which a two-value cycle of the Newton iterates is
 #: broken by a multiplier update (see newton)
 CYCLE_AL = 1e-2
+#: times per Newton run that a failed line search with friction re-anchors the points
+#: that came into contact during the increment (see newton)
+MAX_REANCHORS = 3
 
 
 class BodyCache:
@@ -303,7 +306,7 @@ def newton(run: Run, st: State, f_ind, fscale: float, iter_log: list, penalty_on
     """
     model, lin, stats = run.model, run.lin, run.stats
     settings, contact = model.settings, model.contact
-    updates = 0
+    updates = reanchors = 0
     e0 = None
     e_last = None
     history: list[float] = []  # residual norms of this Newton run (N)
@@ -365,6 +368,20 @@ def newton(run: Run, st: State, f_ind, fscale: float, iter_log: list, penalty_on
         iter_log.append(row)
         log.debug("fea: %s", row)
         if accepted is None:
+            if contact.friction > 0 and reanchors < MAX_REANCHORS:
+                # A point that comes into contact during the increment sticks to the anchor
+                # it was given at the increment's start; the sheet has moved since, so its
+                # stick energy w eps_T |s|^2 / 2 jumps as it becomes active (the energy and
+                # residual are discontinuous there, and Newton can stall with a point on the
+                # switch: no step length decreases either). Such points stick where they
+                # are now, as a cut-back increment would anchor them.
+                model.set_anchors(st)
+                reanchors += 1
+                stats.reanchors += 1
+                prev = evaluate(model, st, f_ind, tangent=True, stats=stats, cache=run.cache)
+                history.clear()
+                e_last = None
+                continue
             return False, "the line search found no decreasing, admissible step", None
         prev = accepted  # without its tangent: formed at the next step if one is needed
         stats.iteration_times.append((time.perf_counter() - t_it, lin.time_factorize - f_it))

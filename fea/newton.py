@@ -47,9 +47,12 @@ CURVATURE_CAP = 1.0
 #: residual (relative to the load) below which a two-value cycle of the Newton iterates is
 #: broken by a multiplier update (see newton)
 CYCLE_AL = 1e-2
-#: times per Newton run that a failed line search with friction re-anchors the points
+#: times per Newton run that a stalled line search with friction re-anchors the points
 #: that came into contact during the increment (see newton)
 MAX_REANCHORS = 3
+#: an accepted step this short, with friction and a residual below CYCLE_AL, counts as
+#: stalled (see newton)
+CRAWL_ALPHA = 1.0 / 16.0
 
 
 class BodyCache:
@@ -367,21 +370,24 @@ def newton(run: Run, st: State, f_ind, fscale: float, iter_log: list, penalty_on
         row = {"iteration": it, "residual_N": rnorm, "energy_norm_J": enorm, "alpha": alpha}
         iter_log.append(row)
         log.debug("fea: %s", row)
+        crawling = accepted is not None and alpha <= CRAWL_ALPHA and rnorm <= CYCLE_AL * scale
+        if (accepted is None or crawling) and contact.friction > 0 and reanchors < MAX_REANCHORS:
+            # A point that comes into contact during the increment sticks to the anchor
+            # it was given at the increment's start; the sheet has moved since, so its
+            # stick energy w eps_T |s|^2 / 2 jumps as it becomes active (the energy and
+            # residual are discontinuous there, and Newton stalls with a point on the
+            # switch: steps of 1/16-1/256 that barely lower the residual, then no step
+            # at all). Near equilibrium, such points stick where they are now (the
+            # accepted iterate, or the last one when the search failed).
+            model.set_anchors(st)
+            reanchors += 1
+            stats.reanchors += 1
+            prev = evaluate(model, st, f_ind, tangent=False, stats=stats, cache=run.cache)
+            history.clear()
+            e_last = None
+            stats.iteration_times.append((time.perf_counter() - t_it, lin.time_factorize - f_it))
+            continue
         if accepted is None:
-            if contact.friction > 0 and reanchors < MAX_REANCHORS:
-                # A point that comes into contact during the increment sticks to the anchor
-                # it was given at the increment's start; the sheet has moved since, so its
-                # stick energy w eps_T |s|^2 / 2 jumps as it becomes active (the energy and
-                # residual are discontinuous there, and Newton can stall with a point on the
-                # switch: no step length decreases either). Such points stick where they
-                # are now, as a cut-back increment would anchor them.
-                model.set_anchors(st)
-                reanchors += 1
-                stats.reanchors += 1
-                prev = evaluate(model, st, f_ind, tangent=True, stats=stats, cache=run.cache)
-                history.clear()
-                e_last = None
-                continue
             return False, "the line search found no decreasing, admissible step", None
         prev = accepted  # without its tangent: formed at the next step if one is needed
         stats.iteration_times.append((time.perf_counter() - t_it, lin.time_factorize - f_it))

@@ -41,27 +41,35 @@ def test_a_stale_anchor_makes_the_stick_energy_jump_at_first_contact():
     assert abs(_energy(-h, 0.0) - _energy(h, 0.0)) < 1e-12 * jump
 
 
-def test_a_failed_line_search_with_stick_anchors_the_new_points_and_goes_on(
-    small_meshes, monkeypatch
+@pytest.mark.parametrize("stall", ["fails", "crawls"])
+def test_a_stalled_line_search_with_stick_anchors_the_new_points_and_goes_on(
+    small_meshes, monkeypatch, stall
 ):
-    """A line search that fails (forced here, once) in a stick solve re-anchors the
-    points that came into contact during the increment and Newton goes on: no cut-back,
-    and the state is the one the solve without the failure reaches (the re-anchored
-    points are inside the contact, where the converged anchors differ by the sheet's
-    motion within one Newton step). Frictionless contact has no anchors: the same
-    failure cuts the increment back."""
+    """A line search that fails, or accepts a step of 1/16 or less near equilibrium
+    (both forced here, once), in a stick solve re-anchors the points that came into
+    contact during the increment and Newton goes on: no cut-back, and the state is the
+    one the solve without the stall reaches (the re-anchored points are at the contact's
+    edge, where the converged anchors differ by the sheet's motion within one Newton
+    step). Frictionless contact has no anchors: the same failure cuts the increment
+    back, and a short step is just a short step."""
     mesh = small_meshes["quarter"]
     ind = [Indenter(normal_force=(2.0,))]
     stick = ContactSettings(friction=math.inf)
-    ref, _ = solve(mesh, ind, contact=stick)
+    ref, ref_stats = solve(mesh, ind, contact=stick)
+    assert ref_stats.reanchors == 0
     real = fea.newton._line_search
     calls = {"n": 0}
 
-    def fail_third(*args):
+    def stall_once(run, st, f_ind, dx, energy, rnorm):
         calls["n"] += 1
-        return (None, 2.0**-8) if calls["n"] == 3 else real(*args)
+        if calls["n"] != 7:  # iteration 7 of the log: residual 9e-4 N, near equilibrium
+            return real(run, st, f_ind, dx, energy, rnorm)
+        if stall == "fails":
+            return None, 2.0**-8
+        trial, _ = real(run, st, f_ind, dx, energy, rnorm)
+        return trial, 2.0**-5  # reported as a crawl; the step itself is the real one
 
-    monkeypatch.setattr(fea.newton, "_line_search", fail_third)
+    monkeypatch.setattr(fea.newton, "_line_search", stall_once)
     sols, stats = solve(mesh, ind, contact=stick)
     assert stats.reanchors == 1 and stats.cutbacks == 0
     a, b = sols[-1].indenters[0], ref[-1].indenters[0]
@@ -69,4 +77,4 @@ def test_a_failed_line_search_with_stick_anchors_the_new_points_and_goes_on(
     assert a.depth == pytest.approx(b.depth, rel=1e-3)
     calls["n"] = 0
     _, free = solve(mesh, ind)
-    assert free.reanchors == 0 and free.cutbacks == 1
+    assert free.reanchors == 0 and free.cutbacks == (1 if stall == "fails" else 0)

@@ -12,20 +12,16 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from .assembly import body_state, body_tangent
 from .contact import sphere_contact
-from .linsolve import LinearSolver
 from .model import Model, State
+from .run import BodyCache, Run
 from .stats import SolveStats
-from .watchdog import Watchdog
 
 __all__ = [
-    "BodyCache",
-    "Run",
     "evaluate",
     "is_cycling",
     "newton",
@@ -47,48 +43,12 @@ CURVATURE_CAP = 1.0
 #: residual (relative to the load) below which a two-value cycle of the Newton iterates is
 #: broken by a multiplier update (see newton)
 CYCLE_AL = 1e-2
-#: times per Newton run that a stalled line search with friction re-anchors the points
-#: that came into contact during the increment (see newton)
+#: stalls with friction (_stalled): re-anchorings per Newton run; an accepted step this
+#: short with a residual below CYCLE_AL; residual (relative to the load) below which a
+#: two-value cycle counts (a six-head stick case cycled at 0.024/0.044 N, 1.2 N per head)
 MAX_REANCHORS = 3
-#: an accepted step this short, with friction and a residual below CYCLE_AL, counts as
-#: stalled (see newton)
 CRAWL_ALPHA = 1.0 / 16.0
-
-
-class BodyCache:
-    """The body's last element evaluation and the displacements it was made at.
-
-    The body part (energy, internal forces, element tangents) depends on the
-    displacements only. A line search's accepted trial, multiplier updates, the start of
-    an increment and the stress recovery happen at displacements already evaluated, so
-    they reuse it (forming the tangent on it when first needed) and recompute the
-    contact terms alone.
-    """
-
-    def __init__(self) -> None:
-        self.u: np.ndarray | None = None
-        self.body = None
-
-    def get(self, u: np.ndarray):
-        """The cached body state at ``u``, else None."""
-        if self.body is None:
-            return None
-        return self.body if np.array_equal(u, self.u) else None
-
-    def put(self, u: np.ndarray, body) -> None:
-        self.u, self.body = u.copy(), body
-
-
-@dataclass(frozen=True)
-class Run:
-    """One solve in progress: the model, the linear solver, the counters it fills and the
-    body evaluation it may reuse."""
-
-    model: Model
-    lin: LinearSolver
-    stats: SolveStats
-    cache: BodyCache = field(default_factory=BodyCache)
-    watch: Watchdog = field(default_factory=Watchdog)
+REANCHOR_CYCLE = 0.1
 
 
 def _body(model: Model, st: State, tangent: bool, stats: SolveStats, cache: BodyCache | None):
@@ -287,6 +247,31 @@ def is_cycling(history: list[float]) -> bool:
     return abs(d - b) <= 1e-3 * d and abs(c - a) <= 1e-3 * c and abs(d - c) > 1e-3 * d
 
 
+def _stalled(friction, reanchors, rnorm, scale, *, cycling=False, failed=False, alpha=1.0):
+    """Whether Newton with friction has stalled on a point with a stale anchor.
+
+    A point that comes into contact during the increment sticks to the anchor it was
+    given at the increment's start; the sheet has moved since, so its stick energy
+    w eps_T |s|^2 / 2 jumps as it touches. Energy and residual are discontinuous there
+    and Newton stalls with the point on the switch: the line search fails, or crawls at
+    steps of :data:`CRAWL_ALPHA` or less near equilibrium, or the iterates cycle between
+    two residuals. At most :data:`MAX_REANCHORS` times per Newton run.
+    """
+    if friction <= 0 or reanchors >= MAX_REANCHORS:
+        return False
+    crawling = alpha <= CRAWL_ALPHA and rnorm <= CYCLE_AL * scale
+    return failed or crawling or (cycling and rnorm <= REANCHOR_CYCLE * scale)
+
+
+def _reanchor(run: Run, st: State, f_ind):
+    """Anchor the points that came into contact during the increment where they are now
+    (a stalled Newton with friction, see :func:`newton`); returns the evaluation there
+    (without its tangent: Newton forms it when it needs it)."""
+    run.model.set_anchors(st)
+    run.stats.reanchors += 1
+    return evaluate(run.model, st, f_ind, tangent=False, stats=run.stats, cache=run.cache)
+
+
 def _update_multipliers(run: Run, st: State, results, f_ind):
     """Uzawa step lambda <- p; returns the evaluation at the same displacements (the
     tangent only when the body's is at hand: Newton assembles it when it needs it)."""
@@ -324,7 +309,12 @@ def newton(run: Run, st: State, f_ind, fscale: float, iter_log: list, penalty_on
         )
         scale = max(fscale, contact_force, 1e-6)
         history.append(rnorm)
-        if is_cycling(history) and rnorm <= CYCLE_AL * scale and updates < contact.max_updates:
+        cycling = is_cycling(history)
+        if _stalled(contact.friction, reanchors, rnorm, scale, cycling=cycling):
+            prev, reanchors, e_last = _reanchor(run, st, f_ind), reanchors + 1, None
+            history.clear()
+            continue
+        if cycling and rnorm <= CYCLE_AL * scale and updates < contact.max_updates:
             # a contact point flips in and out of the active set from one iterate to the
             # next: a multiplier update moves its trial pressure off the switch
             prev = _update_multipliers(run, st, results, f_ind)
@@ -370,24 +360,13 @@ def newton(run: Run, st: State, f_ind, fscale: float, iter_log: list, penalty_on
         row = {"iteration": it, "residual_N": rnorm, "energy_norm_J": enorm, "alpha": alpha}
         iter_log.append(row)
         log.debug("fea: %s", row)
-        crawling = accepted is not None and alpha <= CRAWL_ALPHA and rnorm <= CYCLE_AL * scale
-        if (accepted is None or crawling) and contact.friction > 0 and reanchors < MAX_REANCHORS:
-            # A point that comes into contact during the increment sticks to the anchor
-            # it was given at the increment's start; the sheet has moved since, so its
-            # stick energy w eps_T |s|^2 / 2 jumps as it becomes active (the energy and
-            # residual are discontinuous there, and Newton stalls with a point on the
-            # switch: steps of 1/16-1/256 that barely lower the residual, then no step
-            # at all). Near equilibrium, such points stick where they are now (the
-            # accepted iterate, or the last one when the search failed).
-            model.set_anchors(st)
-            reanchors += 1
-            stats.reanchors += 1
-            prev = evaluate(model, st, f_ind, tangent=False, stats=stats, cache=run.cache)
+        failed = accepted is None
+        if _stalled(contact.friction, reanchors, rnorm, scale, failed=failed, alpha=alpha):
+            prev, reanchors, e_last = _reanchor(run, st, f_ind), reanchors + 1, None
             history.clear()
-            e_last = None
             stats.iteration_times.append((time.perf_counter() - t_it, lin.time_factorize - f_it))
             continue
-        if accepted is None:
+        if failed:
             return False, "the line search found no decreasing, admissible step", None
         prev = accepted  # without its tangent: formed at the next step if one is needed
         stats.iteration_times.append((time.perf_counter() - t_it, lin.time_factorize - f_it))

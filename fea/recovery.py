@@ -14,7 +14,8 @@ import numpy as np
 
 from .materials import cauchy_stress
 from .model import Model, State
-from .newton import BodyCache, evaluate
+from .newton import evaluate
+from .run import BodyCache
 from .solution import IndenterState, Solution
 from .stats import SolveStats
 

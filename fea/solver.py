@@ -30,9 +30,10 @@ from .analytic import depth_guess, dimitriadis_force, hertz_force
 from .linsolve import LinearSolver
 from .materials import POLYCARBONATE_DEFAULT, SHEET_DEFAULT, Material
 from .model import Model, State
-from .newton import Run, solve_increment
+from .newton import solve_increment
 from .problem import ContactSettings, Indenter, SolverSettings
 from .recovery import make_solution
+from .run import Run
 from .solution import Solution
 from .stats import SolveStats
 from .watchdog import Watchdog

@@ -41,17 +41,17 @@ def test_a_stale_anchor_makes_the_stick_energy_jump_at_first_contact():
     assert abs(_energy(-h, 0.0) - _energy(h, 0.0)) < 1e-12 * jump
 
 
-@pytest.mark.parametrize("stall", ["fails", "crawls"])
+@pytest.mark.parametrize("stall", ["fails", "crawls", "cycles"])
 def test_a_stalled_line_search_with_stick_anchors_the_new_points_and_goes_on(
     small_meshes, monkeypatch, stall
 ):
-    """A line search that fails, or accepts a step of 1/16 or less near equilibrium
-    (both forced here, once), in a stick solve re-anchors the points that came into
-    contact during the increment and Newton goes on: no cut-back, and the state is the
-    one the solve without the stall reaches (the re-anchored points are at the contact's
-    edge, where the converged anchors differ by the sheet's motion within one Newton
-    step). Frictionless contact has no anchors: the same failure cuts the increment
-    back, and a short step is just a short step."""
+    """A line search that fails, or accepts a step of 1/16 or less near equilibrium, or
+    iterates that cycle between two residuals (each forced here, once), in a stick solve
+    re-anchors the points that came into contact during the increment and Newton goes
+    on: no cut-back, and the state is the one the solve without the stall reaches (the
+    re-anchored points are at the contact's edge, where the converged anchors differ by
+    the sheet's motion within one Newton step). Frictionless contact has no anchors: the
+    same failure cuts the increment back, and a short step is just a short step."""
     mesh = small_meshes["quarter"]
     ind = [Indenter(normal_force=(2.0,))]
     stick = ContactSettings(friction=math.inf)
@@ -69,12 +69,22 @@ def test_a_stalled_line_search_with_stick_anchors_the_new_points_and_goes_on(
         trial, _ = real(run, st, f_ind, dx, energy, rnorm)
         return trial, 2.0**-5  # reported as a crawl; the step itself is the real one
 
-    monkeypatch.setattr(fea.newton, "_line_search", stall_once)
+    real_cycling = fea.newton.is_cycling
+    seen = {"n": 0}
+
+    def cycles_once(history):
+        seen["n"] += 1
+        return seen["n"] == 7 or real_cycling(history)
+
+    if stall == "cycles":
+        monkeypatch.setattr(fea.newton, "is_cycling", cycles_once)
+    else:
+        monkeypatch.setattr(fea.newton, "_line_search", stall_once)
     sols, stats = solve(mesh, ind, contact=stick)
     assert stats.reanchors == 1 and stats.cutbacks == 0
     a, b = sols[-1].indenters[0], ref[-1].indenters[0]
     assert a.force[2] == pytest.approx(-2.0, rel=1e-6)
     assert a.depth == pytest.approx(b.depth, rel=1e-3)
-    calls["n"] = 0
+    calls["n"] = seen["n"] = 0
     _, free = solve(mesh, ind)
     assert free.reanchors == 0 and free.cutbacks == (1 if stall == "fails" else 0)

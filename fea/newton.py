@@ -45,7 +45,8 @@ CURVATURE_CAP = 1.0
 CYCLE_AL = 1e-2
 #: stalls with friction (_stalled): re-anchorings per Newton run; an accepted step this
 #: short with a residual below CYCLE_AL; residual (relative to the load) below which a
-#: two-value cycle counts (a six-head stick case cycled at 0.024/0.044 N, 1.2 N per head)
+#: two-value cycle counts when it is above CYCLE_AL, where a multiplier update breaks it
+#: (a six-head stick case cycled at 0.024/0.044 N, 1.2 N per head)
 MAX_REANCHORS = 3
 CRAWL_ALPHA = 1.0 / 16.0
 REANCHOR_CYCLE = 0.1
@@ -310,10 +311,6 @@ def newton(run: Run, st: State, f_ind, fscale: float, iter_log: list, penalty_on
         scale = max(fscale, contact_force, 1e-6)
         history.append(rnorm)
         cycling = is_cycling(history)
-        if _stalled(contact.friction, reanchors, rnorm, scale, cycling=cycling):
-            prev, reanchors, e_last = _reanchor(run, st, f_ind), reanchors + 1, None
-            history.clear()
-            continue
         if cycling and rnorm <= CYCLE_AL * scale and updates < contact.max_updates:
             # a contact point flips in and out of the active set from one iterate to the
             # next: a multiplier update moves its trial pressure off the switch
@@ -322,6 +319,11 @@ def newton(run: Run, st: State, f_ind, fscale: float, iter_log: list, penalty_on
             stats.cycle_breaks += 1
             history.clear()
             e_last = None
+            continue
+        if _stalled(contact.friction, reanchors, rnorm, scale, cycling=cycling):
+            # a cycle further from equilibrium, with friction: a stale anchor (_stalled)
+            prev, reanchors, e_last = _reanchor(run, st, f_ind), reanchors + 1, None
+            history.clear()
             continue
         if rnorm <= AL_SWITCH * scale:
             ratio = 0.0 if penalty_only else penetration_ratio(model, st, results)

@@ -126,13 +126,12 @@ def cofactor(F: np.ndarray) -> np.ndarray:
     ----------
     F : (..., 3, 3) float array
     """
-    f = F
     cof = np.empty_like(F)
     for i in range(3):
         j, k = (i + 1) % 3, (i + 2) % 3
         for a in range(3):
             b, c = (a + 1) % 3, (a + 2) % 3
-            cof[..., i, a] = f[..., j, b] * f[..., k, c] - f[..., j, c] * f[..., k, b]
+            cof[..., i, a] = F[..., j, b] * F[..., k, c] - F[..., j, c] * F[..., k, b]
     return cof
 
 

@@ -32,8 +32,9 @@ class SolveStats:
     al_updates: int = 0
     #: multiplier updates made to break a two-value cycle of the Newton iterates
     cycle_breaks: int = 0
-    #: failed line searches with friction after which the points that came into contact
-    #: during the increment were anchored where they are (fea.newton.newton)
+    #: stalls with friction (a failed or crawling line search, a two-value cycle) after
+    #: which the points that came into contact during the increment were anchored where
+    #: they are (fea.newton._stalled)
     reanchors: int = 0
     #: element tangents formed (each on the kinematics of a residual evaluation, see
     #: fea.assembly.body_tangent), and body evaluations of energy and residual (the

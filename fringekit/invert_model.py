@@ -235,17 +235,24 @@ class ImageModel:
 
     def project(self, model: np.ndarray, use: np.ndarray):
         """Gain and offset per channel group by linear least squares on ``use`` pixels:
-        (fitted (P, C), gains (C,), offsets (C,))."""
-        fitted = np.zeros_like(model)
+        (fitted (P, C), gains (C,), offsets (C,)).
+
+        The straight-line fit in closed form (the normal equations of [model, 1]); a
+        model without contrast on ``use`` (all one value) has no gain: the offset is the
+        measured mean, the gain 0.
+        """
+        fitted = np.empty_like(model)
         gains = np.zeros(model.shape[1])
         offs = np.zeros(model.shape[1])
-        for g in self.groups:
-            m = model[use][:, g].ravel()
-            d = self.measured[use][:, g].ravel()
-            A = np.column_stack([m, np.ones_like(m)])
-            (gain, off), *_ = np.linalg.lstsq(A, d, rcond=None)
-            gains[g], offs[g] = gain, off
-            fitted[:, g] = gain * model[:, g] + off
+        mu, du = model[use], self.measured[use]
+        for g in self.groups:  # one, or three colour channels
+            m, d = mu[:, g], du[:, g]
+            n = max(m.size, 1)
+            mm, dm = m.sum() / n, d.sum() / n
+            var = float(np.sum((m - mm) ** 2))
+            gain = float(np.sum((m - mm) * (d - dm))) / var if var > 1e-30 * n else 0.0
+            gains[g], offs[g] = gain, dm - gain * mm
+            fitted[:, g] = gain * model[:, g] + offs[g]
         return fitted, gains, offs
 
     def residual(self, p: np.ndarray, diameters) -> np.ndarray:

@@ -162,16 +162,33 @@ def interpolate_turned(AB: np.ndarray, lattice: PolarLattice, dx, dy, psi) -> np
     rn = r[near]
     pn = np.arctan2(np.abs(v[near]), u[near])  # [0, pi]; v < 0 is the mirror image
     ir = np.clip(np.searchsorted(lattice.r, rn) - 1, 0, len(lattice.r) - 2)
-    tr = ((rn - lattice.r[ir]) / (lattice.r[ir + 1] - lattice.r[ir]))[:, None, None]
+    tr = ((rn - lattice.r[ir]) / (lattice.r[ir + 1] - lattice.r[ir])).astype(np.float32)
     dphi = lattice.phi[1] - lattice.phi[0]
     ip = np.clip((pn / dphi).astype(int), 0, len(lattice.phi) - 2)
-    tp = (pn / dphi - ip)[:, None, None]
-    val = ((1 - tr) * (1 - tp) * AB[ir, ip] + tr * (1 - tp) * AB[ir + 1, ip]
-           + (1 - tr) * tp * AB[ir, ip + 1] + tr * tp * AB[ir + 1, ip + 1])  # fmt: skip
-    A = val[..., 0]
-    B = val[..., 1] * np.where(v[near] < 0, -1.0, 1.0)[:, None]
-    alpha = np.arctan2(dy[near], dx[near])[:, None]
-    a, b = polar_to_cartesian(A, B, alpha)
-    out[near + (slice(None), 0)] = a
-    out[near + (slice(None), 1)] = b
+    tp = (pn / dphi - ip).astype(np.float32)
+    # the four corners of each point's cell as rows of the flattened (R * F, S * 2) field,
+    # weighted in float32 (the field's precision) with in-place sums
+    F = AB.shape[1]
+    flat = AB.reshape(-1, S * 2)
+    k = ir * F + ip
+    val = flat[k] * ((1 - tr) * (1 - tp))[:, None]
+    val += flat[k + F] * (tr * (1 - tp))[:, None]
+    val += flat[k + 1] * ((1 - tr) * tp)[:, None]
+    val += flat[k + F + 1] * (tr * tp)[:, None]
+    val = val.reshape(-1, S, 2)
+    # polar -> Cartesian at the point's polar angle alpha (polar_to_cartesian), with the
+    # mirror image's sign of B (v < 0) folded into the rotation
+    alpha = np.arctan2(dy[near], dx[near])
+    c = np.cos(2 * alpha).astype(np.float32)[:, None]
+    s = np.sin(2 * alpha).astype(np.float32)[:, None]
+    sign = np.where(v[near] < 0, -1.0, 1.0).astype(np.float32)[:, None]
+    flat_out = out.reshape(-1, S, 2)
+    every = rn.size == r.size  # the usual case: write in place, no scatter
+    dest = flat_out if every else np.empty_like(val)
+    np.multiply(val[..., 0], c, out=dest[..., 0])
+    dest[..., 0] -= val[..., 1] * (sign * s)
+    np.multiply(val[..., 0], s, out=dest[..., 1])
+    dest[..., 1] += val[..., 1] * (sign * c)
+    if not every:
+        out[near] = dest
     return out

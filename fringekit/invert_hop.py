@@ -59,6 +59,12 @@ DISTINCT_RATIO = 0.2
 #: A refined candidate moves the axis at most this far from where it was (mm).
 HOP_BOX_MM = 0.5
 HOP_NFEV = 15
+#: Forward-difference step of the local fits' Jacobian, times max(1, |parameter|) (mm,
+#: N), as ImageModel.jacobian takes it. The library's fields are float32: at scipy's
+#: default (1.5e-8) a step moves the synthesised intensities by less than their rounding,
+#: and the local fit's direction then hangs on it (one test's head ended 1 or 24 deg off
+#: as the last bits of the interpolation changed).
+DIFF_STEP = 1e-3
 #: An axis the fit moved farther than this (mm) from where detection put it is scanned
 #: at both places: a neighbour's wrong load can pull it off.
 ANCHOR_MM = 0.1
@@ -266,7 +272,8 @@ def _refine(fine: ImageModel, p, diam, k, starts, gains, offs, f_scale):
         hi = np.array([v[0] + HOP_BOX_MM, v[1] + HOP_BOX_MM, lib.max_load_N, t, t])
         res = least_squares(residual, np.clip(v, lo + 1e-9, hi - 1e-9), bounds=(lo, hi),
                             loss="soft_l1", f_scale=f_scale, x_scale="jac",
-                            max_nfev=HOP_NFEV, ftol=1e-4, xtol=1e-4)  # fmt: skip
+                            max_nfev=HOP_NFEV, ftol=1e-4, xtol=1e-4,
+                            diff_step=DIFF_STEP)  # fmt: skip
         c = float(robust_cost(res.fun, f_scale))
         if c < best[0]:
             best = (c, res.x)

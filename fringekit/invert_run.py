@@ -130,9 +130,10 @@ def run_invert(
 ) -> dict:  # fmt: skip
     """Invert one image (or six) against a library; write ``out``; return the summary."""
     from .inputs import optics_setup
-    from .invert import WARN_RESIDUAL, invert_image, residual_warnings
+    from .invert import invert_image
     from .invert_figure import fit_figure
     from .invert_model import ImageModel
+    from .invert_verdict import WARN_RESIDUAL, residual_warnings
 
     t0 = time.perf_counter()
     if pixel_mm is None:

@@ -2,7 +2,10 @@
 
 Usage: python bench/invert.py [--preset coarse|reference] [--n-indenters 1 2 4 6]
        [--methods rgb mono phase] [--seed 0] [--library DIR] [--work DIR] [--json FILE]
-       (--work default: bench/out/invert, ignored by git)
+       [--set TABLE.KEY=VALUE ...]
+       (--work default: bench/out/invert, ignored by git; --set overrides the preset's
+       config for the library and the cases alike, e.g. --set mesh.h_contact_mm=0.3 for
+       a refinement study)
 
 Builds (or reuses) the library of the preset's sensor, then for each number of indenters
 draws one case (seeded): positions at random over the field of view at least 4.5 mm
@@ -40,6 +43,7 @@ sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).pa
 import numpy as np  # noqa: E402
 
 from fringekit.cli import main  # noqa: E402
+from fringekit.commands import overrides  # noqa: E402
 from fringekit.config import apply_overrides, load_config, to_toml  # noqa: E402
 from fringekit.library_build import DEFAULT_LOADS_N, DEFAULT_RATIOS, build_library  # noqa: E402
 
@@ -261,9 +265,11 @@ def main_bench(argv=None) -> None:
     ap.add_argument("--library", default=None, help="library folder (built when missing)")
     ap.add_argument("--work", default="bench/out/invert")
     ap.add_argument("--json", default=None)
+    ap.add_argument("--set", action="append", default=[], metavar="TABLE.KEY=VALUE",
+                    help="override one value of the preset's config (repeatable)")  # fmt: skip
     a = ap.parse_args(argv)
     preset = PRESETS[a.preset]
-    base = apply_overrides(load_config(preset["config"]), NOISE)
+    base = overrides(None, a.set, apply_overrides(load_config(preset["config"]), NOISE))
     work = Path(a.work)
     work.mkdir(parents=True, exist_ok=True)
     lib = Path(a.library or work / f"library-{a.preset}")

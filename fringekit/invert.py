@@ -38,6 +38,7 @@ from optics import PixelGrid
 from .invert_detect import detect, noise_sd
 from .invert_hop import hop
 from .invert_model import N_PARAMS, ImageModel, range_penalty, unpack
+from .invert_start import scan_start
 from .invert_verdict import AT_LARGEST, InvertError, parameter_sd, refuse
 
 __all__ = [
@@ -114,30 +115,23 @@ def _far(model: ImageModel) -> ImageModel:
 
 
 def _start(model: ImageModel, pos_mm: np.ndarray):
-    """Starting parameters and diameters for candidates: the load (and diameter) of
-    START_LOADS whose single-indenter image fits the far field (FAR_MM out to WINDOW_MM
-    + FAR_MM) of the candidate best."""
+    """Starting parameters and diameters for candidates: the load (normal, tangential
+    and its direction; and the diameter) of START_LOADS normal loads whose one-indenter
+    image fits the candidate's far field (FAR_MM out to WINDOW_MM + FAR_MM, the pixels
+    nearer to it than to any other candidate) best (:func:`scan_start`)."""
     lib = model.lib
-    far = _far(model)
     xy = model.xy * 1e3
     loads = np.geomspace(0.5 * lib.load_N[1], lib.max_load_N, START_LOADS)
-    p, diam = [], []
+    p, diam, table = [], [], None
     # each candidate's own cell: pixels nearer to it than to any other candidate (its
     # neighbours' fringes would raise its load)
     dist = np.stack([np.hypot(xy[:, 0] - x, xy[:, 1] - y) for x, y in pos_mm]) if len(
         pos_mm) else np.zeros((0, len(xy)))  # fmt: skip
     for k, (x, y) in enumerate(pos_mm):  # candidates (a handful)
-        near = model.usable & (dist[k] < WINDOW_MM + FAR_MM) & (dist[k] <= dist.min(axis=0))
-        best = (np.inf, None, None)
-        for d in lib.diameters_mm:
-            for f in loads:
-                cand = np.array([x, y, f, 0.0, 0.0])
-                r = far.residual(cand, [d * 1e-3]).reshape(len(xy), -1)[near]
-                cost = float(np.sum(r**2))
-                if cost < best[0]:
-                    best = (cost, cand, d * 1e-3)
-        p.append(best[1])
-        diam.append(best[2])
+        cell = (dist[k] >= FAR_MM) & (dist[k] < WINDOW_MM + FAR_MM) & (dist[k] <= dist.min(axis=0))
+        row, d, table = scan_start(model, x, y, model.usable & cell, loads, table)
+        p.append(row)
+        diam.append(d)
     return (np.concatenate(p) if p else np.zeros(0)), diam
 
 

@@ -2,9 +2,11 @@
 
 1. **Detection** (:mod:`fringekit.invert_detect`): candidate positions; none means no
    indenter.
-2. **Start.** Each candidate's normal load (and diameter, when the library holds several)
-   is the one of START_LOADS whose single-indenter image fits the far field about it
-   best; tangential load zero.
+2. **Start** (:mod:`fringekit.invert_start`). Each candidate's load (normal, tangential
+   and its direction; and the diameter, when the library holds several) is the library
+   state, of START_LOADS normal loads, whose one-indenter image fits the far field about
+   it best. When the fit from there leaves an indenter flagged, steps 2-4 are repeated
+   from starts without tangential load, and the better answer is kept.
 3. **Joint fit.** All indenters' x, y, Fz, Fx, Fy by nonlinear least squares of the
    synthesised image against the measured one (scipy's trust-region reflective method,
    soft-L1 robust loss at 3 noise sd, exposure/gain/offset by variable projection; a
@@ -39,7 +41,7 @@ from .invert_detect import detect, noise_sd
 from .invert_hop import hop
 from .invert_model import N_PARAMS, ImageModel, range_penalty, unpack
 from .invert_start import scan_start
-from .invert_verdict import AT_LARGEST, InvertError, parameter_sd, refuse
+from .invert_verdict import AT_LARGEST, WARN_RESIDUAL, InvertError, parameter_sd, refuse
 
 __all__ = [
     "InvertResult",
@@ -114,12 +116,15 @@ def _far(model: ImageModel) -> ImageModel:
     return replace(model, inner=FAR_MM * 1e-3, exact=False)
 
 
-def _start(model: ImageModel, pos_mm: np.ndarray):
-    """Starting parameters and diameters for candidates: the load (normal, tangential
-    and its direction; and the diameter) of START_LOADS normal loads whose one-indenter
-    image fits the candidate's far field (FAR_MM out to WINDOW_MM + FAR_MM, the pixels
-    nearer to it than to any other candidate) best (:func:`scan_start`)."""
+def _start(model: ImageModel, pos_mm: np.ndarray, sheared: bool = True):
+    """Starting parameters and diameters for candidates: the load (and diameter) of
+    START_LOADS normal loads whose one-indenter image fits the candidate's far field
+    (FAR_MM out to WINDOW_MM + FAR_MM, the pixels nearer to it than to any other
+    candidate) best; ``sheared``: with the tangential loads scanned too
+    (:func:`scan_start`), else without tangential load (gain and offset on the whole
+    image, the rule before the scan)."""
     lib = model.lib
+    far = _far(model)
     xy = model.xy * 1e3
     loads = np.geomspace(0.5 * lib.load_N[1], lib.max_load_N, START_LOADS)
     p, diam, table = [], [], None
@@ -128,10 +133,22 @@ def _start(model: ImageModel, pos_mm: np.ndarray):
     dist = np.stack([np.hypot(xy[:, 0] - x, xy[:, 1] - y) for x, y in pos_mm]) if len(
         pos_mm) else np.zeros((0, len(xy)))  # fmt: skip
     for k, (x, y) in enumerate(pos_mm):  # candidates (a handful)
-        cell = (dist[k] >= FAR_MM) & (dist[k] < WINDOW_MM + FAR_MM) & (dist[k] <= dist.min(axis=0))
-        row, d, table = scan_start(model, x, y, model.usable & cell, loads, table)
-        p.append(row)
-        diam.append(d)
+        cell = model.usable & (dist[k] < WINDOW_MM + FAR_MM) & (dist[k] <= dist.min(axis=0))
+        if sheared:
+            row, d, table = scan_start(model, x, y, cell & (dist[k] >= FAR_MM), loads, table)
+            p.append(row)
+            diam.append(d)
+            continue
+        best = (np.inf, None, None)
+        for d in lib.diameters_mm:
+            for f in loads:
+                cand = np.array([x, y, f, 0.0, 0.0])
+                r = far.residual(cand, [d * 1e-3]).reshape(len(xy), -1)[cell]
+                cost = float(np.sum(r**2))
+                if cost < best[0]:
+                    best = (cost, cand, d * 1e-3)
+        p.append(best[1])
+        diam.append(best[2])
     return (np.concatenate(p) if p else np.zeros(0)), diam
 
 
@@ -252,13 +269,45 @@ def _refit(exact: ImageModel, p, diam, noise, its):
 
 
 def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
-    """Detect and fit every indenter of ``model``'s measured image (full resolution)."""
+    """Detect and fit every indenter of ``model``'s measured image (full resolution).
+
+    The candidates start from scanned loads (:func:`_start`); when that leaves an
+    indenter flagged (its residual near it above WARN_RESIDUAL), the whole fit is
+    repeated from starts without tangential load and the answer with fewer flagged
+    indenters (then the smaller residual) is kept. On the reference bench's four-head
+    colour image the scanned starts led to three flagged heads (Fz 10 % and 9 % off)
+    where the unsheared ones find all four; on its six-head grey image the scanned
+    starts find all six where the unsheared ones flag four.
+    """
     t0 = time.perf_counter()
     noise = noise_sd(model)
     coarse, fine = subsample(model, 4), subsample(model, 2)
     pos = detect(fine, noise)
     t_detect = time.perf_counter() - t0
-    p, diam = _start(coarse, pos)
+    p, diam, res, its = _select(model, coarse, fine, pos, noise, True, max_rounds)
+    verdict = _verdict(fine, p, diam)
+    if diam and np.any(verdict[0] > WARN_RESIDUAL):
+        alt = _select(model, coarse, fine, pos, noise, False, max_rounds)
+        its += alt[3]
+        other = _verdict(fine, alt[0], alt[1])
+        if alt[1] and (np.sum(other[0] > WARN_RESIDUAL), other[1]) < (
+            np.sum(verdict[0] > WARN_RESIDUAL), verdict[1]):  # fmt: skip
+            p, diam, res = alt[:3]
+    if not diam and len(pos):
+        x, y = pos[0]
+        raise InvertError(
+            f"the library cannot explain this image: it shows fringes about ({x:.2f}, "
+            f"{y:.2f}) mm (and {len(pos) - 1} more place(s)) that no load in the library's "
+            f"range (up to {model.lib.max_load_N:g} N) fits; check the sensor, the pixel "
+            "size and the method, or build a library with larger --load-N"
+        )
+    return _finish(model, fine, p, diam, res, noise, its, t0, t_detect)
+
+
+def _select(model, coarse, fine, pos, noise, sheared: bool, max_rounds: int):
+    """Start, fit and model selection (module docstring, steps 2-4) from detected
+    positions ``pos`` (mm): (p, diameters, the last fit's result, evaluations)."""
+    p, diam = _start(coarse, pos, sheared)
     anchors = _axes(p).copy()  # where detection put the axes
     its, res = 0, None
     dropped = np.zeros((0, 2))  # where candidates were fitted and dropped (mm)
@@ -280,7 +329,7 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
                 p, res, its = _refit(_exact(fine), p2, diam2, noise, its)
                 diam = diam2
             break
-        pn, dn = _start(coarse, new)
+        pn, dn = _start(coarse, new, sheared)
         p, diam = np.concatenate([p2, pn]), diam2 + dn
         anchors = np.concatenate([anchors[kept], _axes(pn)])
     if res is not None:  # the last fit may have let two indenters meet
@@ -289,15 +338,20 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
         if len(diam2) < len(diam):  # the basins are searched already
             p, res, its = _refit(_exact(fine), p2, diam2, noise, its)
             diam = diam2
-    if not diam and len(pos):
-        x, y = pos[0]
-        raise InvertError(
-            f"the library cannot explain this image: it shows fringes about ({x:.2f}, "
-            f"{y:.2f}) mm (and {len(pos) - 1} more place(s)) that no load in the library's "
-            f"range (up to {model.lib.max_load_N:g} N) fits; check the sensor, the pixel "
-            "size and the method, or build a library with larger --load-N"
-        )
-    return _finish(model, fine, p, diam, res, noise, its, t0, t_detect)
+    return p, diam, res, its
+
+
+def _verdict(fine: ImageModel, p, diam):
+    """Residual RMS near each indenter (n,) and in all (float), in fringe amplitudes,
+    with the fitted gains (C,) and offsets (C,)."""
+    fitted, gains, offs, outside = fine.fitted(unpack(p, diam))
+    use = fine.usable & outside
+    r = np.where(use[:, None], fine.measured - fitted, np.nan)
+    amp = float(np.mean(np.abs(gains)))
+    xy = fine.xy * 1e3
+    near = [np.hypot(xy[:, 0] - v[0], xy[:, 1] - v[1]) < WINDOW_MM for v in p.reshape(-1, 5)]
+    rms = np.array([np.sqrt(np.nanmean(r[m] ** 2)) / amp for m in near])
+    return rms, float(np.sqrt(np.nanmean(r**2)) / amp), gains, offs
 
 
 def _finish(model, fine, p, diam, res, noise, its, t0, t_detect) -> InvertResult:
@@ -319,14 +373,7 @@ def _finish(model, fine, p, diam, res, noise, its, t0, t_detect) -> InvertResult
     used = int(np.count_nonzero(res.fun))
     sd = parameter_sd(res, used).reshape(n, N_PARAMS)
     q = p.reshape(n, N_PARAMS)
-    fitted, gains, offs, outside = fine.fitted(unpack(p, diam))
-    use = fine.usable & outside
-    r = np.where(use[:, None], fine.measured - fitted, np.nan)
-    amp = float(np.mean(np.abs(gains)))
-    xy = fine.xy * 1e3
-    near = [np.hypot(xy[:, 0] - v[0], xy[:, 1] - v[1]) < WINDOW_MM for v in q]
-    rms = np.array([np.sqrt(np.nanmean(r[m] ** 2)) / amp for m in near])
-    total = float(np.sqrt(np.nanmean(r**2)) / amp)
+    rms, total, gains, offs = _verdict(fine, p, diam)
     refuse(q, lib, total)
     return InvertResult(
         q,

@@ -350,6 +350,8 @@ def _verdict(fine: ImageModel, p, diam):
     amp = float(np.mean(np.abs(gains)))
     xy = fine.xy * 1e3
     near = [np.hypot(xy[:, 0] - v[0], xy[:, 1] - v[1]) < WINDOW_MM for v in p.reshape(-1, 5)]
+    if amp == 0.0:  # a model without fringes on the pixels fitted explains nothing
+        return np.full(len(near), np.inf), np.inf, gains, offs
     rms = np.array([np.sqrt(np.nanmean(r[m] ** 2)) / amp for m in near])
     return rms, float(np.sqrt(np.nanmean(r**2)) / amp), gains, offs
 

@@ -87,11 +87,18 @@ def default_lattice(
     return PolarLattice(r=np.array(r), phi=np.linspace(0.0, np.pi, n_phi), n_slabs=int(n_slabs))
 
 
-def polar_to_cartesian(A, B, alpha):
-    """Cartesian (a, b) of polar pairs (A, B) at polar angle ``alpha`` (rad, broadcast
-    against the last-but-slab axes): the 2 alpha rotation of the module docstring."""
-    c, s = np.cos(2 * alpha), np.sin(2 * alpha)
-    return A * c - B * s, A * s + B * c
+def polar_to_cartesian(A, B, alpha, out=None) -> np.ndarray:
+    """Cartesian pairs (..., 2) (a, b) of polar pairs (A, B) at polar angle ``alpha``
+    (rad, broadcast against the last-but-slab axes): the 2 alpha rotation of the module
+    docstring, in A's precision, written into ``out`` (..., 2) when given."""
+    c = np.cos(2 * alpha).astype(A.dtype)
+    s = np.sin(2 * alpha).astype(A.dtype)
+    out = np.empty((*np.broadcast_shapes(A.shape, B.shape), 2), A.dtype) if out is None else out
+    np.multiply(A, c, out=out[..., 0])
+    out[..., 0] -= B * s
+    np.multiply(A, s, out=out[..., 1])
+    out[..., 1] += B * c
+    return out
 
 
 def _fill_inward(v: np.ndarray, valid: np.ndarray) -> np.ndarray:
@@ -176,19 +183,10 @@ def interpolate_turned(AB: np.ndarray, lattice: PolarLattice, dx, dy, psi) -> np
     val += flat[k + 1] * ((1 - tr) * tp)[:, None]
     val += flat[k + F + 1] * (tr * tp)[:, None]
     val = val.reshape(-1, S, 2)
-    # polar -> Cartesian at the point's polar angle alpha (polar_to_cartesian), with the
-    # mirror image's sign of B (v < 0) folded into the rotation
-    alpha = np.arctan2(dy[near], dx[near])
-    c = np.cos(2 * alpha).astype(np.float32)[:, None]
-    s = np.sin(2 * alpha).astype(np.float32)[:, None]
-    sign = np.where(v[near] < 0, -1.0, 1.0).astype(np.float32)[:, None]
-    flat_out = out.reshape(-1, S, 2)
-    every = rn.size == r.size  # the usual case: write in place, no scatter
-    dest = flat_out if every else np.empty_like(val)
-    np.multiply(val[..., 0], c, out=dest[..., 0])
-    dest[..., 0] -= val[..., 1] * (sign * s)
-    np.multiply(val[..., 0], s, out=dest[..., 1])
-    dest[..., 1] += val[..., 1] * (sign * c)
-    if not every:
-        out[near] = dest
+    val[..., 1] *= np.where(v[near] < 0, -1.0, 1.0).astype(np.float32)[:, None]  # mirror
+    alpha = np.arctan2(dy[near], dx[near])[:, None]
+    if rn.size == r.size:  # the usual case: every point near, written in place
+        polar_to_cartesian(val[..., 0], val[..., 1], alpha, out=out.reshape(-1, S, 2))
+    else:
+        out[near] = polar_to_cartesian(val[..., 0], val[..., 1], alpha)
     return out

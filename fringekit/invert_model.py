@@ -31,7 +31,7 @@ from optics import (
 from .library import Library, LoadedIndenter
 from .synth import exact_rays, quaternions_where, superpose
 
-__all__ = ["METHODS", "ImageModel", "N_PARAMS", "range_penalty", "unpack"]
+__all__ = ["METHODS", "ImageModel", "N_PARAMS", "line_fit", "range_penalty", "unpack"]
 
 METHODS = ("rgb", "mono", "phase")
 #: Parameters per indenter: x, y (mm), Fz, Fx, Fy (N).
@@ -64,6 +64,31 @@ def range_penalty(p: np.ndarray, max_ratio: float, scale: float):
     J[i, i, 3] = w * q[i, 3] / ft[i]
     J[i, i, 4] = w * q[i, 4] / ft[i]
     return w * np.where(on, excess, 0.0), J.reshape(n, n * N_PARAMS)
+
+
+def line_fit(m: np.ndarray, d: np.ndarray, positive: bool = False):
+    """Straight-line fits d ~ gain * m + offset in closed form (the normal equations of
+    [m, 1]): one fit of ``m`` shaped like ``d``, or one per leading index of ``m``
+    (..., *d.shape), each over all of ``d``.
+
+    A model without contrast (all one value) has gain 0, the offset the mean of ``d``;
+    ``positive``: a negative best gain counts as 0 too. Returns gain, offset and the
+    residual sum of squares, each a float or shaped like the leading axes.
+    """
+    axes = tuple(range(m.ndim - d.ndim, m.ndim)) if m.ndim > d.ndim else None
+    lead = m.shape[: m.ndim - d.ndim] + (1,) * d.ndim
+    n = max(d.size, 1)
+    mm = np.sum(m, axis=axes) / n
+    dm = d.sum() / n
+    mc = m - np.reshape(mm, lead)
+    dc = d - dm
+    var = np.sum(mc**2, axis=axes)
+    cov = np.sum(mc * dc, axis=axes)
+    ok = var > 1e-30 * n
+    if positive:
+        ok &= cov > 0
+    gain = np.where(ok, cov / np.where(ok, var, 1.0), 0.0)
+    return gain, dm - gain * mm, float(np.sum(dc * dc)) - gain * cov
 
 
 def unpack(p: np.ndarray, diameters) -> list[LoadedIndenter]:
@@ -237,22 +262,18 @@ class ImageModel:
         """Gain and offset per channel group by linear least squares on ``use`` pixels:
         (fitted (P, C), gains (C,), offsets (C,)).
 
-        The straight-line fit in closed form (the normal equations of [model, 1]); a
-        model without contrast on ``use`` (all one value) has no gain: the offset is the
-        measured mean, the gain 0.
+        The straight-line fit in closed form (:func:`line_fit`); a model without contrast
+        on ``use`` (all one value) has no gain: the offset is the measured mean, the
+        gain 0.
         """
         fitted = np.empty_like(model)
         gains = np.zeros(model.shape[1])
         offs = np.zeros(model.shape[1])
         mu, du = model[use], self.measured[use]
         for g in self.groups:  # one, or three colour channels
-            m, d = mu[:, g], du[:, g]
-            n = max(m.size, 1)
-            mm, dm = m.sum() / n, d.sum() / n
-            var = float(np.sum((m - mm) ** 2))
-            gain = float(np.sum((m - mm) * (d - dm))) / var if var > 1e-30 * n else 0.0
-            gains[g], offs[g] = gain, dm - gain * mm
-            fitted[:, g] = gain * model[:, g] + offs[g]
+            gain, off, _ = line_fit(mu[:, g], du[:, g])
+            gains[g], offs[g] = gain, off
+            fitted[:, g] = gain * model[:, g] + off
         return fitted, gains, offs
 
     def residual(self, p: np.ndarray, diameters) -> np.ndarray:

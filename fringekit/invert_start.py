@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from .invert_hop import retarder_lookup
-from .invert_model import ImageModel
+from .invert_model import ImageModel, line_fit
 from .lattice import interpolate_turned
 
 __all__ = ["START_DIRECTIONS", "START_RATIO_STEP", "projected_cost", "scan_start"]
@@ -31,20 +31,12 @@ START_RATIO_STEP = 0.2
 
 def projected_cost(lin: np.ndarray, measured: np.ndarray, groups) -> np.ndarray:
     """Least-squares cost (M,) of M model images ``lin`` (M, P, C) against ``measured``
-    (P, C), each with its own gain (>= 0) and offset per channel group: the straight-line
-    fit in closed form, vectorised over the images. A negative best gain counts as gain
-    0 (the measured variance about its mean)."""
+    (P, C), each with its own gain (>= 0) and offset per channel group
+    (:func:`fringekit.invert_model.line_fit`, vectorised over the images). A negative
+    best gain counts as gain 0 (the measured variance about its mean)."""
     cost = np.zeros(len(lin))
     for g in groups:  # one, or three colour channels
-        m = lin[:, :, g].reshape(len(lin), -1)
-        d = measured[:, g].ravel()
-        dc = d - d.mean()
-        mc = m - m.mean(axis=1, keepdims=True)
-        var = np.einsum("mp,mp->m", mc, mc)
-        cov = mc @ dc
-        ok = (var > 1e-30) & (cov > 0)
-        explained = np.where(ok, cov**2 / np.where(ok, var, 1.0), 0.0)
-        cost += float(dc @ dc) - explained
+        cost += line_fit(lin[:, :, g], measured[:, g], True)[2]
     return cost
 
 

@@ -285,14 +285,15 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
     pos = detect(fine, noise)
     t_detect = time.perf_counter() - t0
     p, diam, res, its = _select(model, coarse, fine, pos, noise, True, max_rounds)
-    verdict = _verdict(fine, p, diam)
-    if diam and np.any(verdict[0] > WARN_RESIDUAL):
+    verdict = _verdict(fine, p, diam) if diam else None
+    if verdict is not None and np.any(verdict[0] > WARN_RESIDUAL):
         alt = _select(model, coarse, fine, pos, noise, False, max_rounds)
         its += alt[3]
-        other = _verdict(fine, alt[0], alt[1])
-        if alt[1] and (np.sum(other[0] > WARN_RESIDUAL), other[1]) < (
+        other = _verdict(fine, alt[0], alt[1]) if alt[1] else None
+        if other is not None and (np.sum(other[0] > WARN_RESIDUAL), other[1]) < (
             np.sum(verdict[0] > WARN_RESIDUAL), verdict[1]):  # fmt: skip
             p, diam, res = alt[:3]
+            verdict = other
     if not diam and len(pos):
         x, y = pos[0]
         raise InvertError(
@@ -301,7 +302,7 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
             f"range (up to {model.lib.max_load_N:g} N) fits; check the sensor, the pixel "
             "size and the method, or build a library with larger --load-N"
         )
-    return _finish(model, fine, p, diam, res, noise, its, t0, t_detect)
+    return _finish(model, p, diam, res, verdict, noise, its, t0, t_detect)
 
 
 def _select(model, coarse, fine, pos, noise, sheared: bool, max_rounds: int):
@@ -356,7 +357,8 @@ def _verdict(fine: ImageModel, p, diam):
     return rms, float(np.sqrt(np.nanmean(r**2)) / amp), gains, offs
 
 
-def _finish(model, fine, p, diam, res, noise, its, t0, t_detect) -> InvertResult:
+def _finish(model, p, diam, res, verdict, noise, its, t0, t_detect) -> InvertResult:
+    """The result of the fit ``res`` of ``p`` with its :func:`_verdict`, or refusal."""
     lib = model.lib
     n = len(diam)
     if n == 0:
@@ -375,7 +377,7 @@ def _finish(model, fine, p, diam, res, noise, its, t0, t_detect) -> InvertResult
     used = int(np.count_nonzero(res.fun))
     sd = parameter_sd(res, used).reshape(n, N_PARAMS)
     q = p.reshape(n, N_PARAMS)
-    rms, total, gains, offs = _verdict(fine, p, diam)
+    rms, total, gains, offs = verdict
     refuse(q, lib, total)
     return InvertResult(
         q,

@@ -13,19 +13,15 @@ from __future__ import annotations
 import argparse
 import json
 import resource
-import sys
 import time
 from pathlib import Path
 
-# this file is named like the package: keep bench/ off the import path
-sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).parent.resolve()]
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from analysis.phase import six_step  # noqa: E402
-from analysis.rgb import CalibrationTable, search, search_refined  # noqa: E402
-from analysis.unwrap import unwrap_fringe_order  # noqa: E402
-from optics import PSM4_ASSUMED, Camera, colour_chart, light_source  # noqa: E402
+from fringekit.analysis.phase import six_step
+from fringekit.analysis.rgb import CalibrationTable, search, search_refined
+from fringekit.analysis.unwrap import unwrap_fringe_order
+from fringekit.optics import PSM4_ASSUMED, Camera, colour_chart, light_source
 
 
 def field(n: int):

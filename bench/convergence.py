@@ -20,18 +20,14 @@ import argparse
 import importlib.util
 import json
 import resource
-import sys
 import time
 from pathlib import Path
 
-# this folder holds files named like the packages: keep bench/ off the import path
-sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).parent.resolve()]
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from fea import Indenter, solve  # noqa: E402
-from meshes import MeshSpec, Sizing, build_mesh  # noqa: E402
-from optics import PSM4_ASSUMED  # noqa: E402
+from fringekit.fea import Indenter, solve
+from fringekit.meshes import MeshSpec, Sizing, build_mesh
+from fringekit.optics import PSM4_ASSUMED
 
 _spec = importlib.util.spec_from_file_location("bench_fea", Path(__file__).with_name("fea.py"))
 _bench_fea = importlib.util.module_from_spec(_spec)

@@ -19,16 +19,12 @@ import argparse
 import json
 import math
 import resource
-import sys
 import time
 from pathlib import Path
 
-# this file is named like the package: keep bench/ off the import path
-sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).parent.resolve()]
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from fea import (  # noqa: E402
+from fringekit.fea import (
     SHEET_DEFAULT,
     ContactSettings,
     Indenter,
@@ -36,7 +32,7 @@ from fea import (  # noqa: E402
     hertz_force,
     solve,
 )
-from meshes import IndenterSite, MeshSpec, Sizing, build_mesh  # noqa: E402
+from fringekit.meshes import IndenterSite, MeshSpec, Sizing, build_mesh
 
 MESHES = {
     "coarse": Sizing(h_contact=0.6e-3, refine_radius=2e-3, h_sheet=2e-3, h_far=8e-3),

@@ -33,19 +33,15 @@ import csv
 import json
 import math
 import resource
-import sys
 import time
 from pathlib import Path
 
-# this file is named like a package module: keep bench/ off the import path
-sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).parent.resolve()]
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from fringekit.cli import main  # noqa: E402
-from fringekit.commands import overrides  # noqa: E402
-from fringekit.config import apply_overrides, load_config, to_toml  # noqa: E402
-from fringekit.library_build import DEFAULT_LOADS_N, DEFAULT_RATIOS, build_library  # noqa: E402
+from fringekit.cli.commands import overrides
+from fringekit.cli.main import main
+from fringekit.config.files import apply_overrides, load_config, to_toml
+from fringekit.library.build import DEFAULT_LOADS_N, DEFAULT_RATIOS, build_library
 
 #: the repository (the coarse preset is examples/coarse_sensor.toml)
 ROOT = Path(__file__).resolve().parents[1]

@@ -16,7 +16,7 @@ import time
 import tracemalloc
 from dataclasses import replace
 
-from meshes import IndenterSite, MeshSpec, generate_mesh, quality_report
+from fringekit.meshes import IndenterSite, MeshSpec, generate_mesh, quality_report
 
 
 def _cases():

@@ -20,18 +20,14 @@ from __future__ import annotations
 import argparse
 import json
 import resource
-import sys
 import time
 from pathlib import Path
 
-# this folder holds files named like the packages: keep bench/ off the import path
-sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).parent.resolve()]
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from analysis import disc_by_symmetry, find_discs, mono_order, normalise  # noqa: E402
-from fringekit.disc_photo import DiscGeometry, DiscImage, fit_disc_photos  # noqa: E402
-from optics import (  # noqa: E402
+from fringekit.analysis import disc_by_symmetry, find_discs, mono_order, normalise
+from fringekit.calibrate.disc_photo import DiscGeometry, DiscImage, fit_disc_photos
+from fringekit.optics import (
     Camera,
     DiametralDisc,
     PhotoModel,

@@ -23,16 +23,11 @@ from __future__ import annotations
 import argparse
 import json
 import resource
-import sys
 import time
-from pathlib import Path
 
-# This file is named like the package it measures: keep bench/ off the import path.
-sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).parent.resolve()]
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from optics import (  # noqa: E402
+from fringekit.optics import (
     PSM4_ASSUMED,
     SIX_STEPS,
     Boussinesq,
@@ -58,9 +53,9 @@ def main() -> None:
     law = PSM4_ASSUMED
     t_solve = 0.0
     if args.field == "fem":
-        from fea import Indenter, solve
-        from meshes import MeshSpec, Sizing, build_mesh
-        from optics import FEMStressField
+        from fringekit.fea import Indenter, solve
+        from fringekit.meshes import MeshSpec, Sizing, build_mesh
+        from fringekit.optics import FEMStressField
 
         sizing = Sizing(h_contact=0.6e-3, refine_radius=2e-3, h_sheet=2e-3, h_far=8e-3)
         mesh = build_mesh(MeshSpec(sizing=sizing, symmetry="quarter"))
@@ -100,7 +95,7 @@ def main() -> None:
         "distinct_rays": int(samples.ds.shape[0]),
     }
     if args.check:
-        from optics import OpticalMap
+        from fringekit.optics import OpticalMap
 
         def order(smp):
             qq, sim = integrate_samples(smp, law, law.wavelength_ref)

@@ -17,22 +17,18 @@ from __future__ import annotations
 import argparse
 import json
 import resource
-import sys
 import time
 from pathlib import Path
 
-# this folder holds files named like the packages: keep bench/ off the import path
-sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).parent.resolve()]
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from analysis import (  # noqa: E402
+from fringekit.analysis import (
     count_fringe_order,
     resolve_ambiguity,
     six_step,
     unwrap_fringe_order,
 )
-from optics import (  # noqa: E402
+from fringekit.optics import (
     Camera,
     PhotoModel,
     indent_field,

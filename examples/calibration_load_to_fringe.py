@@ -15,8 +15,8 @@ import sys
 
 from common import config, out_dir, parse_args, predict, write_json
 
-from analysis import estimate_load, fringe_features
-from fringekit.calibration import run_calibrate
+from fringekit.analysis import estimate_load, fringe_features
+from fringekit.calibrate.load import run_calibrate
 
 
 def main(argv=None) -> dict:

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from fringekit.config import apply_overrides, load_config
-from fringekit.pipeline import run_predict
+from fringekit.config.files import apply_overrides, load_config
+from fringekit.predict.pipeline import run_predict
 
 #: Overrides that turn the reference case into the coarse test block.
 COARSE = {
@@ -115,7 +115,7 @@ def extent_mm(m: dict) -> tuple[float, float, float, float]:
 def contact_mask(summary: dict, m: dict, margin_px: float = 2.0) -> np.ndarray:
     """Pixels over the sheet outside the first indenter's contact circle + a margin (the
     centre an experimenter masks)."""
-    from analysis import exclude_circle
+    from fringekit.analysis import exclude_circle
 
     a_px = summary["indenters"][0]["contact_radius_mm"] * 1e-3 / float(m["pixel_size_m"])
     return exclude_circle(np.isfinite(m["fringe_order"]), centre_rc(m), a_px + margin_px)
@@ -123,6 +123,6 @@ def contact_mask(summary: dict, m: dict, margin_px: float = 2.0) -> np.ndarray:
 
 def six_step_of(state: Path, mask: np.ndarray):
     """The six-step result (analysis.six_step) of a predicted state's step images."""
-    from analysis import load_six_step, six_step
+    from fringekit.analysis import load_six_step, six_step
 
     return six_step(load_six_step(six_images(state)), mask=mask)

@@ -43,8 +43,8 @@ from common import (  # noqa: E402
 )
 from scipy.ndimage import binary_erosion  # noqa: E402
 
-from analysis import exclude_circle, line_profile, unwrap_fringe_order  # noqa: E402
-from fringekit.config import effective_config  # noqa: E402
+from fringekit.analysis import exclude_circle, line_profile, unwrap_fringe_order  # noqa: E402
+from fringekit.config.files import effective_config  # noqa: E402
 
 #: (x_mm, y_mm, diameter_mm, load_N): heel, two metatarsal heads, three toes (assumed
 #: proportions of a small foot region; the paper's loads are not given)

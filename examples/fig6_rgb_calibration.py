@@ -37,15 +37,15 @@ from common import (  # noqa: E402
     write_json,
 )
 
-from analysis import (  # noqa: E402
+from fringekit.analysis import (  # noqa: E402
     CalibrationTable,
     line_profile,
     load_image,
     search,
     search_refined,
 )
-from analysis.images import normalise  # noqa: E402
-from optics import (  # noqa: E402
+from fringekit.analysis.images import normalise  # noqa: E402
+from fringekit.optics import (  # noqa: E402
     Camera,
     DiametralDisc,
     PixelGrid,

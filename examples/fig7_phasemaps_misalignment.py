@@ -34,7 +34,7 @@ from common import (  # noqa: E402
     write_json,
 )
 
-from analysis import wrap  # noqa: E402
+from fringekit.analysis import wrap  # noqa: E402
 
 ERRORS = {"optics.qwp_out_error_deg": 3.0, "optics.qwp_error_deg": 4.0}
 

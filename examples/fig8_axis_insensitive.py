@@ -30,7 +30,7 @@ from common import (  # noqa: E402
     write_json,
 )
 
-from analysis import line_profile  # noqa: E402
+from fringekit.analysis import line_profile  # noqa: E402
 
 
 def folded(order):

@@ -35,7 +35,7 @@ from common import (  # noqa: E402
     write_json,
 )
 
-from analysis import (  # noqa: E402
+from fringekit.analysis import (  # noqa: E402
     line_profile,
     unwrap_fringe_order,
 )

@@ -27,7 +27,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.sparse as sp
 
-from parallel import thread_pool
+from fringekit._threads import thread_pool
 
 from .element import ReferenceGradients
 from .materials import (

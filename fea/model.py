@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from meshes import Mesh
+from fringekit.meshes import Mesh
 
 from .analytic import depth_guess, dimitriadis_force
 from .assembly import Pattern, cell_dofs

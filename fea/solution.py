@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from meshes import Mesh, mirror_with_sources
+from fringekit.meshes import Mesh, mirror_with_sources
 
 from .element import TET_QUADRATURE
 

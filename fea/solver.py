@@ -24,7 +24,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from meshes import Mesh
+from fringekit.meshes import Mesh
 
 from .analytic import depth_guess, dimitriadis_force, hertz_force
 from .linsolve import LinearSolver

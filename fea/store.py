@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from meshes import UNREADABLE, Mesh, default_cache_dir
+from fringekit.meshes import UNREADABLE, Mesh, default_cache_dir
 
 from .materials import Material
 from .problem import ContactSettings, Indenter, SolverSettings

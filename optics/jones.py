@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from parallel import thread_pool, usable_cores
+from fringekit._threads import thread_pool, usable_cores
 
 __all__ = [
     "secondary_principal",

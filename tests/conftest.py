@@ -6,7 +6,7 @@ import os
 
 import pytest
 
-from meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh
+from fringekit.meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh
 
 # Headless VTK: pyvista writes VTU without a display when VTK uses its EGL window.
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
@@ -46,8 +46,8 @@ def test_library(cache_dir, tmp_path_factory):
     """The coarse library of tests/library_fixtures.py (built once, in this process)."""
     from library_fixtures import LOADS, RATIOS, sensor_config
 
-    from fringekit.library import load_library
-    from fringekit.library_build import build_library
+    from fringekit.library.build import build_library
+    from fringekit.library.store import load_library
 
     out = tmp_path_factory.mktemp("library") / "lib"
     build_library(sensor_config(), out, loads=LOADS, ratios=RATIOS,

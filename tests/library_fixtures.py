@@ -12,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
-from fringekit.config import apply_overrides, load_config
-from fringekit.inputs import optics_setup
-from fringekit.render import mono_map
+from fringekit.config.files import apply_overrides, load_config
+from fringekit.config.inputs import optics_setup
+from fringekit.predict.render import mono_map
 
 #: The coarse sensor of examples/coarse_sensor.toml (also bench/invert.py's coarse preset).
 SENSOR = Path(__file__).resolve().parents[1] / "examples" / "coarse_sensor.toml"
@@ -41,7 +41,7 @@ def fem_config(indenters: list[dict], **extra) -> dict:
 
 def fem_order(cfg: dict, cache_dir):
     """(fringe order map, OpticalMap, the last solution) of a config solved by FEM."""
-    from fringekit.pipeline import solve_config
+    from fringekit.predict.pipeline import solve_config
 
     _, sols, _, failure = solve_config(cfg, cache_dir=cache_dir, progress=False)
     assert failure is None, failure

@@ -5,14 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from analysis.compare import compare_maps, line_profile
-from analysis.images import load_image, load_six_step, normalise
-from analysis.masks import circle_mask, exclude_circle, polygon_mask
-from analysis.phase import principal_stress_difference, resolve_ambiguity, six_step, wrap
-from analysis.rgb import CalibrationTable, search, search_refined
-from analysis.unwrap import unwrap_fringe_order
-from fringekit.figures import comparison_figure
-from optics import (
+from fringekit.analysis.compare import compare_maps, line_profile
+from fringekit.analysis.images import load_image, load_six_step, normalise
+from fringekit.analysis.masks import circle_mask, exclude_circle, polygon_mask
+from fringekit.analysis.phase import principal_stress_difference, resolve_ambiguity, six_step, wrap
+from fringekit.analysis.rgb import CalibrationTable, search, search_refined
+from fringekit.analysis.unwrap import unwrap_fringe_order
+from fringekit.optics import (
     PSM4_ASSUMED,
     Boussinesq,
     Camera,
@@ -26,6 +25,7 @@ from optics import (
     white_light_image,
     write_image,
 )
+from fringekit.output.figures import comparison_figure
 
 LAW = PSM4_ASSUMED
 LAM = PSM4_ASSUMED.wavenumber_grid(31)  # as predict and the analyze chart
@@ -389,8 +389,8 @@ def test_colour_spread_tells_white_light_from_single_colour_light():
     """Grey (or one-colour) fringes have their colours on a line: spread ~0, below the
     threshold; white-light fringes from the optics chart turn through all three
     colour dimensions."""
-    from analysis import MIN_COLOUR_SPREAD, colour_spread
-    from optics import PSM4_ASSUMED, Camera, colour_chart, light_source
+    from fringekit.analysis import MIN_COLOUR_SPREAD, colour_spread
+    from fringekit.optics import PSM4_ASSUMED, Camera, colour_chart, light_source
 
     lam = PSM4_ASSUMED.wavenumber_grid(31)
     _, rgb = colour_chart(PSM4_ASSUMED, light_source("LED", lam), Camera(), max_order=3.0, n=400)

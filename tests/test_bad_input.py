@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from fringekit.cli import main
+from fringekit.cli.main import main
 
 
 @pytest.fixture(scope="module")

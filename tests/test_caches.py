@@ -10,11 +10,11 @@ import threading
 import numpy as np
 import pytest
 
-from fea import Indenter, SolverSettings
-from fea.materials import POLYCARBONATE_DEFAULT, SHEET_DEFAULT
-from fea.problem import ContactSettings
-from fea.store import load_solutions, save_solutions, solve_cached
-from meshes import build_mesh, cache_path
+from fringekit.fea import Indenter, SolverSettings
+from fringekit.fea.materials import POLYCARBONATE_DEFAULT, SHEET_DEFAULT
+from fringekit.fea.problem import ContactSettings
+from fringekit.fea.store import load_solutions, save_solutions, solve_cached
+from fringekit.meshes import build_mesh, cache_path
 
 DAMAGE = {
     "truncated": lambda p: p.write_bytes(p.read_bytes()[: p.stat().st_size // 2]),

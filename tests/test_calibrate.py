@@ -7,16 +7,16 @@ import json
 import numpy as np
 import pytest
 
-from analysis import (
+from fringekit.analysis import (
     calibrate_from_maps,
     estimate_load,
     fringe_features,
     load_calibration,
     save_calibration,
 )
-from fringekit.cli import main
-from fringekit.disc import fringe_value_from_disc
-from optics import PSM4_ASSUMED, DiametralDisc, PixelGrid, optical_map
+from fringekit.calibrate.disc_map import fringe_value_from_disc
+from fringekit.cli.main import main
+from fringekit.optics import PSM4_ASSUMED, DiametralDisc, PixelGrid, optical_map
 
 
 def _cone(n=201, px=0.05e-3, k=1.0, shift=(0.0, 0.0)):

@@ -10,16 +10,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fringekit.cli import main
-from fringekit.config import (
+from fringekit.cli.main import main
+from fringekit.config.files import (
     BUILTIN_CASES,
     ConfigError,
     effective_config,
     load_config,
     to_toml,
 )
-from fringekit.inputs import build_inputs, choose_symmetry
-from fringekit.pipeline import used_config
+from fringekit.config.inputs import build_inputs, choose_symmetry
+from fringekit.predict.pipeline import used_config
 
 # The small block of conftest.py (12 x 12 mm, 3 mm sheet on 4 mm PC, coarse sizes), a
 # 32 x 32 image and few samples: the whole pipeline in well under a minute.
@@ -409,7 +409,7 @@ def test_sweep_killed_then_resumed_matches_an_uninterrupted_run(tiny_run, cache_
         '"indenter.load_N" = [[4.0], [8.0]]\n"optics.wavelength_nm" = [575.0, 600.0]\n'
     )
     out = root / "sweep_a"
-    cmd = [sys.executable, "-m", "fringekit.cli", "sweep", str(root / "sweep.toml"),
+    cmd = [sys.executable, "-m", "fringekit", "sweep", str(root / "sweep.toml"),
            "--out", str(out), "--workers", "1", "--cache-dir", str(cache_dir),
            "--quiet"]  # fmt: skip
     proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.DEVNULL,
@@ -434,7 +434,7 @@ def test_sweep_killed_then_resumed_matches_an_uninterrupted_run(tiny_run, cache_
     said = capsys.readouterr().out
     assert f"{4 - n_done} run, {n_done} already finished, 0 failed" in said
     quiet = subprocess.run(
-        [sys.executable, "-m", "fringekit.cli", *base, "--out", str(root / "sweep_b"), "--quiet"],
+        [sys.executable, "-m", "fringekit", *base, "--out", str(root / "sweep_b"), "--quiet"],
         capture_output=True, text=True, timeout=600,
     )  # fmt: skip
     assert quiet.returncode == 0, quiet.stderr[-2000:]
@@ -495,7 +495,7 @@ def test_pixels_without_data_look_the_same_everywhere(tiny_images, tmp_path):
     beside them, and the "no data" grey in every figure (issue 20)."""
     import imageio.v3 as iio
 
-    from fringekit.figures import NO_DATA_RGB, map_figure
+    from fringekit.output.figures import NO_DATA_RGB, map_figure
 
     root, out96, d, geo, border = tiny_images
     mask = iio.imread(d / "mask.png") > 127
@@ -524,8 +524,8 @@ def test_pixels_without_data_look_the_same_everywhere(tiny_images, tmp_path):
 def test_every_figure_and_table_uses_the_sensor_frame(tiny_images, tmp_path):
     """x right, y up, mm, origin at the sensor origin: predict's and analyze's maps, the
     comparison figure and analyze's profile.csv (issue 20)."""
-    from analysis import compare_maps
-    from fringekit.figures import comparison_figure, map_figure, sensor_extent
+    from fringekit.analysis import compare_maps
+    from fringekit.output.figures import comparison_figure, map_figure, sensor_extent
 
     # the pixel of the origin has its centre at (0, 0); rows grow downwards, y upwards
     left, right, bottom, top = sensor_extent((10, 20), 1e-4, (4.0, 8.0))

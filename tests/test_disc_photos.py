@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis import disc_by_symmetry, find_discs, normalise
-from fringekit.cli import main
-from fringekit.disc_photo import DiscGeometry, DiscImage, fit_disc_photos
-from optics import (
+from fringekit.analysis import disc_by_symmetry, find_discs, normalise
+from fringekit.calibrate.disc_photo import DiscGeometry, DiscImage, fit_disc_photos
+from fringekit.cli.main import main
+from fringekit.optics import (
     Camera,
     DiametralDisc,
     PhotoModel,
@@ -92,7 +92,7 @@ def test_a_residual_order_is_fitted_not_absorbed():
     from Frocht's order (measured: f_sigma within 0.13 %, offset 0.302); fixed at zero
     instead, f_sigma is 11 % off and the residual (0.11) is well above the warning
     level; with the zero-load reference (same light) the fit holds too."""
-    from fringekit.disc_photo import WARN_RESIDUAL
+    from fringekit.calibrate.disc_photo import WARN_RESIDUAL
 
     img, _ = disc_photo(250.0, offset=0.3, seed=11)
     ref, _ = disc_photo(0.0, offset=0.3, seed=12)

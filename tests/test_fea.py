@@ -9,7 +9,7 @@ import pytest
 import scipy.sparse as sp
 from conftest import small_spec
 
-from fea import (
+from fringekit.fea import (
     ContactSettings,
     Indenter,
     MooneyRivlin,
@@ -21,10 +21,10 @@ from fea import (
     solve,
     write_solution_vtu,
 )
-from fea.assembly import Pattern, body_state, cell_dofs
-from fea.contact import sphere_contact
-from fea.element import reference_gradients, tet10_shape
-from meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh, mirror
+from fringekit.fea.assembly import Pattern, body_state, cell_dofs
+from fringekit.fea.contact import sphere_contact
+from fringekit.fea.element import reference_gradients, tet10_shape
+from fringekit.meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh, mirror
 
 SHEET = NeoHookean.from_E_nu(4e6, 0.49)
 
@@ -209,7 +209,7 @@ def test_tiny_strains_keep_their_digits_in_stiff_materials(quarter, E):
     from H = F - I (fea.materials.det_minus_one, deviatoric_piola_factor) the interior
     forces stay at 3e-15 of the boundary ones; from F they were 1.2e-6 of them here.
     """
-    from fea.materials import det_minus_one
+    from fringekit.fea.materials import det_minus_one
 
     mesh = quarter
     stiff = NeoHookean.from_E_nu(E, 0.37)
@@ -479,7 +479,7 @@ def test_contact_area_is_resolved_inside_the_facets(small_meshes):
     positive on a quarter disc of radius R0: the sub-facet area is pi R0^2 / 4 within
     1 %, for edges that cut the facets anywhere (R0 swept over a facet size), where
     counting the quadrature points' areas is off by up to several per cent."""
-    from fea.contact import ContactFace
+    from fringekit.fea.contact import ContactFace
 
     mesh = small_meshes["quarter"]
     x = mesh.points
@@ -523,12 +523,12 @@ def test_indenter_out_of_contact_is_held_by_a_tangent_only_spring(cache_dir):
     example). The open-indenter spring (tangent only) gives a step that moves it down by
     about its missing depth; the residual is untouched, so loads are still met exactly.
     Then sequential loading: B carries nothing in state 1 and 2 N in state 2."""
-    from fea.analytic import depth_guess
-    from fea.linsolve import LinearSolver
-    from fea.model import Model, State
-    from fea.newton import evaluate
-    from fea.problem import ContactSettings, SolverSettings
-    from fea.stats import SolveStats
+    from fringekit.fea.analytic import depth_guess
+    from fringekit.fea.linsolve import LinearSolver
+    from fringekit.fea.model import Model, State
+    from fringekit.fea.newton import evaluate
+    from fringekit.fea.problem import ContactSettings, SolverSettings
+    from fringekit.fea.stats import SolveStats
 
     sites = (IndenterSite(-3e-3, 0.0, 1.75e-3), IndenterSite(3e-3, 0.0, 1.75e-3))
     sizing = Sizing(h_contact=1.2e-3, refine_radius=1.5e-3, h_far=6e-3, h_sheet=3e-3, growth=0.5)

@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 from conftest import small_spec
 
-from fea import Indenter, solve
-from fea.contact import sphere_contact
-from meshes import MeshSpec, build_mesh
+from fringekit.fea import Indenter, solve
+from fringekit.fea.contact import sphere_contact
+from fringekit.meshes import MeshSpec, build_mesh
 
 
 def _deep_points(rng, R=1.75e-3, depth=2e-4):
@@ -81,9 +81,9 @@ def test_a_deep_first_placement_needs_few_shortened_steps(small_meshes, force):
 def test_a_long_increment_says_so_with_its_loads(small_meshes, monkeypatch, caplog):
     """An increment that runs past the watchdog's limit is reported once, naming the loads
     it is trying and what to change (the limit is 60 s; 0 here)."""
-    import fea.watchdog
+    import fringekit.fea.watchdog
 
-    monkeypatch.setattr(fea.watchdog, "STALL_WARN_S", 0.0)
+    monkeypatch.setattr(fringekit.fea.watchdog, "STALL_WARN_S", 0.0)
     with caplog.at_level("WARNING", logger="fringekit.fea"):
         solve(small_meshes["quarter"], [Indenter(normal_force=(1.0, 2.0))])
     said = [r.getMessage() for r in caplog.records if "has run" in r.getMessage()]
@@ -96,7 +96,7 @@ def test_a_two_value_cycle_of_the_residual_is_recognised():
     """The shear case's Newton run bounced between residuals of 0.0528 and 0.0355 N for
     16 iterations (a contact point flipping in and out), was cut back twice and took 59
     iterations for its shear state; a multiplier update on the cycle takes it to 24."""
-    from fea.newton import is_cycling
+    from fringekit.fea.newton import is_cycling
 
     assert is_cycling([0.58, 0.0528, 0.0355, 0.0528, 0.0355])
     assert not is_cycling([0.0528, 0.0355, 0.0528])  # too short to tell
@@ -109,7 +109,7 @@ def test_two_indenters_at_different_loads_on_a_thin_sheet(tmp_path):
     (-4, 0) mm with 6 N and (4, 2) mm with 3 N; here a 16 x 10 mm sheet on a rigid base,
     1 mm elements, 4.5k DOF). Before the cap: a cut-back, 24 shortened line-search steps,
     68 Newton iterations; with it: none, 1 and 31."""
-    from meshes import IndenterSite, Layers, Sizing
+    from fringekit.meshes import IndenterSite, Layers, Sizing
 
     spec = MeshSpec(
         layers=Layers(2e-3, 0.0, 16e-3, 10e-3),

@@ -8,12 +8,24 @@ import math
 
 import pytest
 
-from fea import POLYCARBONATE_DEFAULT, SHEET_DEFAULT, ContactSettings, Indenter, SolverSettings
-from fringekit.config import load_config
-from fringekit.inputs import build_inputs
-from fringekit.schema import INDENTER_SCHEMA, SCHEMA
-from meshes import Layers, MeshSpec, Sizing
-from optics import POLYCARBONATE_ASSUMED, PSM4_ASSUMED, Camera, StressOpticLaw, sample_rays
+from fringekit.config.files import load_config
+from fringekit.config.inputs import build_inputs
+from fringekit.config.schema import INDENTER_SCHEMA, SCHEMA
+from fringekit.fea import (
+    POLYCARBONATE_DEFAULT,
+    SHEET_DEFAULT,
+    ContactSettings,
+    Indenter,
+    SolverSettings,
+)
+from fringekit.meshes import Layers, MeshSpec, Sizing
+from fringekit.optics import (
+    POLYCARBONATE_ASSUMED,
+    PSM4_ASSUMED,
+    Camera,
+    StressOpticLaw,
+    sample_rays,
+)
 
 MM = 1e-3
 

@@ -13,10 +13,10 @@ import shutil
 import numpy as np
 from library_fixtures import fem_config, fem_order, outside, sensor_config
 
-from fringekit.inputs import optics_setup
-from fringekit.library import LoadedIndenter, load_library
-from fringekit.synth import synthesise
-from optics import OpticalMap
+from fringekit.config.inputs import optics_setup
+from fringekit.library.store import LoadedIndenter, load_library
+from fringekit.library.synth import synthesise
+from fringekit.optics import OpticalMap
 
 
 def _library_order(lib, cfg, inds):
@@ -42,7 +42,7 @@ def _errors(a, b, keep):
 def test_manifest_resume_and_checksums(test_library, capsys):
     from library_fixtures import LOADS, RATIOS
 
-    from fringekit.library_build import build_library
+    from fringekit.library.build import build_library
 
     m = test_library.manifest
     assert m["grid"]["load_N"] == list(LOADS) and m["grid"]["shear_ratio"] == list(RATIOS)
@@ -61,7 +61,7 @@ def test_manifest_resume_and_checksums(test_library, capsys):
 def test_the_chain_of_a_build_and_of_a_resumed_one():
     """Normal loads in a chain, each branch from its normal state; finished branches keep
     only their normal state (the way there); nothing above the last branch to do."""
-    from fringekit.library_build import chain_config
+    from fringekit.library.build import chain_config
 
     cfg = sensor_config()
     c, parents, states = chain_config(cfg, 3.5, [1.0, 2.0, 3.0], [0.0, 0.5], [True, True, True])
@@ -84,7 +84,7 @@ def test_a_resumed_build_follows_the_same_path(test_library, cache_dir, tmp_path
     solver runs on one thread, the first build's on two)."""
     from library_fixtures import LOADS, RATIOS
 
-    from fringekit.library_build import build_library
+    from fringekit.library.build import build_library
 
     folder = tmp_path / "lib"
     shutil.copytree(test_library.folder, folder)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from conftest import SMALL_SIZING, small_spec
 
-from meshes import (
+from fringekit.meshes import (
     REGION_SHEET,
     REGION_SUBSTRATE,
     IndenterSite,
@@ -22,8 +22,8 @@ from meshes import (
     to_pyvista,
     write_vtu,
 )
-from meshes.quality import MeshQualityError, check_quality
-from meshes.topology import TET_EDGES, face_keys, unique_edges
+from fringekit.meshes.quality import MeshQualityError, check_quality
+from fringekit.meshes.topology import TET_EDGES, face_keys, unique_edges
 
 SYMS = ("full", "half", "quarter")
 
@@ -202,7 +202,7 @@ def test_quality_report(small_meshes):
 
 def test_quality_measures_on_regular_tet():
     p = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], float)
-    from meshes.quality import dihedral_angles, radius_ratios
+    from fringekit.meshes.quality import dihedral_angles, radius_ratios
 
     c = np.array([[0, 1, 2, 3]])
     if np.linalg.det(p[1:] - p[0]) < 0:
@@ -283,7 +283,7 @@ def test_meshing_leaves_the_working_directory_clean(tmp_path, monkeypatch):
     repeats; see meshes.tetwild.FTETWILD_MAX_PASSES."""
     import pytetwild
 
-    from meshes.tetwild import FTETWILD_MAX_PASSES
+    from fringekit.meshes.tetwild import FTETWILD_MAX_PASSES
 
     seen = {}
     real = pytetwild.tetrahedralize
@@ -302,7 +302,7 @@ def test_meshing_leaves_the_working_directory_clean(tmp_path, monkeypatch):
 
 _HASH_SCRIPT = """
 import hashlib, sys
-from meshes import MeshSpec, build_mesh, IndenterSite, Layers
+from fringekit.meshes import MeshSpec, build_mesh, IndenterSite, Layers
 specs = [MeshSpec(symmetry="quarter"),
          MeshSpec(layers=Layers(2e-3, 15e-3, 30e-3, 30e-3),
                   indenters=(IndenterSite(-4e-3, 0.0), IndenterSite(4e-3, 2e-3)))]
@@ -337,7 +337,7 @@ def test_same_spec_gives_the_same_mesh_in_fresh_processes(tmp_path):
 
 @pytest.mark.parametrize("sym", SYMS)
 def test_plane_triangulation_quality_and_exact_boundary(sym):
-    from meshes.plane import plane_size, triangulate_plane
+    from fringekit.meshes.plane import plane_size, triangulate_plane
 
     spec = small_spec(sym)
     p, tri = triangulate_plane(spec)
@@ -361,8 +361,8 @@ def test_plane_triangulation_quality_and_exact_boundary(sym):
 def test_extruded_prisms_are_conforming():
     """Two triangles sharing an edge, swept through two layers: every internal face is
     shared by exactly two tets (the Dompierre diagonal rule), the volume is exact."""
-    from meshes.layered import extrude
-    from meshes.topology import orient_positive, signed_volumes
+    from fringekit.meshes.layered import extrude
+    from fringekit.meshes.topology import orient_positive, signed_volumes
 
     p2 = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
     for tris in (np.array([[0, 1, 2], [1, 3, 2]]), np.array([[2, 0, 1], [3, 2, 1]])):
@@ -378,7 +378,7 @@ def test_extruded_prisms_are_conforming():
 
 
 def test_z_levels_cover_the_layers_exactly():
-    from meshes.layered import SUBSTRATE_CAP, z_levels
+    from fringekit.meshes.layered import SUBSTRATE_CAP, z_levels
 
     spec = MeshSpec(symmetry="quarter")
     z = z_levels(spec)

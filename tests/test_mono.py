@@ -9,9 +9,9 @@ import json
 import numpy as np
 import pytest
 
-from analysis import circle_mask, mono_order, normalise
-from fringekit.cli import main
-from optics import (
+from fringekit.analysis import circle_mask, mono_order, normalise
+from fringekit.cli.main import main
+from fringekit.optics import (
     PSM4_ASSUMED,
     Boussinesq,
     Camera,

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-from optics import (
+from fringekit.optics import (
     PSM4_ASSUMED,
     SIX_STEPS,
     Boussinesq,
@@ -30,7 +30,7 @@ from optics import (
     white_light_image,
     write_image,
 )
-from optics.jones import from_matrix, integrate_path, qmul, qtranspose, to_matrix
+from fringekit.optics.jones import from_matrix, integrate_path, qmul, qtranspose, to_matrix
 
 LAW = PSM4_ASSUMED
 RNG = np.random.default_rng(1234)
@@ -336,7 +336,7 @@ def test_grid_pixel_mapping_round_trip():
 def test_layers_of_two_materials_compose_in_light_order():
     """PC then sheet: each layer with its own law; the reflected path is U^T U of the
     product J_sheet J_pc, which for non-commuting axes depends on the order."""
-    from optics import POLYCARBONATE_ASSUMED, integrate_layers, sample_rays
+    from fringekit.optics import POLYCARBONATE_ASSUMED, integrate_layers, sample_rays
 
     grid = PixelGrid((2, 3), 1e-3)
     pc = UniformStress(_sigma(3e5, 0.0, 0.0), -4e-3, 0.0)  # axes at 0
@@ -360,8 +360,8 @@ def test_layers_of_two_materials_compose_in_light_order():
 
 
 def _retarder_map(order, theta, mask, guide):
-    from optics import PSM4_ASSUMED, OpticalMap, PixelGrid
-    from optics.jones import retarder
+    from fringekit.optics import PSM4_ASSUMED, OpticalMap, PixelGrid
+    from fringekit.optics.jones import retarder
 
     n = order.shape[0]
     q = retarder(2 * np.pi * order, theta)[:, :, None, :]

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from conftest import SMALL_LAYERS, small_spec
 
-from fea import Indenter, NeoHookean, solve
-from fea.solution import Solution
-from meshes import Sizing, build_mesh
-from optics import (
+from fringekit.fea import Indenter, NeoHookean, solve
+from fringekit.fea.solution import Solution
+from fringekit.meshes import Sizing, build_mesh
+from fringekit.optics import (
     PSM4_ASSUMED,
     OpticalMap,
     PixelGrid,
@@ -21,7 +21,7 @@ from optics import (
     sample_rays,
     six_step_arrangements,
 )
-from optics.fem import FEMStressField
+from fringekit.optics.fem import FEMStressField
 
 LAW = PSM4_ASSUMED
 
@@ -181,7 +181,7 @@ def test_polycarbonate_layer_uses_its_own_stress_and_law(small_meshes):
     """Sheet and substrate with different uniform stresses: the PC rays run from the
     bottom to the deformed interface with the substrate's stress only (not the sheet's
     value at shared interface nodes), and the layered order is exact."""
-    from optics import POLYCARBONATE_ASSUMED, integrate_layers, sample_rays
+    from fringekit.optics import POLYCARBONATE_ASSUMED, integrate_layers, sample_rays
 
     mesh = small_meshes["quarter"]
     Fh = np.diag([1.0, 1.0, 1.02])

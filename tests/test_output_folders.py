@@ -8,7 +8,7 @@ import json
 import pytest
 from test_cli import tiny_predict
 
-from fringekit.cli import main
+from fringekit.cli.main import main
 
 
 @pytest.fixture(scope="module")
@@ -89,19 +89,19 @@ def test_checks_that_need_no_solve_come_before_any_work(tmp_path, capsys, sets, 
 def test_ctrl_c_during_the_solve_keeps_the_converged_states(folder, capsys, monkeypatch):
     """Ctrl-C on the way to the second state: exit 130, the first state's VTU and a
     summary saying "interrupted" go to out-interrupted; the earlier run stays."""
-    import fea.watchdog
+    import fringekit.fea.watchdog
 
     root, out, run = folder
     assert run() == 0
     before = (out / "summary.json").read_bytes()
-    real = fea.watchdog.Watchdog.check
+    real = fringekit.fea.watchdog.Watchdog.check
 
     def ctrl_c(self, iteration, residual, max_iterations):
         if "7 N" in self.target:
             raise KeyboardInterrupt
         return real(self, iteration, residual, max_iterations)
 
-    monkeypatch.setattr(fea.watchdog.Watchdog, "check", ctrl_c)
+    monkeypatch.setattr(fringekit.fea.watchdog.Watchdog, "check", ctrl_c)
     assert run("indenter.load_N=[3.0, 7.0]") == 130
     err = capsys.readouterr().err
     assert "interrupted by the user" in err and "Traceback" not in err

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from analysis import resolve_ambiguity, six_step, unwrap_fringe_order
-from optics import (
+from fringekit.analysis import resolve_ambiguity, six_step, unwrap_fringe_order
+from fringekit.optics import (
     Camera,
     PhotoModel,
     dark_field_circular,
@@ -72,7 +72,7 @@ def test_six_step_fold_by_fringe_count_holds_at_camera_size():
     measured RMS 0.22, all pixels "reliable"); counting fringes from the border does not
     (measured RMS 0.009 on 99.9 % of the pixels), and the two disagree on more than the
     5 % at which analyze warns."""
-    from analysis import count_fringe_order
+    from fringekit.analysis import count_fringe_order
 
     order, q, mask = indent_field(400, 600)  # far-field fringe contours tens of px wide
     model = PhotoModel(residual_rms_rad=0.05, vignetting=0.3, glare=0.02, jpeg_quality=90,
@@ -104,10 +104,10 @@ def test_zero_load_reference_removes_residual_birefringence(tmp_path):
     --reference with another method is refused by name."""
     import json
 
-    from analysis import subtract_reference
-    from fringekit.cli import main
-    from optics import intensity, residual_birefringence, write_image
-    from optics.jones import qmul
+    from fringekit.analysis import subtract_reference
+    from fringekit.cli.main import main
+    from fringekit.optics import intensity, residual_birefringence, write_image
+    from fringekit.optics.jones import qmul
 
     order, q, mask = indent_field(200, 300)
     res_model = PhotoModel(residual_rms_rad=0.3, seed=7)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from fringekit.cli import main
+from fringekit.cli.main import main
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 BLOCKS = re.findall(r"```python\n(.*?)```", README.read_text(), re.S)

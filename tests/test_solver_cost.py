@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from fea import (
+from fringekit.fea import (
     SHEET_DEFAULT,
     Indenter,
     LinearSolver,
@@ -17,7 +17,7 @@ from fea import (
     available_backends,
     solve,
 )
-from fea.linsolve import REFINE_RTOL
+from fringekit.fea.linsolve import REFINE_RTOL
 
 PARDISO = "pardiso" in available_backends()
 
@@ -55,9 +55,9 @@ def test_a_tangent_formed_later_matches_finite_differences(small_meshes, kernel)
     gets) is the derivative of the internal force, for both element kernels (the
     neo-Hookean outer products and the general 4th-order contraction), on a mesh of two
     materials; it is the same as evaluating both at once."""
-    from fea import MooneyRivlin
-    from fea.assembly import Pattern, body_state, body_tangent, cell_dofs
-    from fea.element import reference_gradients
+    from fringekit.fea import MooneyRivlin
+    from fringekit.fea.assembly import Pattern, body_state, body_tangent, cell_dofs
+    from fringekit.fea.element import reference_gradients
 
     mesh = small_meshes["quarter"]
     grads = reference_gradients(mesh.points, mesh.cells)
@@ -153,17 +153,17 @@ def test_increments_on_the_way_skip_multiplier_updates_when_frictionless(small_m
     with and without that rule: the same state to within the multiplier loop's stopping
     tolerance (1 % of the depth in penetration), in fewer multiplier updates and Newton
     iterations. With friction every increment is solved in full."""
-    import fea.solver
-    from fea import ContactSettings
+    import fringekit.fea.solver
+    from fringekit.fea import ContactSettings
 
     mesh = small_meshes["quarter"]
     fast, fs = solve(mesh, [Indenter(normal_force=(8.0,))])
-    full_increment = fea.solver.solve_increment
+    full_increment = fringekit.fea.solver.solve_increment
 
     def always_final(run, st, s_new, iter_log, final=True):
         return full_increment(run, st, s_new, iter_log, True)
 
-    monkeypatch.setattr(fea.solver, "solve_increment", always_final)
+    monkeypatch.setattr(fringekit.fea.solver, "solve_increment", always_final)
     slow, ss = solve(mesh, [Indenter(normal_force=(8.0,))])
     assert fs.al_updates < ss.al_updates and fs.newton_iterations < ss.newton_iterations
     a, b = fast[-1].indenters[0], slow[-1].indenters[0]
@@ -172,7 +172,7 @@ def test_increments_on_the_way_skip_multiplier_updates_when_frictionless(small_m
     # with friction the rule is off: the same counts either way
     mu = ContactSettings(friction=0.3)
     _, s_mu_full = solve(mesh, [Indenter(normal_force=(8.0,))], contact=mu)
-    monkeypatch.setattr(fea.solver, "solve_increment", full_increment)
+    monkeypatch.setattr(fringekit.fea.solver, "solve_increment", full_increment)
     _, s_mu = solve(mesh, [Indenter(normal_force=(8.0,))], contact=mu)
     assert s_mu.al_updates == s_mu_full.al_updates
     assert s_mu.newton_iterations == s_mu_full.newton_iterations

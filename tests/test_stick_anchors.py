@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
-import fea.newton
-from fea import ContactSettings, Indenter, solve
-from fea.contact import sphere_contact
+import fringekit.fea.newton
+from fringekit.fea import ContactSettings, Indenter, solve
+from fringekit.fea.contact import sphere_contact
 
 R, EPS = 1.75e-3, 1e11
 
@@ -57,7 +57,7 @@ def test_a_stalled_line_search_with_stick_anchors_the_new_points_and_goes_on(
     stick = ContactSettings(friction=math.inf)
     ref, ref_stats = solve(mesh, ind, contact=stick)
     assert ref_stats.reanchors == 0
-    real = fea.newton._line_search
+    real = fringekit.fea.newton._line_search
     calls = {"n": 0}
 
     def stall_once(run, st, f_ind, dx, energy, rnorm):
@@ -69,7 +69,7 @@ def test_a_stalled_line_search_with_stick_anchors_the_new_points_and_goes_on(
         trial, _ = real(run, st, f_ind, dx, energy, rnorm)
         return trial, 2.0**-5  # reported as a crawl; the step itself is the real one
 
-    real_cycling = fea.newton.is_cycling
+    real_cycling = fringekit.fea.newton.is_cycling
     seen = {"n": 0}
 
     def cycles_once(history):
@@ -77,9 +77,9 @@ def test_a_stalled_line_search_with_stick_anchors_the_new_points_and_goes_on(
         return seen["n"] == 7 or real_cycling(history)
 
     if stall == "cycles":
-        monkeypatch.setattr(fea.newton, "is_cycling", cycles_once)
+        monkeypatch.setattr(fringekit.fea.newton, "is_cycling", cycles_once)
     else:
-        monkeypatch.setattr(fea.newton, "_line_search", stall_once)
+        monkeypatch.setattr(fringekit.fea.newton, "_line_search", stall_once)
     sols, stats = solve(mesh, ind, contact=stick)
     assert stats.reanchors == 1 and stats.cutbacks == 0
     a, b = sols[-1].indenters[0], ref[-1].indenters[0]

@@ -1,0 +1,7 @@
+"""``python -m fringekit`` runs the ``fringekit`` command."""
+
+import sys
+
+from fringekit.cli import main
+
+sys.exit(main())

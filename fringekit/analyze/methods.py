@@ -1,0 +1,141 @@
+"""The six-step (phase) and colour (RGB) methods of ``fringekit analyze``: images and
+options in, (order, reliable, extra maps, summary part, region mask) out."""
+
+from __future__ import annotations
+
+import colour
+import numpy as np
+
+from fringekit.analysis import (
+    MIN_COLOUR_SPREAD,
+    CalibrationTable,
+    colour_spread,
+    count_fringe_order,
+    load_image,
+    load_six_step,
+    resolve_ambiguity,
+    search,
+    search_refined,
+    six_step,
+    subtract_reference,
+    unwrap_fringe_order,
+)
+from fringekit.analyze.regions import order_anchors, region_mask
+from fringekit.optics import PSM4_ASSUMED, Camera, colour_chart, light_source
+
+__all__ = ["MAX_FOLD_DISAGREEMENT", "analyse_phase", "analyse_rgb"]
+
+
+def _table(calibration, chart: dict | None) -> CalibrationTable:
+    if calibration is not None:
+        return CalibrationTable.from_csv(calibration)
+    chart = chart or {}
+    lam = PSM4_ASSUMED.wavenumber_grid(31)  # the grid predict renders white light on
+    orders, rgb = colour_chart(
+        PSM4_ASSUMED,
+        light_source(chart.get("light", "LED"), lam),
+        Camera(sensitivities=chart.get("camera", "CIE1931")),
+        max_order=chart.get("max_order", 4.0),
+        n=2001,
+    )
+    # the chart is linear RGB at exposure 1; images carry the camera's exposure and, for
+    # the CIE observer (fringekit's PNGs, most cameras' JPEGs), the sRGB encoding
+    rgb = np.clip(rgb * chart.get("exposure", 0.9), 0, 1)
+    if chart.get("camera", "CIE1931") == "CIE1931":
+        rgb = np.clip(colour.cctf_encoding(rgb, function="sRGB"), 0, 1)
+    return CalibrationTable.from_chart(orders, rgb, "synthetic colour chart (optics)")
+
+
+#: Share of the region where the two fold resolutions may differ by more than a quarter
+#: fringe before analyze warns.
+MAX_FOLD_DISAGREEMENT = 0.05
+
+
+def analyse_phase(paths, dark, mask_args, anchor_order, order_at=None, *,
+                  min_modulation=0.1, fold="count", reference=None):  # fmt: skip
+    """Six-step images -> (order, reliable, extra maps, summary part, mask).
+
+    Both fold resolutions run (counting fringes, and following the isoclinic); ``fold``
+    picks the map, the other checks it. ``reference`` (six zero-load images): their
+    retardation is subtracted vectorially first (:func:`analysis.subtract_reference`)."""
+    frames = load_six_step(paths[0] if len(paths) == 1 else paths, dark=dark)
+    mask = region_mask(frames[0].shape, *mask_args)
+    res = six_step(frames, mask=mask, min_modulation=min_modulation)
+    if reference:
+        ref = load_six_step(reference[0] if len(reference) == 1 else reference, dark=dark)
+        if ref[0].shape != frames[0].shape:
+            raise ValueError(
+                f"--reference: images of {ref[0].shape} px, the loaded ones {frames[0].shape}; "
+                "allowed: the same camera view"
+            )
+        res = subtract_reference(res, six_step(ref, mask=mask, min_modulation=min_modulation))
+    anchor, known = order_anchors(frames[0].shape, res.valid, order_at, anchor_order)
+    if np.ndim(known) == 0:  # the border ring at --anchor-order
+        by_iso = unwrap_fringe_order(res, resolve_ambiguity(res), anchor_mask=anchor,
+                                     anchor_order=known)  # fmt: skip
+    else:  # the --order-at points: a map of known orders
+        by_iso = unwrap_fringe_order(res, resolve_ambiguity(res), reference_order=known)
+    by_count = count_fringe_order(res, anchor_mask=anchor, anchor_order=np.nan_to_num(known))
+    fo = by_count if fold == "count" else by_iso
+    both = np.isfinite(by_iso.order) & np.isfinite(by_count.order)
+    differ = (
+        float(np.mean(np.abs(by_iso.order - by_count.order)[both] > 0.25)) if both.any() else 0.0
+    )
+    maps = {
+        "isoclinic_rad": np.where(res.valid, fo.isoclinic, np.nan),
+        "delta_eq3_rad": np.where(res.valid, res.delta_eq3, np.nan),
+        "delta_axis_insensitive_rad": np.where(res.valid, res.delta_axis_insensitive, np.nan),
+        "modulation": res.modulation,
+    }
+    part = {"phase": {"fold": fold, "reference": list(reference or []) or None,
+                      "info": fo.info, "offset": fo.offset,
+                      "anchor_order": anchor_order if np.ndim(known) == 0 else None,
+                      "fold_disagreement_fraction": differ,
+                      "order_at": [list(p) for p in order_at or []]}}  # fmt: skip
+    if differ > MAX_FOLD_DISAGREEMENT:
+        other = "isoclinic" if fold == "count" else "count"
+        part["extra_warning"] = (
+            f"the fringe count and the isoclinic continuity resolve the phase differently on "
+            f"{100 * differ:.0f} % of the pixels (more than half a fringe apart): check "
+            f"--order-at or --anchor-order, or compare with --fold {other}"
+        )
+    return fo.order, fo.reliable, maps, part, mask
+
+
+def analyse_rgb(paths, dark, mask_args, *, calibration=None, chart=None, seeds=(), window=0.25):
+    """One colour image -> (order, reliable, extra maps, summary part, mask)."""
+    if len(paths) != 1:
+        raise ValueError(f"the rgb method takes one colour image, got {len(paths)}")
+    frame = load_image(paths[0], dark=dark)
+    if frame.data.ndim != 3:
+        raise ValueError(f"{paths[0]}: a grey image; the rgb method needs colour")
+    # one channel at full scale still constrains the order (vivid fringe colours leave
+    # the sRGB gamut and clip, in the chart exactly as in the image); a pixel with
+    # every channel at full scale does not
+    mask = region_mask(frame.shape, *mask_args) & ~np.all(frame.data >= 1.0, axis=-1)
+    table = _table(calibration, chart)
+    if seeds:
+        seed_list = [((r, c), o) for r, c, o in seeds]
+        rr = search_refined(frame.data, table, seed_list, mask=mask, window=window)
+    else:
+        rr = search(frame.data, table, mask=mask)
+    reliable = np.isfinite(rr.order) & (rr.error < 0.1)
+    spread = colour_spread(frame.data, mask)
+    part = {
+        "rgb": {
+            "table": table.source,
+            "rows": len(table),
+            "orders": [float(table.orders[0]), float(table.orders[-1])],
+            "refined": bool(seeds),
+            "colour_spread": spread,
+        }
+    }
+    if spread < MIN_COLOUR_SPREAD:  # single-colour light: colour cannot tell orders apart
+        reliable = np.zeros_like(reliable)
+        part["unreliable_reason"] = (
+            f"the image's colours lie on a line (colour spread {spread:.2g} < "
+            f"{MIN_COLOUR_SPREAD:g}): single-colour light or grey, where colour does not "
+            "tell fringe orders apart; the rgb method needs white light (six phase-stepped "
+            "images: --method phase)"
+        )
+    return rr.order, reliable, {"colour_error": rr.error}, part, mask

@@ -1,0 +1,327 @@
+"""``fringekit library build``: a sensor's response library from FEM solves, on Dask.
+
+For each indenter diameter, one continuation solve of the sensor with a single indenter
+at the centre of its sheet, full stick, whose load path is a tree: a chain of normal
+loads through the grid, and from each normal-load state a branch of tangential loads
+along +x at that normal load through the ratios of the grid (the seed paper's protocol,
+normal load first, then shear at constant normal load). Each normal state is reached
+from the one before (4-6 Newton iterations) instead of from the unloaded sheet (20-50
+with cut-backs). The half model about y = 0 holds that loading. Every converged state is
+sampled on the polar ray lattice (:mod:`fringekit.lattice`).
+
+A branch (one normal load and its tangential states) is written to
+``branches/<id>.npz`` atomically as soon as its last state converges, so a killed build
+resumes where it stopped: branches whose settings match are not solved again (the
+normal states below them are, as the way there, so a resumed build follows the same
+path as an uninterrupted one). When all branches exist the field files and
+``manifest.json`` (written last) are assembled; a folder without ``manifest.json`` is
+not a library.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from fringekit._cluster import run_tasks
+from fringekit.config.files import ConfigError, to_toml
+from fringekit.library.lattice import default_lattice, sample_lattice
+from fringekit.library.store import FIELD_KEYS, FORMAT, diameter_id, field_file, sensor_key, sha256
+from fringekit.output.versions import run_versions
+
+__all__ = [
+    "DEFAULT_LOADS_N",
+    "DEFAULT_RATIOS",
+    "chain_config",
+    "build_library",
+    "library_lattice",
+]
+
+#: Normal loads of the default grid (N): steps of about 1.4x, 0.25-12 N.
+DEFAULT_LOADS_N = (0.25, 0.35, 0.5, 0.7, 1.0, 1.4, 2.0, 2.8, 4.0, 5.0, 6.3, 8.0, 10.0, 12.0)
+#: Tangential / normal load ratios of the default grid (full stick).
+DEFAULT_RATIOS = (0.0, 0.2, 0.4, 0.6, 0.8)
+#: The load path of a branch, stored with its settings (a branch solved another way is
+#: solved again).
+PATH = "normal-load chain, tangential branch at constant normal load"
+
+
+def library_lattice(cfg: dict, n_slabs: int = 16):
+    """The lattice for a config's sheet: out to 12 mm or 0.4 of the sheet's smaller side,
+    0.1 mm radial steps out to twice the refined-zone radius, then growing by 8 % per
+    node; 5 deg in angle."""
+    sh = cfg["sheet"]
+    r_max = min(12e-3, 0.4e-3 * min(sh["width_mm"], sh["length_mm"]))
+    fine = min(2e-3 * cfg["mesh"]["refine_radius_mm"], 0.6 * r_max)
+    return default_lattice(r_max, fine_step=0.1e-3, fine_radius=fine, n_slabs=n_slabs)
+
+
+def chain_config(cfg: dict, diameter_mm: float, loads, ratios, todo) -> tuple[dict, list, list]:
+    """The config of one diameter's chain, its parents and what each state is.
+
+    The normal loads ``loads`` in order, each from the one before; after each load whose
+    ``todo`` is true, its tangential states ``ratio * load`` along +x (ratios[1:]), each
+    from the one before. Loads above the last one to do are left out.
+
+    Returns
+    -------
+    config : dict, one indenter at the origin, full stick, half model
+    parents : list of int, the parent of each load state (fea.solve)
+    states : list of (load index, ratio index), one per load state
+    """
+    last = max(i for i, t in enumerate(todo) if t)
+    normal, shear, parents, states = [], [], [], []
+    prev = 0
+    for i in range(last + 1):
+        for r, ratio in enumerate(ratios if todo[i] else ratios[:1]):
+            normal.append(float(loads[i]))
+            shear.append([float(ratio * loads[i]), 0.0])
+            parents.append(prev if r == 0 else len(states))
+            states.append((i, r))
+        prev = len(states) - len(ratios) + 1 if todo[i] else len(states)
+    b = copy.deepcopy(cfg)
+    b["case"] = f"library-d{diameter_mm:g}"
+    b["indenter"] = [{"x_mm": 0.0, "y_mm": 0.0, "diameter_mm": float(diameter_mm),
+                      "load_N": normal, "depth_mm": None, "shear_N": shear}]  # fmt: skip
+    b["contact"]["friction"] = "stick"
+    b["mesh"]["symmetry"] = "half"
+    return b, parents, states
+
+
+def _branch_id(diameter_mm: float, load_n: float) -> str:
+    return f"{diameter_id(diameter_mm)}_F{int(round(load_n * 1000)):06d}"
+
+
+def _solve_chain(task: dict, out: str, cache_dir: str | None, progress: bool = False) -> dict:
+    """Solve one diameter's chain, writing ``branches/<id>.npz`` as each branch's last
+    state converges (runs on a worker, or in this process with a progress bar)."""
+    from fringekit.config.inputs import build_inputs
+    from fringekit.fea import SolveInterrupted, SolverError, solve
+    from fringekit.library.lattice import PolarLattice
+    from fringekit.meshes import build_mesh
+    from fringekit.optics import FEMStressField
+
+    lat = PolarLattice(np.array(task["r"]), np.array(task["phi"]), task["n_slabs"])
+    branches, ratios = task["branches"], task["ratios"]
+    cfg, parents, states = chain_config(task["config"], task["diameter_mm"],
+                                        [b["load_N"] for b in branches], ratios,
+                                        [b["todo"] for b in branches])  # fmt: skip
+    inp = build_inputs(cfg)
+    t0 = time.perf_counter()
+    mesh = build_mesh(inp.spec, cache_dir=cache_dir)
+    done, samples = [], []
+
+    def keep(k: int, S: int, sol) -> None:
+        if bar is not None:
+            bar.update(1)
+        i, r = states[k - 1]
+        if not branches[i]["todo"]:
+            return  # a normal load below a branch to do: only the way there
+        samples.append(_sample(sol, FEMStressField(sol), lat))
+        if r == len(ratios) - 1:
+            b = branches[i]
+            _save_npz(Path(out) / "branches" / f"{b['id']}.npz",
+                      **{key: np.array([s[key] for s in samples]) for key in samples[0]},
+                      settings=json.dumps(b["settings"]))  # fmt: skip
+            done.append(b["id"])
+            samples.clear()
+
+    bar = _state_bar(len(states), progress)
+    try:
+        solve(mesh, inp.indenters, materials=inp.materials, contact=inp.contact,
+              settings=inp.settings, parents=parents, progress=keep)  # fmt: skip
+        error = None
+    except SolveInterrupted:
+        raise KeyboardInterrupt from None  # the branches written so far are kept
+    except SolverError as exc:
+        error = str(exc)
+    finally:
+        if bar is not None:
+            bar.close()
+    return {"id": task["id"], "error": error, "done": done, "time_s": time.perf_counter() - t0}
+
+
+def _state_bar(total: int, show: bool):
+    if not show:
+        return None
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, desc="library load states", unit="state")
+
+
+def _sample(sol, field, lat) -> dict:
+    """One converged state on the lattice, with the indenter's contact radius (m),
+    centre and depth (m) and load (N, Fz positive pressing)."""
+    ab, v = sample_lattice(field, lat)
+    ind = sol.indenters[0]
+    return {"AB": ab, "valid": v, "contact_radius_m": ind.contact_radius,
+            "centre_m": [ind.centre[0], ind.centre[1], ind.depth],
+            "force_N": [ind.force[0], ind.force[1], -ind.force[2]]}  # fmt: skip
+
+
+def _save_npz(dest: Path, **arrays) -> None:
+    """``np.savez`` to ``dest`` through a ``.part`` file: it appears whole or not at all."""
+    part = dest.with_name(dest.name + ".part.npz")
+    np.savez(part, **arrays)
+    os.replace(part, dest)
+
+
+def _finished(path: Path, settings: dict) -> bool:
+    try:
+        with np.load(path) as z:
+            return json.loads(str(z["settings"])) == settings
+    except (OSError, ValueError, KeyError):
+        return False
+
+
+def _check_grid(loads, ratios, diameters) -> None:
+    loads, ratios = np.asarray(loads, float), np.asarray(ratios, float)
+    if len(loads) < 2 or np.any(loads <= 0) or np.any(np.diff(loads) <= 0):
+        raise ConfigError(f"--load-N = {list(loads)} is not allowed; give at least 2 "
+                          "increasing loads > 0 (N)")  # fmt: skip
+    if len(ratios) < 2 or ratios[0] != 0 or np.any(np.diff(ratios) <= 0) or ratios[-1] > 2:
+        raise ConfigError(f"--shear-ratio = {list(ratios)} is not allowed; give increasing "
+                          "ratios from 0, at least 2, at most 2")  # fmt: skip
+    if not diameters or any(not d > 0 for d in diameters):
+        raise ConfigError(f"--diameter-mm = {list(diameters)} is not allowed; give "
+                          "diameters > 0 (mm)")  # fmt: skip
+
+
+def build_library(
+    cfg: dict, out, *, diameters=None, loads=DEFAULT_LOADS_N, ratios=DEFAULT_RATIOS,
+    n_slabs: int = 16, scheduler=None, workers=None, cache_dir=None, progress=True, echo=print,
+) -> dict:  # fmt: skip
+    """Solve the unfinished branches, then assemble the library in ``out``; return the
+    manifest. ``diameters`` default to the config's indenters' diameters (mm)."""
+    from fringekit.meshes import default_cache_dir
+
+    diameters = sorted({float(d["diameter_mm"]) for d in cfg["indenter"]} if diameters is None
+                       else {float(d) for d in diameters})  # fmt: skip
+    _check_grid(loads, ratios, diameters)
+    if cfg["optics"]["include_substrate"]:
+        raise ConfigError("optics.include_substrate = true is not supported by a library "
+                          "(it stores the sheet's stress only); set it to false")  # fmt: skip
+    out = Path(out)
+    lat = library_lattice(cfg, n_slabs)
+    key = sensor_key(cfg)
+    mesh = dict(cfg["mesh"], symmetry="half")
+    settings = {"sensor": key, "mesh": mesh, "solver": cfg["solver"], "ratios": list(ratios),
+                "lattice_r_mm": list(lat.r * 1e3), "n_slabs": n_slabs, "path": PATH}  # fmt: skip
+    branches, chains = [], []
+    for d in diameters:
+        mine = []
+        for f in loads:
+            below = [float(v) for v in loads if v < f]  # the way there is part of the path
+            b = {
+                "id": _branch_id(d, f),
+                "load_N": float(f),
+                "settings": dict(settings, diameter_mm=d, load_N=float(f), loads_below=below),
+            }
+            b["todo"] = not _finished(out / "branches" / f"{b['id']}.npz", b["settings"])
+            mine.append(b)
+        branches += mine
+        if any(b["todo"] for b in mine):
+            chains.append({"id": diameter_id(d), "diameter_mm": d,
+                           "config": cfg, "branches": mine, "ratios": list(ratios),
+                           "r": lat.r, "phi": lat.phi, "n_slabs": n_slabs})  # fmt: skip
+    (out / "branches").mkdir(parents=True, exist_ok=True)
+    (out / "manifest.json").unlink(missing_ok=True)  # not a library until assembled again
+    n_todo = sum(b["todo"] for b in branches)
+    say = echo if progress else (lambda s: None)
+    say(f"library: {len(branches)} branches ({len(diameters)} diameter(s) x {len(loads)} "
+        f"loads, {len(ratios)} states each), {len(branches) - n_todo} already solved")  # fmt: skip
+    t0 = time.perf_counter()
+    failed = _run_chains(chains, out, str(cache_dir or default_cache_dir()), scheduler,
+                         workers, progress, say)  # fmt: skip
+    if failed:
+        from fringekit.predict.pipeline import PredictError
+
+        raise PredictError(f"library: the solve failed for diameter {failed[0]['id']}: "
+                           f"{failed[0]['error']}; the {failed[0]['n_done']} branch(es) "
+                           "solved are kept, re-run to resume")  # fmt: skip
+    build_s = time.perf_counter() - t0
+    return _assemble(cfg, out, branches, diameters, loads, ratios, lat, mesh, build_s)
+
+
+def _run_chains(chains, out: Path, cache: str, scheduler, workers, progress, say) -> list:
+    """Solve the chains: in this process (all cores to one solve, a bar over its load
+    states) when there is one and no scheduler or ``workers=0``, else one Dask task
+    per chain. Returns the failed chains' results."""
+    failed = []
+
+    def report(res: dict) -> None:
+        if res["error"]:
+            failed.append(dict(res, n_done=len(res["done"])))
+            say(f"library: diameter {res['id']} failed: {res['error']}")
+
+    inline = not scheduler and (workers == 0 or (workers is None and len(chains) == 1))
+    if inline:
+        for t in chains:
+            report(_solve_chain(t, str(out.resolve()), cache, progress))
+    else:
+        run_tasks(_solve_chain, chains, [f"chain-{t['id']}" for t in chains],
+                  str(out.resolve()), cache, scheduler=scheduler, workers=workers,
+                  progress=progress, desc="library diameters", unit="diameter",
+                  on_result=report)  # fmt: skip
+    return failed
+
+
+#: The stored field is tapered to zero over this outer fraction of the lattice radius
+#: (cos^2), so a synthesised image has no step where one indenter's lattice ends.
+TAPER = 0.25
+
+
+def condition_fields(AB: np.ndarray, lat) -> np.ndarray:
+    """What is stored from the sampled fields AB (nF, nS, R, F, S, 2).
+
+    - The normal-load states (ratio 0) are averaged over the angle, with sigma_rp = 0:
+      that loading is axisymmetric, and what the mesh leaves of the angle dependence
+      (up to 10-25 % of the ray integral on a coarse mesh) would make a tangential load
+      turned about the axis jump as its magnitude goes to zero.
+    - The outer TAPER of the lattice radius is tapered to zero (cos^2).
+    """
+    out = AB.astype(np.float64)
+    out[:, 0, ..., 0] = out[:, 0, ..., 0].mean(axis=2, keepdims=True)  # (nF, R, F, S): over F
+    out[:, 0, ..., 1] = 0.0
+    t = np.clip((lat.r - (1 - TAPER) * lat.r_max) / (TAPER * lat.r_max), 0.0, 1.0)
+    w = np.cos(0.5 * np.pi * t) ** 2
+    return (out * w[:, None, None, None]).astype(np.float32)
+
+
+def _assemble(cfg, out: Path, tasks, diameters, loads, ratios, lat, mesh, build_s) -> dict:
+    files = {}
+    for d in diameters:
+        parts = []
+        for t in tasks:
+            if t["settings"]["diameter_mm"] == d:
+                with np.load(out / "branches" / f"{t['id']}.npz") as z:
+                    parts.append({k: z[k] for k in FIELD_KEYS})
+        name = field_file(d)
+        arrays = {k: np.stack([p[k] for p in parts]) for k in FIELD_KEYS}
+        arrays["AB"] = condition_fields(arrays["AB"], lat)
+        _save_npz(out / name, **arrays)
+        files[name] = {"diameter_mm": d, "sha256": sha256(out / name)}
+    (out / "config.toml").write_text(to_toml(cfg))
+    manifest = {
+        "format": FORMAT,
+        "sensor": sensor_key(cfg),
+        "grid": {"diameters_mm": diameters, "load_N": [float(v) for v in loads],
+                 "shear_ratio": [float(v) for v in ratios], "friction": "stick"},
+        "lattice": {"r_mm": [float(v) for v in lat.r * 1e3],
+                    "phi_deg": [float(v) for v in np.degrees(lat.phi)],
+                    "n_slabs": lat.n_slabs},
+        "mesh": mesh,
+        "solver": cfg["solver"],
+        "files": files,
+        "build_s": build_s,
+        "versions": run_versions(),
+    }  # fmt: skip
+    tmp = out / "manifest.json.part"
+    tmp.write_text(json.dumps(manifest, indent=1))
+    os.replace(tmp, out / "manifest.json")
+    return manifest

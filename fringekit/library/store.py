@@ -1,0 +1,257 @@
+"""A response library: one sensor's single-indenter fields over a grid of loads.
+
+Folder layout (written by :mod:`fringekit.library_build`)::
+
+    manifest.json       format, sensor config, grid, lattice, mesh settings, versions,
+                        the sha256 of every field file
+    config.toml         the sensor config the library was built for
+    fields_dXXXX.npz    one per indenter diameter (XXXX = diameter in um):
+                        AB (nF, nS, R, F, S, 2) float32  polar slab pairs (Pa m),
+                        valid (nF, nS, R, F), contact_radius_m (nF, nS),
+                        centre_m (nF, nS, 3) indenter centre relative to its first-touch
+                        point, force_N (nF, nS, 3)
+
+The grid is normal load ``load_N`` (nF, increasing) x tangential ratio ``shear_ratio``
+(nS, from 0): the seed paper's protocol, normal load first, then tangential load at
+constant normal load. Between grid points fields are interpolated linearly in load and
+ratio (a zero-load field, no stress and no contact, is implied below the first load), and
+bilinearly in (r, phi) on the lattice (:mod:`fringekit.lattice`). A tangential load in
+any other direction is the +x solution turned about the axis.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from fringekit.config.files import ConfigError
+from fringekit.library.lattice import PolarLattice, interpolate_turned
+
+__all__ = [
+    "FIELD_KEYS",
+    "FORMAT",
+    "Library",
+    "LibraryError",
+    "LoadedIndenter",
+    "check_sensor",
+    "diameter_id",
+    "field_file",
+    "load_library",
+    "sensor_key",
+    "sha256",
+]
+
+FORMAT = "fringekit-library/1"
+#: The arrays of a field file (module docstring).
+FIELD_KEYS = ("AB", "valid", "contact_radius_m", "centre_m", "force_N")
+
+
+class LibraryError(ConfigError):
+    """A library folder that cannot be used (missing, corrupt, another sensor)."""
+
+
+def diameter_id(diameter_mm: float) -> str:
+    """The name part of one diameter's files and tasks: ``d`` and the diameter in um."""
+    return f"d{int(round(diameter_mm * 1000)):05d}"
+
+
+def field_file(diameter_mm: float) -> str:
+    return f"fields_{diameter_id(diameter_mm)}.npz"
+
+
+def sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def sensor_key(cfg: dict) -> dict:
+    """What makes two configs the same sensor for a library: the sheet, the substrate and
+    the sheet's stress-optic law (not the camera, the loads or the friction: a library
+    holds full-stick solutions)."""
+    o = cfg["optics"]
+    return {
+        "sheet": dict(cfg["sheet"]),
+        "substrate": dict(cfg["substrate"]),
+        "optics": {k: o[k] for k in ("f_sigma_N_per_m", "wavelength_nm", "dispersion",
+                                     "dispersion_coefficient")},
+    }  # fmt: skip
+
+
+@dataclass(frozen=True)
+class LoadedIndenter:
+    """One indenter to synthesise: position of its axis at first touch (m), sphere
+    diameter (m) and the force it exerts on the sheet (N; Fz > 0 presses)."""
+
+    x: float
+    y: float
+    diameter: float
+    fx: float
+    fy: float
+    fz: float
+
+
+def _weights(grid: np.ndarray, v: float) -> tuple[np.ndarray, np.ndarray]:
+    """Two node indices and linear weights of ``v`` on an increasing grid (clamped)."""
+    i = int(np.clip(np.searchsorted(grid, v) - 1, 0, len(grid) - 2))
+    t = float(np.clip((v - grid[i]) / (grid[i + 1] - grid[i]), 0.0, 1.0))
+    return np.array([i, i + 1]), np.array([1.0 - t, t])
+
+
+@dataclass(frozen=True)
+class Library:
+    """A loaded library (see the module docstring).
+
+    Attributes
+    ----------
+    folder : Path
+    manifest : dict
+    lattice : PolarLattice
+    load_N : (nF + 1,) normal loads with the implied zero first (N)
+    shear_ratio : (nS,)
+    fields : dict diameter_mm -> dict of arrays (with the zero-load field prepended)
+    """
+
+    folder: Path
+    manifest: dict
+    lattice: PolarLattice
+    load_N: np.ndarray
+    shear_ratio: np.ndarray
+    fields: dict
+
+    @property
+    def diameters_mm(self) -> list[float]:
+        return sorted(self.fields)
+
+    @property
+    def max_load_N(self) -> float:
+        return float(self.load_N[-1])
+
+    @property
+    def max_ratio(self) -> float:
+        return float(self.shear_ratio[-1])
+
+    def state(self, diameter_mm: float, fz: float, ratio: float):
+        """The field of one load, in the library frame (tangential load along +x).
+
+        Returns AB (R, F, S, 2), contact radius (m) and centre offset (3,) (m). Loads
+        outside the grid are clamped: callers check :meth:`in_range` first.
+        """
+        f = self.fields[diameter_mm]
+        iF, wF = _weights(self.load_N, fz)
+        iS, wS = _weights(self.shear_ratio, ratio)
+        AB = np.zeros(f["AB"].shape[2:], np.float32)
+        a = 0.0
+        c = np.zeros(3)
+        for i, wi in zip(iF, wF, strict=True):
+            for j, wj in zip(iS, wS, strict=True):
+                w = wi * wj
+                if w == 0.0:
+                    continue
+                AB += np.float32(w) * f["AB"][i, j]
+                a += w * f["contact_radius_m"][i, j]
+                c += w * f["centre_m"][i, j]
+        return AB, a, c
+
+    def in_range(self, fz: float, ratio: float, tol: float = 1e-6) -> bool:
+        return 0.0 <= fz <= self.max_load_N * (1 + tol) and ratio <= self.max_ratio + tol
+
+    def nearest_diameter(self, diameter_mm: float) -> float | None:
+        for d in self.fields:
+            if abs(d - diameter_mm) < 1e-6:
+                return d
+        return None
+
+    def slabs(self, ind: LoadedIndenter, xy: np.ndarray):
+        """Cartesian slab pairs of one indenter at pixel positions.
+
+        Parameters
+        ----------
+        ind : LoadedIndenter
+        xy : (P, 2) positions in the sensor frame (m)
+
+        Returns
+        -------
+        ab : (P, S, 2) float32 — (sigma_xx - sigma_yy) dz and 2 sigma_xy dz (Pa m), zero
+            beyond the lattice
+        contact : (P,) bool — inside the indenter's contact circle
+        """
+        d = self.nearest_diameter(ind.diameter * 1e3)
+        fz = max(ind.fz, 0.0)
+        ft = float(np.hypot(ind.fx, ind.fy))
+        ratio = ft / fz if fz > 0 else 0.0
+        psi = float(np.arctan2(ind.fy, ind.fx)) if ft > 0 else 0.0
+        AB, a, c = self.state(d, fz, min(ratio, self.max_ratio))
+        ab = interpolate_turned(AB, self.lattice, xy[:, 0] - ind.x, xy[:, 1] - ind.y, psi)
+        cp, sp = np.cos(psi), np.sin(psi)
+        cx = ind.x + cp * c[0] - sp * c[1]
+        cy = ind.y + sp * c[0] + cp * c[1]
+        contact = np.hypot(xy[:, 0] - cx, xy[:, 1] - cy) < a
+        return ab, contact
+
+
+def check_sensor(lib, cfg: dict, where: str) -> None:
+    """A library built for another sensor is refused, naming the first key that differs."""
+    want, have = lib.manifest["sensor"], sensor_key(cfg)
+    for table in want:
+        a, b = want[table], have.get(table)
+        if isinstance(a, dict):
+            for k in a:
+                if b is None or b.get(k) != a[k]:
+                    raise LibraryError(
+                        f"--library {lib.folder}: built for {table}.{k} = {a[k]!r}, but the "
+                        f"image's sensor ({where}) has {b.get(k) if b else None!r}")  # fmt: skip
+        elif a != b:
+            raise LibraryError(f"--library {lib.folder}: built for {table} = {a!r}, but the "
+                               f"image's sensor ({where}) has {b!r}")  # fmt: skip
+
+
+def _bad(folder: Path, what: str) -> LibraryError:
+    return LibraryError(f"--library {folder}: {what}")
+
+
+def load_library(folder) -> Library:
+    """Read and check a library folder; every defect is one :class:`LibraryError` line."""
+    folder = Path(folder)
+    mf = folder / "manifest.json"
+    if not mf.is_file():
+        raise _bad(folder, "no manifest.json (not a library folder, or its build did not "
+                   "finish; `fringekit library build` resumes it)")  # fmt: skip
+    try:
+        manifest = json.loads(mf.read_text())
+        if manifest.get("format") != FORMAT:
+            raise _bad(folder, f"format {manifest.get('format')!r} is not {FORMAT!r}")
+        lat = manifest["lattice"]
+        lattice = PolarLattice(
+            r=np.array(lat["r_mm"]) * 1e-3,
+            phi=np.radians(np.array(lat["phi_deg"])),
+            n_slabs=int(lat["n_slabs"]),
+        )
+        loads = np.array(manifest["grid"]["load_N"], float)
+        ratios = np.array(manifest["grid"]["shear_ratio"], float)
+        files = manifest["files"]
+    except (ValueError, KeyError, TypeError) as exc:
+        raise _bad(folder, f"manifest.json is corrupt ({exc})") from None
+    fields = {}
+    for name, info in files.items():
+        path = folder / name
+        if not path.is_file() or sha256(path) != info["sha256"]:
+            raise _bad(folder, f"{name} is missing or does not match its checksum in "
+                       "manifest.json (corrupt library; rebuild it)")  # fmt: skip
+        with np.load(path) as z:
+            f = {k: z[k] for k in FIELD_KEYS}
+        expect = (len(loads), len(ratios), *lattice.shape, lattice.n_slabs, 2)
+        if f["AB"].shape != expect:
+            raise _bad(folder, f"{name} holds fields of shape {f['AB'].shape}, the manifest "
+                       f"says {expect}")  # fmt: skip
+        zero = {k: np.zeros_like(v[:1]) for k, v in f.items()}
+        fields[float(info["diameter_mm"])] = {k: np.concatenate([zero[k], v]) for k, v in f.items()}
+    if not fields:
+        raise _bad(folder, "manifest.json lists no field files")
+    return Library(folder, manifest, lattice, np.concatenate([[0.0], loads]), ratios, fields)

@@ -1,0 +1,109 @@
+"""``fringekit predict --library DIR``: a config's fringes from a library, without FEM.
+
+Each indenter's final load state (``load_N[-1]``, ``shear_N[-1]``) is synthesised from
+the library (:mod:`fringekit.synth`) on the config's pixel grid, and written as
+``predict`` writes a rendered state: ``state_01/maps.npz``, ``six_step/step1..6.png``,
+``dark_field.png``, ``white_light.png``, ``mask.png``, ``fringe_order.png``, plus
+``summary.json`` (``"source": "library"`` and the library's measured accuracy) and
+``config.toml``.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from fringekit.config.files import ConfigError, to_toml
+from fringekit.config.inputs import optics_setup
+from fringekit.library.store import LoadedIndenter, check_sensor, load_library
+from fringekit.library.synth import synthesise
+from fringekit.optics import (
+    OpticalMap,
+)
+from fringekit.output.folders import run_folder
+from fringekit.predict.render import grid_figure, write_monochrome, write_white_light
+
+__all__ = ["ACCURACY_NOTE", "config_indenters", "run_library_predict"]
+
+#: What docs/library.md measured (stated in every summary).
+ACCURACY_NOTE = (
+    "library synthesis: superposed single-indenter fields; see docs/library.md for the "
+    "measured fringe-order error against full FEM solves"
+)
+
+
+def config_indenters(cfg: dict, lib) -> list[LoadedIndenter]:
+    """The config's indenters at their final load state; loads the library cannot give
+    are a one-line ConfigError."""
+    out = []
+    for i, d in enumerate(cfg["indenter"]):
+        if d["load_N"] is None:
+            raise ConfigError(f"indenter[{i}].depth_mm: a library takes loads (load_N), "
+                              "not depths")  # fmt: skip
+        fz = float(d["load_N"][-1])
+        fx, fy = d["shear_N"][-1] if d["shear_N"] else (0.0, 0.0)
+        if lib.nearest_diameter(d["diameter_mm"]) is None:
+            raise ConfigError(f"indenter[{i}].diameter_mm = {d['diameter_mm']} is not in the "
+                              f"library (it holds {lib.diameters_mm} mm)")  # fmt: skip
+        if not lib.in_range(fz, np.hypot(fx, fy) / max(fz, 1e-12)):
+            raise ConfigError(
+                f"indenter[{i}]: load {fz:g} N with tangential ({fx:g}, {fy:g}) N is outside "
+                f"the library (normal up to {lib.max_load_N:g} N, tangential up to "
+                f"{lib.max_ratio:g} of it)")  # fmt: skip
+        out.append(LoadedIndenter(d["x_mm"] * 1e-3, d["y_mm"] * 1e-3, d["diameter_mm"] * 1e-3,
+                                  float(fx), float(fy), fz))  # fmt: skip
+    return out
+
+
+def _render(cfg, lib, inds, d: Path) -> dict:
+    o = cfg["optics"]
+    opt = optics_setup(cfg)
+    d.mkdir(parents=True)
+    # one superposition for the reference wavelength (maps, grey images) and white light
+    lam = opt.law.wavenumber_grid(o["white_light_wavelengths"])
+    sm = synthesise(lib, inds, opt.grid, opt.law, np.concatenate([[opt.law.wavelength_ref], lam]))
+    omap = OpticalMap(grid=opt.grid, wavelengths=sm.wavelengths[:1], q=sm.q[:, :, :1],
+                      simple_order=np.where(sm.mask, sm.simple_order, np.nan), mask=sm.mask,
+                      reflection=True, law=opt.law)  # fmt: skip
+    order = omap.fringe_order()
+    theta = np.where(omap.mask, omap.principal_angle(), np.nan)
+    rows, cols = opt.grid.shape
+    xy = opt.grid.xy().reshape(rows, cols, 2)
+    np.savez_compressed(d / "maps.npz", fringe_order=order, simple_order=omap.simple_order,
+                        isoclinic_rad=theta, mask=omap.mask, x_m=xy[..., 0], y_m=xy[..., 1],
+                        pixel_size_m=opt.grid.pixel_size, wavelength_m=opt.law.wavelength_ref,
+                        branch_ambiguous=omap.branch_ambiguous())  # fmt: skip
+    write_monochrome(d, sm.q[:, :, 0], cfg, opt, sm.mask)
+    write_white_light(d, sm.q[:, :, 1:], lam, cfg, opt, sm.mask)
+    title = f"fringe order at {o['wavelength_nm']:g} nm (library)"
+    grid_figure(d / "fringe_order.png", order, opt.grid, title, "fringe order", "turbo")
+    valid = np.isfinite(order)
+    return {"state": 1, "folder": d.name,
+            "max_fringe_order": float(np.nanmax(order)) if valid.any() else None}  # fmt: skip
+
+
+def run_library_predict(cfg: dict, library, out, *, echo=print, progress=True) -> dict:
+    """Synthesise the config's final state from ``library`` into ``out``; the summary."""
+    t0 = time.perf_counter()
+    lib = load_library(library)
+    check_sensor(lib, cfg, "the config")
+    inds = config_indenters(cfg, lib)
+    with run_folder(out) as work:
+        (work / "config.toml").write_text(to_toml(cfg))
+        rendered = _render(cfg, lib, inds, work / "state_01")
+        summary = {
+            "case": cfg["case"], "status": "ok", "source": "library",
+            "library": str(lib.folder), "accuracy": ACCURACY_NOTE,
+            "max_fringe_order": rendered["max_fringe_order"],
+            "indenters": [{"force_N": [i.fx, i.fy, -i.fz], "centre_mm": [i.x * 1e3, i.y * 1e3],
+                           "diameter_mm": i.diameter * 1e3} for i in inds],
+            "rendered": [rendered], "times_s": {"total_s": time.perf_counter() - t0},
+        }  # fmt: skip
+        (work / "summary.json").write_text(json.dumps(summary, indent=2))
+    if progress:
+        echo(f"predict: {len(inds)} indenter(s) from the library in "
+             f"{time.perf_counter() - t0:.1f} s -> {out}")  # fmt: skip
+    return summary

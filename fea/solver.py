@@ -24,6 +24,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from fringekit.errors import ComputeError, Interrupted
 from fringekit.meshes import Mesh
 
 from .analytic import depth_guess, dimitriadis_force, hertz_force
@@ -53,7 +54,7 @@ log = logging.getLogger("fringekit.fea")
 FIRST_DEPTH = 0.1
 
 
-class SolverError(RuntimeError):
+class SolverError(ComputeError):
     """The solver could not reach a load state.
 
     Attributes
@@ -67,7 +68,7 @@ class SolverError(RuntimeError):
         self.solutions = solutions
 
 
-class SolveInterrupted(SolverError):
+class SolveInterrupted(SolverError, Interrupted):
     """The user interrupted the solve (Ctrl-C); ``solutions`` keeps the converged states."""
 
 

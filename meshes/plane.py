@@ -23,6 +23,8 @@ import math
 import numpy as np
 from scipy.spatial import Delaunay
 
+from fringekit.errors import ComputeError
+
 from .sizing import target_size
 from .spec import MeshSpec
 
@@ -45,7 +47,7 @@ MAX_STEPS = 1500
 _R2 = (0.7548776662466927, 0.5698402909980532)
 
 
-class PlaneMeshError(RuntimeError):
+class PlaneMeshError(ComputeError):
     """The plane triangulation did not reach an acceptable state."""
 
 

@@ -6,6 +6,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from fringekit.errors import ComputeError
+
 from .topology import signed_volumes
 
 __all__ = [
@@ -92,7 +94,7 @@ class QualityReport:
         )
 
 
-class MeshQualityError(ValueError):
+class MeshQualityError(ComputeError, ValueError):
     """Raised when a mesh has inverted or degenerate elements."""
 
 

@@ -48,6 +48,7 @@ from fringekit.cli.options import (
     pixel,
     positive,
 )
+from fringekit.errors import ComputeError, FringekitError, Interrupted
 
 __all__ = ["main"]
 
@@ -320,23 +321,20 @@ def main(argv: list[str] | None = None) -> int:
     )
     for noisy in ("distributed", "tornado", "bokeh"):  # Dask's cluster chatter
         logging.getLogger(noisy).setLevel(logging.WARNING)
-    from fringekit.predict.pipeline import PredictError, PredictInterrupted
-
     try:
         return args.func(args)
-    except (ValueError, OSError) as exc:
-        print(f"fringekit {args.command}: error: {exc}", file=sys.stderr)
-        return 2
-    except PredictInterrupted as exc:
-        print(f"fringekit {args.command}: {exc}", file=sys.stderr)
-        return 130
     except KeyboardInterrupt:
         print(f"fringekit {args.command}: interrupted by the user", file=sys.stderr)
         return 130
-    except PredictError as exc:
+    except Interrupted as exc:
+        print(f"fringekit {args.command}: {exc}", file=sys.stderr)
+        return 130
+    except ComputeError as exc:
         print(f"fringekit {args.command}: failed: {exc}", file=sys.stderr)
         return 1
-
+    except (FringekitError, ValueError, OSError) as exc:
+        print(f"fringekit {args.command}: error: {exc}", file=sys.stderr)
+        return 2
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(main())

@@ -14,11 +14,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from fringekit.errors import ConfigError
+
 __all__ = ["BUILTIN_CASES", "ConfigError", "INDENTER_SCHEMA", "Key", "SCHEMA"]
-
-
-class ConfigError(ValueError):
-    """A config value that is not allowed; the message names key, value and what is allowed."""
 
 
 @dataclass(frozen=True)

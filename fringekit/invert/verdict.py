@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fringekit.config.files import ConfigError
+from fringekit.errors import RefusedError
 
 __all__ = [
     "AT_LARGEST",
@@ -35,8 +35,8 @@ WARN_RESIDUAL = 0.22
 AT_LARGEST = 0.995
 
 
-class InvertError(ConfigError):
-    """An image the library cannot explain (exit 2, one line)."""
+class InvertError(RefusedError):
+    """An image the library cannot explain (exit 2, one line naming the quantity)."""
 
 
 def parameter_sd(res, n_used: int) -> np.ndarray:

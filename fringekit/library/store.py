@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fringekit.config.files import ConfigError
+from fringekit.errors import LibraryError
 from fringekit.library.lattice import PolarLattice, interpolate_turned
 
 __all__ = [
@@ -48,10 +48,6 @@ __all__ = [
 FORMAT = "fringekit-library/1"
 #: The arrays of a field file (module docstring).
 FIELD_KEYS = ("AB", "valid", "contact_radius_m", "centre_m", "force_N")
-
-
-class LibraryError(ConfigError):
-    """A library folder that cannot be used (missing, corrupt, another sensor)."""
 
 
 def diameter_id(diameter_mm: float) -> str:

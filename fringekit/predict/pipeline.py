@@ -33,6 +33,7 @@ from pathlib import Path
 
 from fringekit.config.files import to_toml
 from fringekit.config.inputs import build_inputs
+from fringekit.errors import ComputeError, Interrupted
 from fringekit.fea import SolveInterrupted, SolverError, write_solution_vtu
 from fringekit.fea.store import solve_cached
 from fringekit.meshes import build_mesh, quality_report
@@ -46,11 +47,11 @@ __all__ = ["PredictError", "PredictInterrupted", "solve_config", "run_predict", 
 log = logging.getLogger("fringekit.predict")
 
 
-class PredictError(RuntimeError):
+class PredictError(ComputeError):
     """The pipeline could not finish; converged states were written before raising."""
 
 
-class PredictInterrupted(PredictError):
+class PredictInterrupted(PredictError, Interrupted):
     """The user stopped the solve; the converged states and a summary were written."""
 
 

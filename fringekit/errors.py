@@ -1,0 +1,68 @@
+"""The errors fringekit raises, under one base class.
+
+Every error a user can meet derives from :class:`FringekitError`, so one ``except`` catches
+them all, and the command line maps each family to one exit status:
+
+- :class:`InputError` (exit 2): an input that is not allowed, found before work starts: a
+  config key, an option, a file, an output folder. :class:`ConfigError` (a config key) and
+  :class:`LibraryError` (a library folder) are input errors.
+- :class:`RefusedError` (exit 2): inputs that are each valid but that the method cannot
+  stand behind together, such as an image the response library cannot explain.
+- :class:`ComputeError` (exit 1): a computation that did not finish (the contact solver did
+  not reach a load, a mesh did not reach its quality). :class:`Interrupted` (exit 130) is
+  the user stopping it.
+
+This module imports nothing of fringekit, so the pipeline stages derive their own errors
+from it without depending on the application.
+
+Examples
+--------
+>>> from fringekit.errors import ConfigError, FringekitError, InputError
+>>> issubclass(ConfigError, InputError) and issubclass(InputError, FringekitError)
+True
+>>> issubclass(ConfigError, ValueError)  # code that caught ValueError still does
+True
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "ComputeError",
+    "ConfigError",
+    "FringekitError",
+    "InputError",
+    "Interrupted",
+    "LibraryError",
+    "RefusedError",
+]
+
+
+class FringekitError(Exception):
+    """The base of every error fringekit raises on purpose."""
+
+
+class InputError(FringekitError, ValueError):
+    """An input that is not allowed; the message names the option or key, the value and
+    what is allowed."""
+
+
+class ConfigError(InputError):
+    """A config value that is not allowed; the message names key, value and what is allowed."""
+
+
+class LibraryError(InputError):
+    """A library folder that cannot be used (missing, corrupt, another sensor)."""
+
+
+class RefusedError(FringekitError):
+    """Valid inputs whose answer the method cannot stand behind (for example an image the
+    response library cannot explain); the message says which quantity is out of range."""
+
+
+class ComputeError(FringekitError, RuntimeError):
+    """A computation that could not finish (solver, mesher); partial results are kept
+    where the raising function says so."""
+
+
+class Interrupted(ComputeError):
+    """The user stopped a computation (Ctrl-C)."""

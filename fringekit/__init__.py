@@ -18,4 +18,29 @@ try:
 except PackageNotFoundError:  # pragma: no cover (a checkout that was never installed)
     __version__ = "0+unknown"
 
-__all__ = ["__version__"]
+from fringekit.config import Config  # noqa: E402
+from fringekit.errors import (  # noqa: E402
+    ComputeError,
+    ConfigError,
+    FringekitError,
+    InputError,
+    Interrupted,
+    LibraryError,
+    RefusedError,
+)
+from fringekit.predict import Prediction, PredictError, predict  # noqa: E402
+
+__all__ = [
+    "ComputeError",
+    "Config",
+    "ConfigError",
+    "FringekitError",
+    "InputError",
+    "Interrupted",
+    "LibraryError",
+    "PredictError",
+    "Prediction",
+    "RefusedError",
+    "__version__",
+    "predict",
+]

@@ -24,7 +24,13 @@ from fringekit.optics import (
     OpticalMap,
 )
 from fringekit.output.folders import run_folder
-from fringekit.predict.render import grid_figure, write_monochrome, write_white_light
+from fringekit.predict.render import (
+    grid_figure,
+    monochrome_images,
+    white_light,
+    write_monochrome,
+    write_white_light,
+)
 
 __all__ = ["ACCURACY_NOTE", "config_indenters", "run_library_predict"]
 
@@ -41,20 +47,30 @@ def config_indenters(cfg: dict, lib) -> list[LoadedIndenter]:
     out = []
     for i, d in enumerate(cfg["indenter"]):
         if d["load_N"] is None:
-            raise ConfigError(f"indenter[{i}].depth_mm: a library takes loads (load_N), "
-                              "not depths")  # fmt: skip
+            raise ConfigError(f"indenter[{i}].depth_mm: a library takes loads (load_N), not depths")
         fz = float(d["load_N"][-1])
         fx, fy = d["shear_N"][-1] if d["shear_N"] else (0.0, 0.0)
         if lib.nearest_diameter(d["diameter_mm"]) is None:
-            raise ConfigError(f"indenter[{i}].diameter_mm = {d['diameter_mm']} is not in the "
-                              f"library (it holds {lib.diameters_mm} mm)")  # fmt: skip
+            raise ConfigError(
+                f"indenter[{i}].diameter_mm = {d['diameter_mm']} is not in the "
+                f"library (it holds {lib.diameters_mm} mm)"
+            )
         if not lib.in_range(fz, np.hypot(fx, fy) / max(fz, 1e-12)):
             raise ConfigError(
                 f"indenter[{i}]: load {fz:g} N with tangential ({fx:g}, {fy:g}) N is outside "
                 f"the library (normal up to {lib.max_load_N:g} N, tangential up to "
-                f"{lib.max_ratio:g} of it)")  # fmt: skip
-        out.append(LoadedIndenter(d["x_mm"] * 1e-3, d["y_mm"] * 1e-3, d["diameter_mm"] * 1e-3,
-                                  float(fx), float(fy), fz))  # fmt: skip
+                f"{lib.max_ratio:g} of it)"
+            )
+        out.append(
+            LoadedIndenter(
+                d["x_mm"] * 1e-3,
+                d["y_mm"] * 1e-3,
+                d["diameter_mm"] * 1e-3,
+                float(fx),
+                float(fy),
+                fz,
+            )
+        )
     return out
 
 
@@ -65,24 +81,41 @@ def _render(cfg, lib, inds, d: Path) -> dict:
     # one superposition for the reference wavelength (maps, grey images) and white light
     lam = opt.law.wavenumber_grid(o["white_light_wavelengths"])
     sm = synthesise(lib, inds, opt.grid, opt.law, np.concatenate([[opt.law.wavelength_ref], lam]))
-    omap = OpticalMap(grid=opt.grid, wavelengths=sm.wavelengths[:1], q=sm.q[:, :, :1],
-                      simple_order=np.where(sm.mask, sm.simple_order, np.nan), mask=sm.mask,
-                      reflection=True, law=opt.law)  # fmt: skip
+    omap = OpticalMap(
+        grid=opt.grid,
+        wavelengths=sm.wavelengths[:1],
+        q=sm.q[:, :, :1],
+        simple_order=np.where(sm.mask, sm.simple_order, np.nan),
+        mask=sm.mask,
+        reflection=True,
+        law=opt.law,
+    )
     order = omap.fringe_order()
     theta = np.where(omap.mask, omap.principal_angle(), np.nan)
     rows, cols = opt.grid.shape
     xy = opt.grid.xy().reshape(rows, cols, 2)
-    np.savez_compressed(d / "maps.npz", fringe_order=order, simple_order=omap.simple_order,
-                        isoclinic_rad=theta, mask=omap.mask, x_m=xy[..., 0], y_m=xy[..., 1],
-                        pixel_size_m=opt.grid.pixel_size, wavelength_m=opt.law.wavelength_ref,
-                        branch_ambiguous=omap.branch_ambiguous())  # fmt: skip
-    write_monochrome(d, sm.q[:, :, 0], cfg, opt, sm.mask)
-    write_white_light(d, sm.q[:, :, 1:], lam, cfg, opt, sm.mask)
+    np.savez_compressed(
+        d / "maps.npz",
+        fringe_order=order,
+        simple_order=omap.simple_order,
+        isoclinic_rad=theta,
+        mask=omap.mask,
+        x_m=xy[..., 0],
+        y_m=xy[..., 1],
+        pixel_size_m=opt.grid.pixel_size,
+        wavelength_m=opt.law.wavelength_ref,
+        branch_ambiguous=omap.branch_ambiguous(),
+    )
+    write_monochrome(d, *monochrome_images(sm.q[:, :, 0], cfg, opt, sm.mask), sm.mask)
+    write_white_light(d, white_light(sm.q[:, :, 1:], lam, cfg, opt, sm.mask), opt)
     title = f"fringe order at {o['wavelength_nm']:g} nm (library)"
     grid_figure(d / "fringe_order.png", order, opt.grid, title, "fringe order", "turbo")
     valid = np.isfinite(order)
-    return {"state": 1, "folder": d.name,
-            "max_fringe_order": float(np.nanmax(order)) if valid.any() else None}  # fmt: skip
+    return {
+        "state": 1,
+        "folder": d.name,
+        "max_fringe_order": float(np.nanmax(order)) if valid.any() else None,
+    }
 
 
 def run_library_predict(cfg: dict, library, out, *, echo=print, progress=True) -> dict:
@@ -95,15 +128,27 @@ def run_library_predict(cfg: dict, library, out, *, echo=print, progress=True) -
         (work / "config.toml").write_text(to_toml(cfg))
         rendered = _render(cfg, lib, inds, work / "state_01")
         summary = {
-            "case": cfg["case"], "status": "ok", "source": "library",
-            "library": str(lib.folder), "accuracy": ACCURACY_NOTE,
+            "case": cfg["case"],
+            "status": "ok",
+            "source": "library",
+            "library": str(lib.folder),
+            "accuracy": ACCURACY_NOTE,
             "max_fringe_order": rendered["max_fringe_order"],
-            "indenters": [{"force_N": [i.fx, i.fy, -i.fz], "centre_mm": [i.x * 1e3, i.y * 1e3],
-                           "diameter_mm": i.diameter * 1e3} for i in inds],
-            "rendered": [rendered], "times_s": {"total_s": time.perf_counter() - t0},
-        }  # fmt: skip
+            "indenters": [
+                {
+                    "force_N": [i.fx, i.fy, -i.fz],
+                    "centre_mm": [i.x * 1e3, i.y * 1e3],
+                    "diameter_mm": i.diameter * 1e3,
+                }
+                for i in inds
+            ],
+            "rendered": [rendered],
+            "times_s": {"total_s": time.perf_counter() - t0},
+        }
         (work / "summary.json").write_text(json.dumps(summary, indent=2))
     if progress:
-        echo(f"predict: {len(inds)} indenter(s) from the library in "
-             f"{time.perf_counter() - t0:.1f} s -> {out}")  # fmt: skip
+        echo(
+            f"predict: {len(inds)} indenter(s) from the library in "
+            f"{time.perf_counter() - t0:.1f} s -> {out}"
+        )
     return summary

@@ -29,10 +29,12 @@ import os
 import shutil
 import time
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from fringekit.config.files import to_toml
-from fringekit.config.inputs import build_inputs
+from fringekit.config.inputs import OpticsSetup, build_inputs
+from fringekit.config.model import Config, as_config
 from fringekit.errors import ComputeError, Interrupted
 from fringekit.fea import SolveInterrupted, SolverError, write_solution_vtu
 from fringekit.fea.store import solve_cached
@@ -40,15 +42,27 @@ from fringekit.meshes import build_mesh, quality_report
 from fringekit.output.folders import swap_in, work_folder
 from fringekit.output.numbers import significant
 from fringekit.output.versions import run_versions
-from fringekit.predict.render import render_state
+from fringekit.predict.render import render_state, write_state
 
-__all__ = ["PredictError", "PredictInterrupted", "solve_config", "run_predict", "used_config"]
+__all__ = [
+    "Prediction",
+    "PredictError",
+    "PredictInterrupted",
+    "predict",
+    "run_predict",
+    "solve_config",
+    "used_config",
+]
 
 log = logging.getLogger("fringekit.predict")
 
 
 class PredictError(ComputeError):
-    """The pipeline could not finish; converged states were written before raising."""
+    """The solver could not reach a load; ``prediction`` holds the converged states."""
+
+    def __init__(self, message: str, prediction: Prediction | None = None):
+        super().__init__(message)
+        self.prediction = prediction
 
 
 class PredictInterrupted(PredictError, Interrupted):
@@ -61,9 +75,15 @@ def solve_config(cfg: dict, *, cache_dir=None, use_cache: bool = True, progress:
     mesh = build_mesh(inp.spec, cache_dir=cache_dir, use_cache=use_cache)
     try:
         sols, stats, _ = solve_cached(
-            mesh, inp.indenters, materials=inp.materials, contact=inp.contact,
-            settings=inp.settings, cache_dir=cache_dir, use_cache=use_cache, progress=progress,
-        )  # fmt: skip
+            mesh,
+            inp.indenters,
+            materials=inp.materials,
+            contact=inp.contact,
+            settings=inp.settings,
+            cache_dir=cache_dir,
+            use_cache=use_cache,
+            progress=progress,
+        )
         return mesh, sols, stats, None
     except SolverError as exc:
         return mesh, exc.solutions, None, str(exc)
@@ -120,129 +140,155 @@ def estimate_text(mesh, indenters) -> str:
     )
 
 
-def _write_summary(out: Path, summary: dict) -> None:
-    tmp = out / "summary.json.part"
-    tmp.write_text(json.dumps(significant(summary), indent=2, allow_nan=False))
-    os.replace(tmp, out / "summary.json")
+@dataclass(frozen=True)
+class Prediction:
+    """What a config predicts: the contact solution of every load state and the optics
+    of the rendered ones, in memory. :meth:`write` puts it into a folder.
+
+    Attributes
+    ----------
+    config : Config
+        The checked config it was computed from.
+    mesh : fringekit.meshes.Mesh
+        The model's mesh (a half or quarter model where symmetry allows).
+    solutions : tuple of fringekit.fea.Solution
+        Every converged load state, in order.
+    states : tuple of RenderedState
+        The rendered load states (``optics.render``: the last, or all): fringe order,
+        isoclinic, mask, the six phase-stepped, dark-field and white-light images.
+    summary : dict
+        What ``summary.json`` holds: status, maximum fringe order, each indenter's force
+        (N), depth and contact radius (mm) per state, the model, times and versions.
+
+    Examples
+    --------
+    >>> import fringekit
+    >>> cfg = fringekit.Config.reference().replace({"optics.pixels": 48})
+    >>> pred = fringekit.predict(cfg)  # doctest: +SKIP
+    >>> round(pred.states[-1].max_fringe_order, 1)  # doctest: +SKIP
+    3.6
+    """
+
+    config: Config
+    mesh: object
+    solutions: tuple
+    states: tuple
+    summary: dict
+    optics: OpticsSetup = field(repr=False)
+
+    @property
+    def status(self) -> str:
+        """``"ok"``, or ``"failed"`` / ``"interrupted"`` for the converged part of a run."""
+        return self.summary["status"]
+
+    def write(self, folder: str | os.PathLike) -> Path:
+        """Write ``config.toml``, ``summary.json`` and one ``state_XX/`` per rendered state
+        (VTU, maps, images, figures) into ``folder``, created if missing; return it.
+
+        Files of the same names are replaced; other files in ``folder`` are left alone (the
+        ``fringekit`` command writes into a fresh folder and swaps it in).
+        """
+        out = Path(folder)
+        out.mkdir(parents=True, exist_ok=True)
+        t0 = time.perf_counter()
+        (out / "config.toml").write_text(to_toml(self.config.data))
+        rendered = {rs.state for rs in self.states}
+        for k, sol in enumerate(self.solutions):  # states not rendered still get their VTU
+            if k + 1 not in rendered and self.status == "interrupted":
+                (out / f"state_{k + 1:02d}").mkdir(exist_ok=True)
+                write_solution_vtu(sol, out / f"state_{k + 1:02d}" / "solution.vtu")
+        for rs in self.states:
+            write_state(out, rs, self.config.data, self.optics)
+        summary = copy.deepcopy(self.summary)
+        summary["times_s"]["write_s"] = time.perf_counter() - t0
+        tmp = out / "summary.json.part"
+        tmp.write_text(json.dumps(significant(summary), indent=2, allow_nan=False))
+        os.replace(tmp, out / "summary.json")
+        return out
 
 
-def run_predict(
-    cfg: dict,
-    out: str | os.PathLike,
+def predict(
+    config: Config | dict | str | os.PathLike | None = None,
     *,
     cache_dir: str | os.PathLike | None = None,
     use_cache: bool = True,
-    progress: bool = True,
+    progress: bool = False,
     echo: Callable[[str], None] = print,
-) -> dict:
-    """Run the whole prediction for an effective config; return the summary dict.
+) -> Prediction:
+    """Mesh, solve and render a config: the fringes a load makes.
 
     Parameters
     ----------
-    cfg : dict
-        From :func:`fringekit.config.load_config` / :func:`effective_config`.
-    out : path
-        Output folder of this case (created).
+    config : Config, dict, path or str, optional
+        A :class:`~fringekit.Config`, a dict shaped like the TOML file, a TOML file, or a
+        built-in case name; default the reference case.
     cache_dir : path, optional
-        Mesh and solution cache root (default: ``$FRINGEKIT_CACHE_DIR`` or the user cache).
+        Mesh and solution cache root (default ``$FRINGEKIT_CACHE_DIR`` or the user cache).
     use_cache : bool
         False re-meshes and re-solves and writes no cache.
     progress : bool
-        Progress bar over load states and one line per stage.
+        A progress bar over load states and one line per stage through ``echo``.
     echo : callable
-        Where stage lines go.
+        Where the stage lines go.
 
-    The run is written into a fresh folder beside ``out`` and swapped in when it ends, so
-    ``out`` always holds exactly one run. A run that fails to converge keeps its converged
-    states; when ``out`` already holds an earlier run, that run is kept and the failed
-    one goes to ``<out>-failed``. A run stopped by an error or an interrupt leaves ``out``
-    as it was.
+    Returns
+    -------
+    Prediction
+        Solutions, rendered maps and images, and the summary; nothing is written.
 
     Raises
     ------
     ConfigError
-        Bad inputs (before anything expensive runs where possible).
+        A bad config, before anything is computed.
     PredictError
-        The solver failed; the states it reached are written (``summary.json`` says so).
-    PredictInterrupted
-        Ctrl-C during the solve: the converged states' VTU files and a summary with status
-        ``"interrupted"`` are written (to ``<out>-interrupted`` when ``out`` holds a run).
-        Ctrl-C elsewhere leaves ``out`` as it was.
+        The solver could not reach a load; ``exc.prediction`` holds the converged states
+        (a :class:`PredictInterrupted` when the user pressed Ctrl-C).
+
+    Examples
+    --------
+    >>> import fringekit
+    >>> cfg = fringekit.Config.reference().replace({"optics.pixels": 48})
+    >>> pred = fringekit.predict(cfg)  # doctest: +SKIP
+    >>> f"{pred.summary['indenters'][0]['depth_mm']:.3f} mm"  # doctest: +SKIP
+    '0.697 mm'
     """
-    out = Path(out)
-    inp = build_inputs(cfg)
-    work = work_folder(out)
-    try:
-        summary = _run(cfg, inp, work, cache_dir, use_cache, progress, echo)
-    except BaseException:
-        shutil.rmtree(work, ignore_errors=True)
-        raise
-    failed = summary["status"] != "ok"
-    dest = out.with_name(f"{out.name}-{summary['status']}") if failed and out.exists() else out
-    swap_in(work, dest)
-    if failed:
-        raise (PredictInterrupted if summary["status"] == "interrupted" else PredictError)(
-            f"{summary['error']}; the {len(summary['states'])} converged state(s) are written "
-            f"to {dest}" + (f" (the earlier run in {out} is kept)" if dest != out else "")
-        )
-    return summary
-
-
-def _run(cfg, inp, out: Path, cache_dir, use_cache, progress, echo) -> dict:
-    """Mesh, solve and render into the empty folder ``out``; return the summary."""
+    cfg = as_config(config)
+    inp = build_inputs(cfg.data)
     say = echo if progress else (lambda s: None)
     t_all = time.perf_counter()
-    spec = inp.spec
-    (out / "config.toml").write_text(to_toml(cfg))
-    times: dict[str, float] = {}
-
-    say(f"mesh: {spec.symmetry} model")
+    say(f"mesh: {inp.spec.symmetry} model")
     t0 = time.perf_counter()
-    mesh = build_mesh(spec, cache_dir=cache_dir, use_cache=use_cache)
-    times["mesh_s"] = time.perf_counter() - t0
+    mesh = build_mesh(inp.spec, cache_dir=cache_dir, use_cache=use_cache)
+    times = {"mesh_s": time.perf_counter() - t0}
     rep = quality_report(mesh.points, mesh.cells, mesh.regions)
     say(f"mesh: {rep}")
-
     say(f"solve: {estimate_text(mesh, inp.indenters)}")
     t0 = time.perf_counter()
-    failure = None
-    stats = None
-    interrupted = False
+    failure, stats, interrupted = None, None, False
     try:
         sols, stats, cache_file = solve_cached(
-            mesh, inp.indenters, materials=inp.materials, contact=inp.contact,
-            settings=inp.settings, cache_dir=cache_dir, use_cache=use_cache, progress=progress,
-        )  # fmt: skip
+            mesh,
+            inp.indenters,
+            materials=inp.materials,
+            contact=inp.contact,
+            settings=inp.settings,
+            cache_dir=cache_dir,
+            use_cache=use_cache,
+            progress=progress,
+        )
     except SolverError as exc:
         sols, failure, cache_file = exc.solutions, str(exc), None
         interrupted = isinstance(exc, SolveInterrupted)
     times["solve_s"] = time.perf_counter() - t0
-    say(
-        f"solve: {len(sols)} load state(s) in {times['solve_s']:.1f} s"
-        + (" (from cache)" if stats is None and failure is None else "")
-    )
-
-    render = (
-        range(len(sols))
-        if cfg["optics"]["render"] == "all"
-        else range(max(len(sols) - 1, 0), len(sols))  # nothing when no state converged
-    )
-    if interrupted:  # the user wants to stop: keep the states, render nothing
-        render = range(0)
-        for k, sol in enumerate(sols):
-            (out / f"state_{k + 1:02d}").mkdir()
-            write_solution_vtu(sol, out / f"state_{k + 1:02d}" / "solution.vtu")
-    rendered = []
-    for k in render:
-        say(f"optics: state {k + 1} of {len(sols)}")
-        rendered.append(render_state(sols[k], k, cfg, out, inp.optics, say, progress))
-
+    cached = stats is None and failure is None
+    say(f"solve: {len(sols)} load state(s) in {times['solve_s']:.1f} s" + " (from cache)" * cached)
+    states = _render_states(cfg, sols, inp.optics, say, progress, interrupted)
     final = sols[-1] if sols else None
     summary = {
-        "case": cfg["case"],
+        "case": cfg.case,
         "status": "interrupted" if interrupted else "failed" if failure else "ok",
         "error": failure,
-        "max_fringe_order": rendered[-1]["max_fringe_order"] if rendered else None,
+        "max_fringe_order": states[-1].max_fringe_order if states else None,
         "indenters": [i.as_dict() for i in final.indenters] if final else [],
         "states": [
             {
@@ -252,11 +298,79 @@ def _run(cfg, inp, out: Path, cache_dir, use_cache, progress, echo) -> dict:
             }
             for k, s in enumerate(sols)
         ],
-        "rendered": rendered,
-        "model": _model_summary(spec, mesh, rep, stats, failure, cache_file),
+        "rendered": [rs.entry() for rs in states],
+        "model": _model_summary(inp.spec, mesh, rep, stats, failure, cache_file),
         "times_s": {**times, "total_s": time.perf_counter() - t_all},
         "versions": run_versions(),
-        "config": used_config(cfg),
+        "config": used_config(cfg.data),
     }
-    _write_summary(out, summary)
-    return summary
+    pred = Prediction(cfg, mesh, tuple(sols), tuple(states), summary, inp.optics)
+    if failure:
+        error = PredictInterrupted if interrupted else PredictError
+        raise error(f"{failure}; {len(sols)} load state(s) converged", prediction=pred)
+    return pred
+
+
+def _render_states(cfg: Config, sols, optics, say, progress, interrupted) -> list:
+    """The optics of the states ``optics.render`` asks for (none when interrupted: the
+    user wants to stop)."""
+    if interrupted or not sols:
+        return []
+    todo = range(len(sols)) if cfg["optics.render"] == "all" else [len(sols) - 1]
+    states = []
+    for k in todo:
+        say(f"optics: state {k + 1} of {len(sols)}")
+        states.append(render_state(sols[k], k, cfg.data, optics, say, progress))
+    return states
+
+
+def run_predict(
+    cfg: dict | Config,
+    out: str | os.PathLike,
+    *,
+    cache_dir: str | os.PathLike | None = None,
+    use_cache: bool = True,
+    progress: bool = True,
+    echo: Callable[[str], None] = print,
+) -> dict:
+    """``fringekit predict``: :func:`predict`, then write the folder ``out``; the summary.
+
+    The run is written into a fresh folder beside ``out`` and swapped in when it ends, so
+    ``out`` always holds exactly one run. A run that fails to converge keeps its converged
+    states; when ``out`` already holds an earlier run, that run is kept and the failed
+    one goes to ``<out>-failed`` (``<out>-interrupted`` after Ctrl-C during the solve). A
+    run stopped by an error or an interrupt elsewhere leaves ``out`` as it was.
+
+    Raises
+    ------
+    ConfigError
+        Bad inputs, before anything expensive runs.
+    PredictError, PredictInterrupted
+        As :func:`predict`, after the converged states are written.
+    """
+    out = Path(out)
+    cfg = as_config(cfg)
+    build_inputs(cfg.data)  # a bad config fails before the output folder is touched
+    work = work_folder(out)
+    try:
+        try:
+            pred, error = (
+                predict(
+                    cfg, cache_dir=cache_dir, use_cache=use_cache, progress=progress, echo=echo
+                ),
+                None,
+            )
+        except PredictError as exc:
+            pred, error = exc.prediction, exc
+        pred.write(work)
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        raise
+    dest = out.with_name(f"{out.name}-{pred.status}") if error and out.exists() else out
+    swap_in(work, dest)
+    if error is not None:
+        raise type(error)(
+            f"{pred.summary['error']}; the {len(pred.solutions)} converged state(s) are "
+            f"written to {dest}" + (f" (the earlier run in {out} is kept)" if dest != out else "")
+        )
+    return pred.summary

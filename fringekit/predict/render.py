@@ -1,13 +1,15 @@
 """One solved load state -> the optics outputs of ``fringekit predict``.
 
-:func:`render_state` writes into ``state_XX/``: ``solution.vtu``, ``maps.npz``, the six
-phase-stepped images, the white-light image and the figures. :func:`fringe_order_map`
-gives the monochrome fringe-order map alone (calibration runs).
+:func:`render_state` computes a :class:`RenderedState` in memory (maps, the six
+phase-stepped images, the dark-field and white-light images); :func:`write_state` writes
+it into ``state_XX/``: ``solution.vtu``, ``maps.npz``, the images and the figures.
+:func:`fringe_order_map` gives the monochrome fringe-order map alone (calibration runs).
 """
 
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -31,13 +33,17 @@ from fringekit.optics import (
 from fringekit.output.figures import NO_DATA_IMAGE_LEVEL, map_figure, profile_figure, sensor_extent
 
 __all__ = [
+    "RenderedState",
     "fringe_order_map",
     "grid_figure",
     "indenter_pixels",
+    "monochrome_images",
     "mono_map",
     "no_data_fill",
     "render_state",
+    "white_light",
     "write_monochrome",
+    "write_state",
     "write_white_light",
 ]
 
@@ -109,68 +115,132 @@ def grid_figure(path, data, grid, title, label, cmap, **kw) -> None:
     the pixel where the sensor origin falls, pixel edges on the axes."""
     origin = tuple(float(v) for v in grid.xy_to_pixel(0.0, 0.0))
     extent = sensor_extent(grid.shape, grid.pixel_size, origin)
-    map_figure(path, data, title, label, cmap, extent=extent, axis_labels=("x (mm)", "y (mm)"),
-               **kw)  # fmt: skip
+    map_figure(
+        path, data, title, label, cmap, extent=extent, axis_labels=("x (mm)", "y (mm)"), **kw
+    )
 
 
-def _write_maps(d: Path, sol, omap: OpticalMap, law) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``maps.npz`` of one state; returns (fringe order, isoclinic (rad), branch ambiguity)."""
-    grid = omap.grid
-    rows, cols = grid.shape
-    order = omap.fringe_order()
-    ambiguous = omap.branch_ambiguous()
-    theta = np.where(omap.mask, omap.principal_angle(), np.nan)
-    xy = grid.xy().reshape(rows, cols, 2)
+@dataclass(frozen=True)
+class RenderedState:
+    """The optics of one solved load state, in memory: maps and camera images.
+
+    Attributes
+    ----------
+    state : int
+        The load state, 1-based.
+    solution : fringekit.fea.Solution
+        The solved state it was rendered from.
+    grid : fringekit.optics.PixelGrid
+        The pixel grid (rows, cols) of every map and image.
+    fringe_order, isoclinic_rad, simple_order : ndarray (rows, cols)
+        Total fringe order at the reference wavelength, isoclinic (rad) and the
+        rotation-free simple order; NaN where there is no data.
+    branch_ambiguous, mask : ndarray of bool (rows, cols)
+        Where the order's branch cannot be chosen; where there is data.
+    six_step : dict of str to ndarray (rows, cols)
+        The six phase-stepped camera images (``step1`` .. ``step6``), no-data filled.
+    dark_field : ndarray (rows, cols)
+        The monochrome dark-field circular image, no-data filled.
+    white_light : ndarray (rows, cols, 3)
+        The white-light colour image, no-data filled (uint8, or uint16 at 16 bit).
+    wavelength_m : float
+        The reference wavelength (m).
+    times_s : dict
+        Seconds spent per stage.
+    """
+
+    state: int
+    solution: object
+    grid: object
+    fringe_order: np.ndarray
+    isoclinic_rad: np.ndarray
+    simple_order: np.ndarray
+    branch_ambiguous: np.ndarray
+    mask: np.ndarray
+    six_step: dict
+    dark_field: np.ndarray
+    white_light: np.ndarray
+    wavelength_m: float
+    times_s: dict = field(default_factory=dict)
+
+    @property
+    def max_fringe_order(self) -> float | None:
+        """The largest fringe order over the data, or None without data."""
+        valid = np.isfinite(self.fringe_order)
+        return float(np.nanmax(self.fringe_order)) if valid.any() else None
+
+    def entry(self) -> dict:
+        """This state's entry of ``summary.json["rendered"]``."""
+        valid = np.isfinite(self.fringe_order)
+        return {
+            "state": self.state,
+            "folder": f"state_{self.state:02d}",
+            "max_fringe_order": self.max_fringe_order,
+            "max_simple_order": float(np.nanmax(self.simple_order)) if valid.any() else None,
+            "valid_pixel_fraction": float(valid.mean()),
+            "branch_ambiguous_fraction": float(self.branch_ambiguous.sum() / max(valid.sum(), 1)),
+            "times_s": self.times_s,
+        }
+
+
+def _write_maps(d: Path, rs: RenderedState) -> None:
+    """``maps.npz`` of one state."""
+    rows, cols = rs.grid.shape
+    xy = rs.grid.xy().reshape(rows, cols, 2)
     np.savez_compressed(
         d / "maps.npz",
-        fringe_order=order,
-        branch_ambiguous=ambiguous,
-        simple_order=omap.simple_order,
-        isoclinic_rad=theta,
-        mask=omap.mask,
+        fringe_order=rs.fringe_order,
+        branch_ambiguous=rs.branch_ambiguous,
+        simple_order=rs.simple_order,
+        isoclinic_rad=rs.isoclinic_rad,
+        mask=rs.mask,
         x_m=xy[..., 0],
         y_m=xy[..., 1],
-        pixel_size_m=grid.pixel_size,
-        indenter_rc=indenter_pixels(sol, grid),
-        wavelength_m=law.wavelength_ref,
+        pixel_size_m=rs.grid.pixel_size,
+        indenter_rc=indenter_pixels(rs.solution, rs.grid),
+        wavelength_m=rs.wavelength_m,
     )
-    return order, theta, ambiguous
 
 
-def _white_light(d: Path, sol, cfg: dict, optics: OpticsSetup, samples, mask) -> np.ndarray:
-    """Render and write the white-light image (dark-field circular); return it."""
-    rows, cols = optics.grid.shape
-    lam = optics.law.wavenumber_grid(cfg["optics"]["white_light_wavelengths"])
-    qw, _, _, _ = _integrate(sol, cfg, optics, lam, samples=samples)
-    return write_white_light(d, qw.reshape(rows, cols, len(lam), 4), lam, cfg, optics, mask)
-
-
-def write_white_light(d: Path, qw, lam, cfg: dict, optics: OpticsSetup, mask) -> np.ndarray:
-    """Write ``white_light.png`` (``.tif`` at 16 bit) of quaternions qw (rows, cols, W, 4)
-    at wavelengths lam through the config's light, camera and dark-field circular
-    polariscope, the no-data level outside ``mask``; return the image."""
-    o, camera = cfg["optics"], optics.camera
+def white_light(qw, lam, cfg: dict, optics: OpticsSetup, mask) -> np.ndarray:
+    """The white-light image of quaternions qw (rows, cols, W, 4) at wavelengths lam (m)
+    through the config's light, camera and dark-field circular polariscope, at the no-data
+    level outside ``mask`` (rows, cols)."""
+    o = cfg["optics"]
     rgb = white_light_image(
-        qw, light_source(o["light"], lam), camera, dark_field_circular(**optics.errors),
+        qw,
+        light_source(o["light"], lam),
+        optics.camera,
+        dark_field_circular(**optics.errors),
         seed=o["seed"],
-    )  # fmt: skip
-    rgb = no_data_fill(rgb, mask)
-    write_image(d / ("white_light.png" if camera.bit_depth == 8 else "white_light.tif"), rgb)
-    return rgb
+    )
+    return no_data_fill(rgb, mask)
 
 
-def write_monochrome(d: Path, q_img, cfg: dict, optics: OpticsSetup, mask) -> None:
-    """Write ``mask.png``, ``six_step/step1..6.png`` and ``dark_field.png`` of quaternions
-    q_img (rows, cols, 4) at the reference wavelength, the no-data level outside ``mask``."""
+def write_white_light(d: Path, rgb: np.ndarray, optics: OpticsSetup) -> None:
+    """Write ``white_light.png`` (``.tif`` at 16 bit)."""
+    write_image(d / ("white_light.png" if optics.camera.bit_depth == 8 else "white_light.tif"), rgb)
+
+
+def monochrome_images(q_img, cfg: dict, optics: OpticsSetup, mask) -> tuple[dict, np.ndarray]:
+    """(the six phase-stepped images by name, the dark-field image) of quaternions q_img
+    (rows, cols, 4) at the reference wavelength, the no-data level outside ``mask``."""
     seed = cfg["optics"]["seed"]
+    steps = {
+        a.name: no_data_fill(monochrome_image(q_img, a, optics.camera, seed=seed), mask)
+        for a in six_step_arrangements(**optics.errors)
+    }
+    dark = monochrome_image(q_img, dark_field_circular(**optics.errors), optics.camera, seed=seed)
+    return steps, no_data_fill(dark, mask)
+
+
+def write_monochrome(d: Path, steps: dict, dark: np.ndarray, mask) -> None:
+    """Write ``mask.png``, ``six_step/step1..6.png`` and ``dark_field.png``."""
     (d / "six_step").mkdir(parents=True, exist_ok=True)
     write_image(d / "mask.png", np.where(mask, 255, 0).astype(np.uint8))
-    for a in six_step_arrangements(**optics.errors):
-        img = monochrome_image(q_img, a, optics.camera, seed=seed)
-        write_image(d / "six_step" / f"{a.name}.png", no_data_fill(img, mask))
-    dark = monochrome_image(q_img, dark_field_circular(**optics.errors), optics.camera,
-                            seed=seed)  # fmt: skip
-    write_image(d / "dark_field.png", no_data_fill(dark, mask))
+    for name, img in steps.items():
+        write_image(d / "six_step" / f"{name}.png", img)
+    write_image(d / "dark_field.png", dark)
 
 
 def _profile(d: Path, sol, order: np.ndarray, grid) -> None:
@@ -202,40 +272,48 @@ def no_data_fill(img: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return out
 
 
-def _figures(d: Path, sol, cfg: dict, grid, order, theta, rgb, mask, ambiguous) -> None:
+def _figures(d: Path, rs: RenderedState, cfg: dict) -> None:
     o = cfg["optics"]
     grid_figure(
-        d / "fringe_order.png", order, grid, f"fringe order at {o['wavelength_nm']:g} nm",
-        "fringe order", "turbo", hatch=ambiguous,
+        d / "fringe_order.png",
+        rs.fringe_order,
+        rs.grid,
+        f"fringe order at {o['wavelength_nm']:g} nm",
+        "fringe order",
+        "turbo",
+        hatch=rs.branch_ambiguous,
         hatch_label="branch ambiguous (maps.npz branch_ambiguous)",
-    )  # fmt: skip
-    grid_figure(d / "isoclinic.png", np.degrees(theta), grid, "isoclinic", "angle (deg)",
-                 "twilight")  # fmt: skip
-    shown = rgb / float(np.iinfo(rgb.dtype).max)
-    shown[~mask] = np.nan  # drawn as "no data"
+    )
     grid_figure(
-        d / "fringe_image.png", shown, grid,
-        f"white light ({o['light']}), dark-field circular", "", None,
-    )  # fmt: skip
-    _profile(d, sol, order, grid)
+        d / "isoclinic.png",
+        np.degrees(rs.isoclinic_rad),
+        rs.grid,
+        "isoclinic",
+        "angle (deg)",
+        "twilight",
+    )
+    shown = rs.white_light / float(np.iinfo(rs.white_light.dtype).max)
+    shown[~rs.mask] = np.nan  # drawn as "no data"
+    grid_figure(
+        d / "fringe_image.png",
+        shown,
+        rs.grid,
+        f"white light ({o['light']}), dark-field circular",
+        "",
+        None,
+    )
+    _profile(d, rs.solution, rs.fringe_order, rs.grid)
 
 
 def render_state(
-    sol, k: int, cfg: dict, out: Path, optics: OpticsSetup, progress, show_bars: bool = False
-) -> dict:
-    """Write the VTU, maps, images and figures of load state ``k`` (0-based) into
-    ``out/state_XX``; return its entry of ``summary.json["rendered"]``.
+    sol, k: int, cfg: dict, optics: OpticsSetup, progress, show_bars: bool = False
+) -> RenderedState:
+    """The maps and images of load state ``k`` (0-based), computed in memory.
 
     ``progress`` is called with one line per stage; ``show_bars`` shows the ray bar.
     """
     o = cfg["optics"]
-    d = out / f"state_{k + 1:02d}"
-    d.mkdir(parents=True, exist_ok=True)
     times = {}
-    t0 = time.perf_counter()
-    write_solution_vtu(sol, d / "solution.vtu")
-    times["vtu_s"] = time.perf_counter() - t0
-
     t0 = time.perf_counter()
     omap, samples = mono_map(sol, cfg, optics, progress=show_bars)
     if not omap.mask.any():
@@ -247,29 +325,47 @@ def render_state(
     progress("optics: rays located and integrated")
 
     t0 = time.perf_counter()
-    order, theta, ambiguous = _write_maps(d, sol, omap, optics.law)
+    order = omap.fringe_order()
+    ambiguous = omap.branch_ambiguous()
+    theta = np.where(omap.mask, omap.principal_angle(), np.nan)
     times["maps_s"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    write_monochrome(d, omap.q[:, :, 0], cfg, optics, omap.mask)
+    steps, dark = monochrome_images(omap.q[:, :, 0], cfg, optics, omap.mask)
     times["six_step_s"] = time.perf_counter() - t0
     progress("optics: six phase-stepped and dark-field images")
 
     t0 = time.perf_counter()
-    rgb = _white_light(d, sol, cfg, optics, samples, omap.mask)
+    rows, cols = optics.grid.shape
+    lam = optics.law.wavenumber_grid(o["white_light_wavelengths"])
+    qw, _, _, _ = _integrate(sol, cfg, optics, lam, samples=samples)
+    rgb = white_light(qw.reshape(rows, cols, len(lam), 4), lam, cfg, optics, omap.mask)
     times["white_light_s"] = time.perf_counter() - t0
     progress("optics: white-light image")
+    return RenderedState(
+        state=k + 1,
+        solution=sol,
+        grid=optics.grid,
+        fringe_order=order,
+        isoclinic_rad=theta,
+        simple_order=omap.simple_order,
+        branch_ambiguous=ambiguous,
+        mask=omap.mask,
+        six_step=steps,
+        dark_field=dark,
+        white_light=rgb,
+        wavelength_m=optics.law.wavelength_ref,
+        times_s=times,
+    )
 
-    t0 = time.perf_counter()
-    _figures(d, sol, cfg, optics.grid, order, theta, rgb, omap.mask, ambiguous)
-    times["figures_s"] = time.perf_counter() - t0
-    valid = np.isfinite(order)
-    return {
-        "state": k + 1,
-        "folder": d.name,
-        "max_fringe_order": float(np.nanmax(order)) if valid.any() else None,
-        "max_simple_order": float(np.nanmax(omap.simple_order)) if valid.any() else None,
-        "valid_pixel_fraction": float(valid.mean()),
-        "branch_ambiguous_fraction": float(ambiguous.sum() / max(valid.sum(), 1)),
-        "times_s": times,
-    }
+
+def write_state(out: Path, rs: RenderedState, cfg: dict, optics: OpticsSetup) -> None:
+    """Write the VTU, maps, images and figures of one rendered state into
+    ``out/state_XX/``."""
+    d = out / f"state_{rs.state:02d}"
+    d.mkdir(parents=True, exist_ok=True)
+    write_solution_vtu(rs.solution, d / "solution.vtu")
+    _write_maps(d, rs)
+    write_monochrome(d, rs.six_step, rs.dark_field, rs.mask)
+    write_white_light(d, rs.white_light, optics)
+    _figures(d, rs, cfg)

@@ -18,8 +18,8 @@ from .calibrate import (
 )
 from .circles import Circle, disc_by_symmetry, find_disc, find_discs
 from .compare import Comparison, Profile, compare_maps, line_profile
-from .images import SIX_STEP_ORDER, Frame, load_image, load_six_step, noise_sd, normalise
-from .masks import check_mask, circle_mask, exclude_circle, polygon_mask
+from .images import SIX_STEP_ORDER, Frame, image_noise_sd, load_image, load_six_step, normalise
+from .masks import border_anchor, check_mask, circle_mask, exclude_circle, polygon_mask
 from .mono import MonoResult, grey_channel, mono_order
 from .phase import (
     Resolution,
@@ -31,6 +31,7 @@ from .phase import (
     wrap,
 )
 from .rgb import (
+    MAX_COLOUR_ERROR,
     MIN_COLOUR_SPREAD,
     CalibrationTable,
     RGBResult,
@@ -38,7 +39,7 @@ from .rgb import (
     search,
     search_refined,
 )
-from .unwrap import FringeOrderMap, border_anchor, count_fringe_order, unwrap_fringe_order
+from .unwrap import FringeOrderMap, count_fringe_order, unwrap_fringe_order
 
 __all__ = [
     "RADII_MM",
@@ -57,6 +58,7 @@ __all__ = [
     "save_calibration",
     "SIX_STEP_ORDER",
     "CalibrationTable",
+    "MAX_COLOUR_ERROR",
     "MIN_COLOUR_SPREAD",
     "colour_spread",
     "Comparison",
@@ -75,7 +77,7 @@ __all__ = [
     "line_profile",
     "load_image",
     "load_six_step",
-    "noise_sd",
+    "image_noise_sd",
     "normalise",
     "polygon_mask",
     "principal_stress_difference",

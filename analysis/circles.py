@@ -15,6 +15,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import ndimage
+from skimage.feature import canny
+from skimage.measure import CircleModel
+from skimage.transform import hough_circle, hough_circle_peaks, rescale
 
 from .mono import grey_channel
 
@@ -60,8 +64,6 @@ def _support(rr: np.ndarray, cc: np.ndarray, row: float, col: float, radius: flo
 def _refine(rr: np.ndarray, cc: np.ndarray, guess: Circle) -> Circle:
     """Least-squares circle through the edge pixels (rr, cc) within 4 % of the guess's
     radius (support left to the caller)."""
-    from skimage.measure import CircleModel
-
     near = np.abs(np.hypot(rr - guess.row, cc - guess.col) - guess.radius) <= max(
         0.04 * guess.radius, 2.0
     )
@@ -97,9 +99,6 @@ def find_discs(
     -------
     list of Circle with support of at least :data:`MIN_SUPPORT` (may be empty).
     """
-    from skimage.feature import canny
-    from skimage.transform import hough_circle, hough_circle_peaks, rescale
-
     img = grey_channel(np.asarray(image, float))
     lo_i, hi_i = np.percentile(img, [1.0, 99.0])  # dim photographs: stretch first
     img = np.clip((img - lo_i) / max(hi_i - lo_i, 1e-12), 0.0, 1.0)
@@ -151,8 +150,6 @@ def disc_by_symmetry(image: np.ndarray) -> Circle:
     outline does not show (its horizontal ends are as dark as the background). Support
     is the share of the column's departure inside the circle (1 for a clean photo).
     """
-    from scipy import ndimage
-
     img = ndimage.gaussian_filter(grey_channel(np.asarray(image, float)), 1.0)
     border = np.concatenate([img[0], img[-1], img[:, 0], img[:, -1]])
     bg = float(np.median(border))

@@ -5,6 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.ndimage import binary_erosion, map_coordinates
+from scipy.optimize import least_squares
+from skimage.registration import phase_cross_correlation
 
 __all__ = ["Profile", "line_profile", "Comparison", "compare_maps"]
 
@@ -32,8 +35,6 @@ def line_profile(image, start, end, *, pixel_size: float | None = None, n=None) 
     NaN pixels (masks) stay NaN in the profile instead of being blended with their
     neighbours.
     """
-    from scipy.ndimage import map_coordinates
-
     img = np.asarray(image, float)
     if img.ndim != 2:
         raise ValueError(f"line_profile needs a (rows, cols) map, got shape {img.shape}")
@@ -80,8 +81,6 @@ class Comparison:
 
 
 def _resample(pred, centre_pred, shape, centre_meas, scale, rot):
-    from scipy.ndimage import map_coordinates
-
     r, c = np.mgrid[: shape[0], : shape[1]].astype(float)
     dr, dc = r - centre_meas[0], c - centre_meas[1]
     cs, sn = np.cos(rot), np.sin(rot)
@@ -101,10 +100,6 @@ def _register(pred, meas, cp, cm, scale, rot, res_pred):
     holes differ, and filling them biased the plain correlation by 3.5 px on a one-photo
     map), then least squares of the residual over the sub-pixel shift on the pixels both
     maps hold (eroded by 2 px so that the set stays valid). Returns (centre, RMS)."""
-    from scipy.ndimage import binary_erosion
-    from scipy.optimize import least_squares
-    from skimage.registration import phase_cross_correlation
-
     a_ok, b_ok = np.isfinite(meas), np.isfinite(res_pred)
     a = np.where(a_ok, meas, 0.0)
     b = np.where(b_ok, res_pred, 0.0)

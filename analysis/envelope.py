@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage
+from skimage.morphology import remove_small_holes, remove_small_objects
 
 __all__ = [
     "Envelope",
@@ -92,8 +93,6 @@ def band_labels(u: np.ndarray, mask: np.ndarray, min_px: int = MIN_BAND_PX):
     usual pairing of digital topology), so two bands that meet are always one bright and
     one dark.
     """
-    from skimage.morphology import remove_small_holes, remove_small_objects
-
     bright = np.nan_to_num(u, nan=0.0) > 0.5
     bright = remove_small_objects(bright & mask, max_size=min_px) | (bright & ~mask)
     bright = remove_small_holes(bright | ~mask, max_size=min_px) & mask

@@ -10,9 +10,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+import imageio.v3 as iio
 import numpy as np
+import tifffile
+from scipy import ndimage
 
-__all__ = ["Frame", "load_image", "load_six_step", "noise_sd", "normalise", "SIX_STEP_ORDER"]
+__all__ = ["Frame", "load_image", "load_six_step", "image_noise_sd", "normalise", "SIX_STEP_ORDER"]
 
 #: The arrangement of a six-step set (the table of ``docs/theory.md``, Ramesh 2000): image k is
 #: taken with quarter-wave plates (xi, eta) and analyser beta of row k, polariser at pi/2.
@@ -110,8 +113,6 @@ def load_image(path, *, dark=None) -> Frame:
 
 def _read_frame(path) -> Frame:
     """One image file as a Frame, without the emptiness check (a dark frame may be flat)."""
-    import imageio.v3 as iio
-
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"image file {str(path)!r} does not exist")
@@ -171,8 +172,6 @@ def load_six_step(images, *, dark=None) -> list[Frame]:
         Not six images, mismatched sizes, empty images.
     """
     if isinstance(images, str | Path):
-        import tifffile
-
         path = Path(images)
         if not path.is_file():
             raise FileNotFoundError(f"image file {str(path)!r} does not exist")
@@ -212,7 +211,7 @@ def load_six_step(images, *, dark=None) -> list[Frame]:
     return out
 
 
-def noise_sd(image: np.ndarray, mask: np.ndarray | None = None) -> float:
+def image_noise_sd(image: np.ndarray, mask: np.ndarray | None = None) -> float:
     """Per-pixel noise sd of a grey image (rows, cols).
 
     Immerkaer's operator (J. Immerkaer, "Fast noise variance estimation", Comput. Vis.
@@ -221,8 +220,6 @@ def noise_sd(image: np.ndarray, mask: np.ndarray | None = None) -> float:
     through the median absolute response, robust to fringe edges. ``mask`` (eroded by
     one pixel) limits the pixels used.
     """
-    from scipy import ndimage
-
     kernel = np.array([[1.0, -2.0, 1.0], [-2.0, 4.0, -2.0], [1.0, -2.0, 1.0]])
     resp = ndimage.convolve(np.asarray(image, float), kernel, mode="reflect")
     if mask is not None:

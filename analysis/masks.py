@@ -6,8 +6,9 @@ Pixel coordinates are (row, col) with row 0 at the top, as in scikit-image.
 from __future__ import annotations
 
 import numpy as np
+from skimage.draw import polygon2mask
 
-__all__ = ["circle_mask", "polygon_mask", "exclude_circle", "check_mask"]
+__all__ = ["border_anchor", "circle_mask", "polygon_mask", "exclude_circle", "check_mask"]
 
 
 def _check_shape(shape) -> tuple[int, int]:
@@ -33,8 +34,6 @@ def exclude_circle(mask: np.ndarray, centre, radius: float) -> np.ndarray:
 
 def polygon_mask(shape, vertices) -> np.ndarray:
     """Pixels inside the polygon with ``vertices`` (k, 2) in (row, col), k >= 3."""
-    from skimage.draw import polygon2mask
-
     v = np.asarray(vertices, float)
     if v.ndim != 2 or v.shape[1] != 2 or len(v) < 3:
         raise ValueError(f"polygon vertices shape {v.shape} is not allowed; need (k >= 3, 2)")
@@ -52,3 +51,12 @@ def check_mask(mask, shape, name: str = "mask") -> np.ndarray:
     if not m.any():
         raise ValueError(f"{name} selects no pixel")
     return m
+
+
+def border_anchor(valid: np.ndarray) -> np.ndarray:
+    """The valid pixels within 5 % of the image size from its border (the far field)."""
+    rows, cols = valid.shape
+    m = max(1, int(round(0.05 * min(rows, cols))))
+    ring = np.ones_like(valid)
+    ring[m:-m, m:-m] = False
+    return valid & ring

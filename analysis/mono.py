@@ -47,10 +47,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import ndimage
+from skimage.segmentation import watershed
 
 from .envelope import Envelope, band_labels, band_neighbours, fit_envelope, flat_field_envelope
-from .images import noise_sd
-from .masks import check_mask
+from .images import image_noise_sd
+from .masks import border_anchor, check_mask
 
 __all__ = ["CAP_AMBIGUOUS", "MonoResult", "mono_order", "grey_channel"]
 
@@ -192,8 +193,6 @@ def _cap_sides(band, d_band, lower_band, elevation):
     from the lower neighbours lie beyond it and seed the higher side of a watershed as the
     higher neighbours do in other bands. Returns (watershed labels 1 (lower) / 2 (higher)
     in the band's box, whether the centre line was seen)."""
-    from skimage.segmentation import watershed
-
     near = band & (d_band <= np.nanmin(d_band[band]) + CAP_EXTREME)
     parts, _ = ndimage.label(band & ~near)
     touching = np.unique(parts[lower_band & (parts > 0)])
@@ -206,8 +205,6 @@ def _sides(u, d, labels, nominal, anchor_mask, start):
     """+1 (higher side of the band's centre line), -1 (lower), 0 (unknown) per pixel, the
     fringe-centre pixels, which labels are caps whose centre line was not seen, and which
     are caps."""
-    from skimage.segmentation import watershed
-
     nom = np.where(labels > 0, nominal[labels], np.nan)
     lower = np.zeros(labels.shape, bool)
     higher = np.zeros(labels.shape, bool)
@@ -245,10 +242,10 @@ def _sides(u, d, labels, nominal, anchor_mask, start):
     return side, centres, blind, caps
 
 
-def _noise_sd(image: np.ndarray, mask: np.ndarray, smooth_px: float) -> float:
-    """Per-pixel noise of the smoothed image: :func:`analysis.images.noise_sd` times the
+def _smoothed_noise_sd(image: np.ndarray, mask: np.ndarray, smooth_px: float) -> float:
+    """Per-pixel noise of the smoothed image: :func:`analysis.images.image_noise_sd` times the
     Gaussian filter's noise gain 1 / (2 sqrt(pi) sigma)."""
-    return noise_sd(image, mask) / max(2 * np.sqrt(np.pi) * smooth_px, 1.0)
+    return image_noise_sd(image, mask) / max(2 * np.sqrt(np.pi) * smooth_px, 1.0)
 
 
 def _order_sd(u, sd_u):
@@ -290,8 +287,6 @@ def mono_order(
         pixels are unreliable
     max_sd : float - order uncertainty (fringe) above which pixels are unreliable
     """
-    from .unwrap import border_anchor
-
     if field not in ("dark", "bright"):
         raise ValueError(f"field = {field!r} is not allowed; use 'dark' or 'bright'")
     img = np.asarray(image, float)
@@ -326,7 +321,7 @@ def mono_order(
     order = np.abs(order)  # the anchor band of order 0 has no lower side: N = d
     order = np.where(mask & (side != 0), order, np.nan)
     amp = env.high - env.low
-    sd_u = np.hypot(_noise_sd(img, mask, smooth_px) / np.maximum(amp, 1e-6), env.sd())
+    sd_u = np.hypot(_smoothed_noise_sd(img, mask, smooth_px) / np.maximum(amp, 1e-6), env.sd())
     sd = np.where(np.isfinite(order), _order_sd(u, sd_u), np.nan)
     # near a fringe centre the side is a coin toss within the noise: the error is up to 2 d
     side_blur = d < np.sqrt(3 * sd_u) / np.pi

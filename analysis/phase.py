@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components, dijkstra, minimum_spanning_tree
+from scipy.spatial.transform import Rotation
 
 from .images import Frame
 from .masks import check_mask
@@ -147,7 +148,7 @@ class Resolution:
     phase : rad in [-pi, pi) — signed wrapped isochromatic phase sign * d_folded
     isoclinic : rad in [-pi/2, pi/2) — the principal direction consistent with ``phase``
     conflicts : int — neighbour pairs whose measured relation contradicts the signs
-    unreliable : bool — pixels on a contradicted pair
+    reliable : bool — valid pixels on no contradicted pair
     """
 
     sign: np.ndarray
@@ -155,7 +156,7 @@ class Resolution:
     phase: np.ndarray
     isoclinic: np.ndarray
     conflicts: int
-    unreliable: np.ndarray
+    reliable: np.ndarray
 
 
 def _edges(valid: np.ndarray, weak: np.ndarray | None = None):
@@ -250,9 +251,8 @@ def resolve_ambiguity(result: SixStep, *, conflict_weight: float = 0.05) -> Reso
     phase = np.where(valid, wrap(np.where(sign < 0, -d, d)), 0.0)
     iso = np.where(sign < 0, th + np.pi / 2, th)
     iso = (iso + np.pi / 2) % np.pi - np.pi / 2
-    return Resolution(
-        sign, group.reshape(shape), phase, iso, int(bad.sum()), unreliable.reshape(shape)
-    )
+    reliable = valid & ~unreliable.reshape(shape)
+    return Resolution(sign, group.reshape(shape), phase, iso, int(bad.sum()), reliable)
 
 
 def principal_stress_difference(order, f_sigma: float, thickness: float, *, reflection=True):
@@ -285,8 +285,6 @@ def subtract_reference(result: SixStep, reference: SixStep) -> SixStep:
     modulation is the smaller of the two. Exact for a residual retarder in series with a
     linear specimen retarder.
     """
-    from scipy.spatial.transform import Rotation
-
     if result.valid.shape != reference.valid.shape:
         raise ValueError(
             f"reference shape {reference.valid.shape} does not match the images "

@@ -21,6 +21,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.ndimage import map_coordinates
+from scipy.spatial import cKDTree
 
 from .masks import check_mask
 
@@ -28,6 +30,7 @@ __all__ = [
     "CalibrationTable",
     "RGBResult",
     "colour_spread",
+    "MAX_COLOUR_ERROR",
     "MIN_COLOUR_SPREAD",
     "search",
     "search_refined",
@@ -37,6 +40,10 @@ __all__ = [
 #: Rendered white-light indents measure 0.047-0.27; photographs of discs in green light
 #: 0.0016-0.005 (JPEG noise and uneven lighting give them some spread); grey images 0.
 MIN_COLOUR_SPREAD = 0.02
+
+#: Largest colour distance (on the [0, 1] scale) of a pixel the search stands behind: a
+#: larger one is a colour the table does not hold (clipped, noisy, another light).
+MAX_COLOUR_ERROR = 0.1
 
 
 @dataclass(frozen=True)
@@ -119,8 +126,6 @@ class CalibrationTable:
         ``n_rows`` equally spaced orders. The orders along the line must be monotonic
         (e.g. a disc from its centre outwards), or colours of different orders would mix.
         """
-        from scipy.ndimage import map_coordinates
-
         img = np.asarray(image, float)
         if img.ndim != 3 or img.shape[2] != 3:
             raise ValueError(f"calibration image shape {img.shape} is not allowed; need colour")
@@ -183,12 +188,13 @@ class RGBResult:
     order : (rows, cols) — NaN outside the mask
     error : (rows, cols) — colour distance sqrt(e) to the chosen row (same scale as the
         image); large values flag colours the table does not hold
-    mask : (rows, cols) bool — pixels searched
+    reliable : (rows, cols) bool — pixels searched and given an order whose colour
+        distance is below the search's ``max_error``
     """
 
     order: np.ndarray
     error: np.ndarray
-    mask: np.ndarray
+    reliable: np.ndarray
 
 
 def colour_spread(image, mask=None) -> float:
@@ -207,6 +213,13 @@ def colour_spread(image, mask=None) -> float:
     return float(max(ev[0], 0.0) / ev[2]) if ev[2] > 0 else 0.0
 
 
+def _reliable(order: np.ndarray, error: np.ndarray, max_error: float) -> np.ndarray:
+    """Pixels with an order whose colour distance is below ``max_error``."""
+    if not max_error > 0:
+        raise ValueError(f"max_error = {max_error!r} is not allowed; must be > 0")
+    return np.isfinite(order) & (np.nan_to_num(error, nan=np.inf) < max_error)
+
+
 def _pixels(image, mask) -> tuple[np.ndarray, np.ndarray]:
     img = np.asarray(image, float)
     if img.ndim != 3 or img.shape[2] != 3:
@@ -214,17 +227,17 @@ def _pixels(image, mask) -> tuple[np.ndarray, np.ndarray]:
     return img, check_mask(mask, img.shape)
 
 
-def search(image, table: CalibrationTable, *, mask=None) -> RGBResult:
+def search(
+    image, table: CalibrationTable, *, mask=None, max_error: float = MAX_COLOUR_ERROR
+) -> RGBResult:
     """Plain least-squares search of every pixel over the whole table (seed eq. 1)."""
-    from scipy.spatial import cKDTree
-
     img, m = _pixels(image, mask)
     dist, idx = cKDTree(table.rgb).query(img[m], k=1)
     order = np.full(m.shape, np.nan)
     error = np.full(m.shape, np.nan)
     order[m] = table.orders[idx]
     error[m] = dist
-    return RGBResult(order, error, m)
+    return RGBResult(order, error, _reliable(order, error, max_error))
 
 
 def _check_seeds(seeds, tab: CalibrationTable, m: np.ndarray, window: float) -> None:
@@ -259,6 +272,7 @@ def search_refined(
     *,
     mask=None,
     window: float = 0.25,
+    max_error: float = MAX_COLOUR_ERROR,
 ) -> RGBResult:
     """Search restricted to +-``window`` fringe around the neighbours' orders.
 
@@ -349,4 +363,4 @@ def search_refined(
     error = error.reshape(rows + 2, pc)[1:-1, 1:-1]
     out = np.where(m, order, np.nan)
     err = np.where(m, error, np.nan)
-    return RGBResult(out, err, m)
+    return RGBResult(out, err, _reliable(out, err, max_error))

@@ -16,10 +16,11 @@ import numpy as np
 from scipy import ndimage
 from skimage.restoration import unwrap_phase
 
-from .masks import check_mask
+from .masks import border_anchor, check_mask
+from .mono import mono_order
 from .phase import TWO_PI, Resolution, SixStep, resolve_ambiguity, wrap
 
-__all__ = ["FringeOrderMap", "border_anchor", "count_fringe_order", "unwrap_fringe_order"]
+__all__ = ["FringeOrderMap", "count_fringe_order", "unwrap_fringe_order"]
 
 
 @dataclass(frozen=True)
@@ -44,15 +45,6 @@ class FringeOrderMap:
     offset: int
     flipped_groups: int
     info: dict = field(default_factory=dict)
-
-
-def border_anchor(valid: np.ndarray) -> np.ndarray:
-    """The valid pixels within 5 % of the image size from its border (the far field)."""
-    rows, cols = valid.shape
-    m = max(1, int(round(0.05 * min(rows, cols))))
-    ring = np.ones_like(valid)
-    ring[m:-m, m:-m] = False
-    return valid & ring
 
 
 def _unwrap(phase: np.ndarray, valid: np.ndarray) -> np.ndarray:
@@ -164,7 +156,7 @@ def unwrap_fringe_order(
     order = np.where(valid, unw + shift[lab], np.nan)
     iso = res.isoclinic.copy()
     iso[flip_pixels] = (iso[flip_pixels] + np.pi) % np.pi - np.pi / 2
-    reliable = valid & ~res.unreliable & ~_steep(valid, unw) & has_anchor[lab]
+    reliable = valid & res.reliable & ~_steep(valid, unw) & has_anchor[lab]
     info = {
         "valid_pixels": int(valid.sum()),
         "reliable_pixels": int(reliable.sum()),
@@ -192,8 +184,6 @@ def count_fringe_order(
     bands many pixels wide, and noise-driven, where the order changes slowly per pixel
     (far fields at camera resolution); it assumes the order rises away from the anchor.
     """
-    from .mono import mono_order
-
     valid = result.valid
     u = np.where(valid, np.sin(0.5 * result.delta_axis_insensitive) ** 2, 0.0)
     mo = mono_order(u, mask=valid, flat=np.ones_like(u), smooth_px=0.0,

@@ -52,7 +52,7 @@ def _energy(model: ImageModel, smooth_px: float) -> np.ndarray:
 def noise_sd(model: ImageModel) -> float:
     """Noise sd of the measured image (Immerkaer's estimator, the channels' median), at
     least the quantisation noise of 8 bits."""
-    from fringekit.analysis import noise_sd as image_noise
+    from fringekit.analysis import image_noise_sd as image_noise
 
     rows, cols = model.grid.shape
     img = model.measured.reshape(rows, cols, -1)

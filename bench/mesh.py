@@ -16,7 +16,7 @@ import time
 import tracemalloc
 from dataclasses import replace
 
-from fringekit.meshes import IndenterSite, MeshSpec, generate_mesh, quality_report
+from fringekit.meshes import IndenterSite, MeshSpec, build_mesh, quality_report
 
 
 def _cases():
@@ -41,7 +41,7 @@ def main() -> None:
         spec = replace(spec, mesher=args.mesher)
         tracemalloc.start()
         t0 = time.perf_counter()
-        mesh = generate_mesh(spec, num_threads=args.threads)
+        mesh = build_mesh(spec, use_cache=False, num_threads=args.threads)
         dt = time.perf_counter() - t0
         _, peak_py = tracemalloc.get_traced_memory()
         tracemalloc.stop()

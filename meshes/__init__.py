@@ -1,6 +1,5 @@
 """Stage 1 of the pipeline: bilayer sheet geometry and quadratic tetrahedral meshes."""
 
-from .build import generate_mesh
 from .cache import UNREADABLE, build_mesh, cache_path, default_cache_dir
 from .io import facet_grid, from_pyvista, load_npz, read_vtu, save_npz, to_pyvista, write_vtu
 from .mesh import FACET_SETS, REGION_NAMES, REGION_SHEET, REGION_SUBSTRATE, FacetSet, Mesh
@@ -28,7 +27,6 @@ __all__ = [
     "default_cache_dir",
     "facet_grid",
     "from_pyvista",
-    "generate_mesh",
     "load_npz",
     "mirror",
     "mirror_with_sources",

@@ -25,9 +25,10 @@ from .layered import layered_tets
 from .mesh import REGION_SHEET, REGION_SUBSTRATE, FacetSet, Mesh
 from .quality import MeshQualityError, check_quality
 from .spec import MeshSpec
+from .tetwild import EPSILON_REL, snap_tolerance, tetwild_tets
 from .topology import TET_FACES, add_midside_nodes, boundary_faces, face_keys, orient_positive
 
-__all__ = ["generate_mesh", "MESHER_VERSION"]
+__all__ = ["mesh_uncached", "MESHER_VERSION"]
 
 log = logging.getLogger("fringekit.meshes")
 
@@ -80,8 +81,11 @@ def _snap(points: np.ndarray, ids: np.ndarray, axis: int, value: float, tol: flo
     points[ids, axis] = value
 
 
-def generate_mesh(spec: MeshSpec, *, num_threads: int = 0) -> Mesh:
-    """Mesh a bonded sheet/substrate block with quadratic tetrahedra (no cache).
+def mesh_uncached(spec: MeshSpec, *, num_threads: int = 0) -> Mesh:
+    """Mesh a bonded sheet/substrate block with quadratic tetrahedra, without the cache.
+
+    Users call :func:`meshes.build_mesh` (``use_cache=False`` meshes again and does not
+    write the cache), which calls this.
 
     With the default ``spec.mesher = "layered"`` the result depends only on ``spec``
     (and the numpy and scipy versions), bit for bit.
@@ -111,8 +115,6 @@ def generate_mesh(spec: MeshSpec, *, num_threads: int = 0) -> Mesh:
         pts, tets = layered_tets(spec)
         mesh = _finish(spec, pts, tets, _EXACT_TOL)
     else:
-        from .tetwild import EPSILON_REL
-
         try:
             mesh = _tetwild_once(spec, num_threads, EPSILON_REL)
         except MeshQualityError as exc:
@@ -130,8 +132,6 @@ def generate_mesh(spec: MeshSpec, *, num_threads: int = 0) -> Mesh:
 
 def _tetwild_once(spec: MeshSpec, num_threads: int, epsilon: float) -> Mesh:
     """One fTetWild run followed by :func:`_finish` within its envelope."""
-    from .tetwild import snap_tolerance, tetwild_tets
-
     pts, tets = tetwild_tets(spec, num_threads, epsilon)
     return _finish(spec, pts, tets, snap_tolerance(pts, epsilon))
 

@@ -5,9 +5,12 @@ from __future__ import annotations
 import logging
 import os
 import zipfile
+from importlib.metadata import version
 from pathlib import Path
 
-from .build import MESHER_VERSION, generate_mesh
+import platformdirs
+
+from .build import MESHER_VERSION, mesh_uncached
 from .io import load_npz, save_npz
 from .mesh import Mesh
 from .spec import MeshSpec
@@ -25,15 +28,12 @@ def default_cache_dir() -> Path:
     env = os.environ.get("FRINGEKIT_CACHE_DIR")
     if env:
         return Path(env)
-    import platformdirs
 
     return Path(platformdirs.user_cache_dir("fringekit"))
 
 
 def _salt(spec: MeshSpec) -> str:
     """The versions the mesh of ``spec`` depends on (part of its cache key)."""
-    from importlib.metadata import version
-
     libs = ("numpy", "scipy") if spec.mesher == "layered" else ("pytetwild",)
     return f"mesher={MESHER_VERSION};" + ";".join(f"{n}={version(n)}" for n in libs)
 
@@ -74,7 +74,7 @@ def build_mesh(
             return mesh
         except UNREADABLE as exc:  # truncated, empty or foreign: mesh again, overwrite it
             log.warning("mesh cache %s is unreadable (%s); meshing again", path, exc)
-    mesh = generate_mesh(spec, num_threads=num_threads)
+    mesh = mesh_uncached(spec, num_threads=num_threads)
     if use_cache:
         save_npz(mesh, path)
         log.info("mesh cached: %s", path)

@@ -33,7 +33,7 @@ _VTK_QUADRATIC_TRIANGLE = 22
 
 def to_pyvista(mesh: Mesh):
     """The mesh as a ``pyvista.UnstructuredGrid`` (points in m, cell data ``region``)."""
-    import pyvista as pv
+    import pyvista as pv  # lazy: VTK takes ~0.3 s to load; only VTU files need it
 
     cells = np.hstack([np.full((mesh.n_cells, 1), 10), mesh.cells]).ravel()
     types = np.full(mesh.n_cells, _VTK_QUADRATIC_TETRA, dtype=np.uint8)
@@ -82,14 +82,14 @@ def write_vtu(mesh: Mesh, path: str | os.PathLike) -> Path:
 
 def read_vtu(path: str | os.PathLike) -> Mesh:
     """Read a mesh written by :func:`write_vtu`."""
-    import pyvista as pv
+    import pyvista as pv  # lazy: VTK takes ~0.3 s to load; only VTU files need it
 
     return from_pyvista(pv.read(Path(path)))
 
 
 def facet_grid(mesh: Mesh, name: str):
     """A ``pyvista.UnstructuredGrid`` of 6-node triangles of one facet set (for viewing)."""
-    import pyvista as pv
+    import pyvista as pv  # lazy: VTK takes ~0.3 s to load; only VTU files need it
 
     nodes = mesh.facet_nodes(name)
     cells = np.hstack([np.full((len(nodes), 1), 6), nodes]).ravel()

@@ -87,7 +87,7 @@ def _cwd(path: str):
 
 def tetwild_tets(spec: MeshSpec, num_threads: int, epsilon: float) -> tuple[np.ndarray, np.ndarray]:
     """Run fTetWild; returns linear tets (points in m, (c, 4) cells)."""
-    import pytetwild
+    import pytetwild  # lazy: fTetWild's extension, only for mesher = "tetwild"
 
     surf = _layer_surface(spec)
     diag = float(np.linalg.norm(np.ptp(surf.vertices, axis=0)))

@@ -16,7 +16,6 @@ from fringekit.meshes import (
     build_mesh,
     cache_path,
     from_pyvista,
-    generate_mesh,
     quality_report,
     read_vtu,
     to_pyvista,
@@ -294,7 +293,7 @@ def test_meshing_leaves_the_working_directory_clean(tmp_path, monkeypatch):
 
     monkeypatch.setattr(pytetwild, "tetrahedralize", spy)
     monkeypatch.chdir(tmp_path)
-    generate_mesh(small_spec("quarter", mesher="tetwild"))
+    build_mesh(small_spec("quarter", mesher="tetwild"), use_cache=False)
     assert list(tmp_path.iterdir()) == []
     # and the optimisation passes are capped (fTetWild's 80 let a stuck mesh grow 100x)
     assert seen["num_opt_iter"] == FTETWILD_MAX_PASSES <= 20

@@ -29,6 +29,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import ConvexHull, QhullError
 
 from .element import TRI_QUADRATURE, tri6_shape
 
@@ -138,8 +139,6 @@ class ContactFace:
         into the plain area (a 0.6 mm mesh gave a radius 11 % small that way). The hull
         bridges them. 0 when fewer than three samples are in contact.
         """
-        from scipy.spatial import ConvexHull, QhullError
-
         if len(faces) == 0:
             return 0.0
         val = self._sub_indicator(f)

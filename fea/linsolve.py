@@ -46,7 +46,7 @@ REUSE_CONTRACTION = 0.05
 def _mkl():
     """The loaded ``mkl_rt`` library (pypardiso finds and loads it), or None."""
     try:
-        from pypardiso.pardiso_wrapper import PyPardisoSolver
+        from pypardiso.pardiso_wrapper import PyPardisoSolver  # optional (x86 only)
 
         return PyPardisoSolver().libmkl
     except Exception:  # pragma: no cover - depends on the platform

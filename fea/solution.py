@@ -205,7 +205,7 @@ def write_solution_vtu(
     undeformed volume, 1 = no volume change). Field data: ``model`` says which part of
     the sensor was modelled and what the file holds.
     """
-    import pyvista as pv
+    import pyvista as pv  # lazy: VTK takes ~0.3 s to load; only VTU files need it
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -23,6 +23,7 @@ import time
 from collections.abc import Callable, Sequence
 
 import numpy as np
+from tqdm.auto import tqdm
 
 from fringekit.errors import ComputeError, Interrupted
 from fringekit.meshes import Mesh
@@ -192,8 +193,6 @@ def solve(
     stats.time_setup = time.perf_counter() - t_start
     bar = None
     if progress is True:
-        from tqdm.auto import tqdm
-
         bar = tqdm(total=S, desc="load states", unit="state")
     run = Run(model, lin, stats, watch=Watchdog(bar=bar))
     solutions: list[Solution] = []

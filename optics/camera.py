@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
+import imageio.v3 as iio
 import numpy as np
 
 from .jones import retarder
@@ -63,7 +64,7 @@ def light_source(name: str = "LED", wavelengths=None) -> Spectrum:
     (CIE LED-B3, a phosphor-converted white LED, CIE 15:2018). Default wavelengths:
     31 samples 400..700 nm.
     """
-    import colour
+    import colour  # lazy: colour-science takes ~0.7 s to load; only white light needs it
 
     if name not in _SOURCES:
         raise ValueError(f"light source {name!r} is not allowed; use one of {sorted(_SOURCES)}")
@@ -116,7 +117,7 @@ class Camera:
 
     def responses(self, wavelengths) -> np.ndarray:
         """(W, 3) channel sensitivities at wavelengths (m)."""
-        import colour
+        import colour  # lazy: colour-science takes ~0.7 s to load; only white light needs it
 
         nm = np.asarray(wavelengths) * 1e9
         if self.sensitivities == "CIE1931":
@@ -143,7 +144,7 @@ class Camera:
             v = v + rng.normal(0.0, self.read_noise / self.full_well, v.shape)
         v = np.clip(v, 0.0, 1.0)
         if self.sensitivities == "CIE1931" and v.ndim >= 1 and v.shape[-1] == 3:
-            import colour
+            import colour  # lazy: colour-science takes ~0.7 s to load; only white light needs it
 
             v = np.clip(colour.cctf_encoding(v, function="sRGB"), 0, 1)
         elif self.gamma != 1.0:
@@ -156,7 +157,7 @@ def _to_rgb_linear(channels: np.ndarray, spectrum: Spectrum, camera: Camera) -> 
     """Map normalised channel values to linear RGB (sRGB primaries for the CIE observer)."""
     if camera.sensitivities != "CIE1931":
         return channels
-    import colour
+    import colour  # lazy: colour-science takes ~0.7 s to load; only white light needs it
 
     q = camera.responses(spectrum.wavelengths)
     white = ((spectrum.power * spectrum.weights)[:, None] * q).sum(0)
@@ -239,8 +240,6 @@ def colour_chart(
 
 def write_image(path, image: np.ndarray) -> None:
     """Write an 8/16-bit grey or RGB image as PNG or TIFF (by suffix)."""
-    import imageio.v3 as iio
-
     img = np.asarray(image)
     if img.dtype not in (np.uint8, np.uint16):
         raise ValueError(f"image dtype {img.dtype} is not allowed; use uint8 or uint16")

@@ -48,8 +48,8 @@ class FEMStressField:
     """
 
     def __init__(self, solution, *, mask_contact: bool = True, region: str = "sheet"):
-        import matplotlib.tri as mtri
-        import pyvista as pv
+        import matplotlib.tri as mtri  # lazy (~0.2 s), as pyvista: only FEM fields need them
+        import pyvista as pv  # lazy: VTK takes ~0.3 s to load; only FEM fields need it
 
         mesh = solution.mesh
         x = solution.points
@@ -135,7 +135,7 @@ class FEMStressField:
 
         Points outside the deformed sheet get zero stress (they carry no light path).
         """
-        import pyvista as pv
+        import pyvista as pv  # lazy: VTK takes ~0.3 s to load; only FEM fields need it
 
         p = np.asarray(points, float)
         shape = p.shape[:-1]

@@ -16,6 +16,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import binary_dilation
+from tqdm.auto import tqdm
 
 from .jones import principal_from_components
 
@@ -137,8 +139,6 @@ def _fold(field, xy: np.ndarray, pixel_size: float):
 
 def _sample_ab(field, xy, z0, z1, s, chunk, progress, desc):
     """sigma_xx - sigma_yy and 2 sigma_xy (Pa), (n, S), at heights z0 + (z1 - z0) s."""
-    from tqdm.auto import tqdm
-
     n, S = len(xy), len(s)
     a = np.zeros((n, S))
     b = np.zeros((n, S))
@@ -164,8 +164,6 @@ def _lattice_level(field, xy, want, step, s, chunk, progress, rtol, scale):
     Returns a, b (n, S), the mask of rays filled, and the error scale used (the largest
     ray integral of the stress difference on this lattice when ``scale`` is None).
     """
-    from scipy.ndimage import binary_dilation
-
     n, S = len(xy), len(s)
     lo = xy[want].min(axis=0)
     hi = xy[want].max(axis=0)

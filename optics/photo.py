@@ -22,7 +22,9 @@ from __future__ import annotations
 import io
 from dataclasses import dataclass, replace
 
+import imageio.v3 as iio
 import numpy as np
+from scipy.ndimage import convolve, gaussian_filter, zoom
 
 from .camera import Camera
 from .jones import qmul, retarder
@@ -84,8 +86,6 @@ def _smooth_field(shape, scale_px: float, rng) -> np.ndarray:
     Smoothed on a grid 4 points per correlation length and interpolated (cubic) to the
     image: the field holds nothing finer, and a full-resolution Gaussian filter of a
     3000-pixel-wide image with a 750-pixel length took minutes."""
-    from scipy.ndimage import gaussian_filter, zoom
-
     step = max(scale_px / 4, 1.0)
     coarse = tuple(max(int(np.ceil(n / step)) + 1, 2) for n in shape)
     f = gaussian_filter(rng.standard_normal(coarse), scale_px / step, mode="wrap")
@@ -114,8 +114,6 @@ def _vignetting(shape, v: float) -> np.ndarray:
 
 def _bayer(rgb: np.ndarray) -> np.ndarray:
     """RGGB mosaic of a float (rows, cols, 3) image, demosaiced bilinearly."""
-    from scipy.ndimage import convolve
-
     rows, cols, _ = rgb.shape
     r, c = np.mgrid[:rows, :cols]
     sites = [(r % 2 == 0) & (c % 2 == 0), (r + c) % 2 == 1, (r % 2 == 1) & (c % 2 == 1)]
@@ -129,8 +127,6 @@ def _bayer(rgb: np.ndarray) -> np.ndarray:
 
 
 def _jpeg(img: np.ndarray, quality: int) -> np.ndarray:
-    import imageio.v3 as iio
-
     buf = io.BytesIO()
     iio.imwrite(buf, img, extension=".jpg", quality=quality)
     return iio.imread(buf.getvalue(), extension=".jpg")

@@ -183,8 +183,13 @@ def _linear_fit(y, x):
     (c1, c0), cov = np.polyfit(x[ok], y[ok], 1, cov="unscaled")
     resid = y[ok] - (c0 + c1 * x[ok])
     s2 = float(resid @ resid / max(ok.sum() - 2, 1))
-    return {"model": "y = c0 + c1 * v", "c0": float(c0), "c1": float(c1),
-            "sigma": float(np.sqrt(s2)), "n": int(ok.sum())}  # fmt: skip
+    return {
+        "model": "y = c0 + c1 * v",
+        "c0": float(c0),
+        "c1": float(c1),
+        "sigma": float(np.sqrt(s2)),
+        "n": int(ok.sum()),
+    }
 
 
 def calibrate_from_maps(loads_N, shears_N, features: list[dict]) -> dict:

@@ -110,15 +110,21 @@ def find_discs(
     small = rescale(img, scale, anti_aliasing=True) if scale < 1 else img
     # thresholds as quantiles of the gradient: the strongest 10 % of edges, whatever the
     # exposure
-    edges_small = canny(small, sigma=sigma, low_threshold=0.8, high_threshold=0.9,
-                        use_quantiles=True)  # fmt: skip
+    edges_small = canny(
+        small, sigma=sigma, low_threshold=0.8, high_threshold=0.9, use_quantiles=True
+    )
     radii = np.arange(max(3, int(lo * scale)), int(np.ceil(hi * scale)) + 1)
     acc = hough_circle(edges_small, radii)
     spacing = max(3, int(lo * scale))
     peaks = {"min_xdistance": spacing, "min_ydistance": spacing, "total_num_peaks": 8 * count}
     _, cx, cy, rad = hough_circle_peaks(acc, radii, **peaks)
-    edges = canny(img, sigma=max(1.0, sigma / scale / 2), low_threshold=0.8,
-                  high_threshold=0.9, use_quantiles=True)  # fmt: skip
+    edges = canny(
+        img,
+        sigma=max(1.0, sigma / scale / 2),
+        low_threshold=0.8,
+        high_threshold=0.9,
+        use_quantiles=True,
+    )
     rr, cc = np.nonzero(edges)
     candidates = []
     for x, y, r in zip(cx, cy, rad, strict=True):

@@ -114,8 +114,9 @@ def _register(pred, meas, cp, cm, scale, rot, res_pred):
         v = _resample(pred, cp, meas.shape, (start[0] + d[0], start[1] + d[1]), scale, rot)
         return np.nan_to_num(meas[both] - v[both])
 
-    sol = least_squares(resid, [0.0, 0.0], bounds=([-1.5, -1.5], [1.5, 1.5]), loss="soft_l1",
-                        f_scale=0.1)  # fmt: skip
+    sol = least_squares(
+        resid, [0.0, 0.0], bounds=([-1.5, -1.5], [1.5, 1.5]), loss="soft_l1", f_scale=0.1
+    )
     centre = (start[0] + float(sol.x[0]), start[1] + float(sol.x[1]))
     return centre, float(np.sqrt(np.mean(sol.fun**2)))
 
@@ -149,8 +150,10 @@ def compare_maps(
     meas = np.asarray(measured, float)
     if pred.ndim != 2 or meas.ndim != 2:
         raise ValueError("compare_maps needs two (rows, cols) fringe-order maps")
-    for name, v in (("predicted_pixel_size", predicted_pixel_size),
-                    ("measured_pixel_size", measured_pixel_size)):  # fmt: skip
+    for name, v in (
+        ("predicted_pixel_size", predicted_pixel_size),
+        ("measured_pixel_size", measured_pixel_size),
+    ):
         if not (v and v > 0 and np.isfinite(v)):
             raise ValueError(f"{name} = {v!r} m is not allowed; must be > 0")
     scale = measured_pixel_size / predicted_pixel_size

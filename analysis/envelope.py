@@ -168,8 +168,11 @@ def _centre_samples(image, labels, is_bright, selected):
         v = image[sl][band]
         b = bool(is_bright[lab])
         top, bottom = v.max(), v.min()
-        near = band & ((image[sl] >= top - CENTRE_SHARE * (top - bottom)) if b
-                       else (image[sl] <= bottom + CENTRE_SHARE * (top - bottom)))  # fmt: skip
+        near = band & (
+            (image[sl] >= top - CENTRE_SHARE * (top - bottom))
+            if b
+            else (image[sl] <= bottom + CENTRE_SHARE * (top - bottom))
+        )
         r, c = np.nonzero(near)
         step = max(1, len(r) // SAMPLES_PER_BAND)
         r, c = r[::step], c[::step]

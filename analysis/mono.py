@@ -302,8 +302,7 @@ def mono_order(
         env = flat_field_envelope(flat)
     elif flat is not None:  # bright field: 1 - I / flat is the dark-field u
         sign_img = 1.0 - smooth / np.where(flat > 0, flat, np.nan)
-        env = Envelope(np.zeros_like(img), np.ones_like(img), "flat field",
-                       sampled=("low", "high"))  # fmt: skip
+        env = Envelope(np.zeros_like(img), np.ones_like(img), "flat field", sampled=("low", "high"))
     anchor = border_anchor(mask) if anchor_mask is None else check_mask(anchor_mask, img.shape)
     anchor &= mask
     if flat is None:

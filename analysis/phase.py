@@ -177,8 +177,10 @@ def _edges(valid: np.ndarray, weak: np.ndarray | None = None):
         q.append(b[ok])
     if weak is not None:
         w = weak.ravel() & v
-        for a, m, b in ((idx[:, :-2], idx[:, 1:-1], idx[:, 2:]),
-                        (idx[:-2, :], idx[1:-1, :], idx[2:, :])):  # fmt: skip
+        for a, m, b in (
+            (idx[:, :-2], idx[:, 1:-1], idx[:, 2:]),
+            (idx[:-2, :], idx[1:-1, :], idx[2:, :]),
+        ):
             ok = v[a] & w[m] & v[b]
             p.append(a[ok])
             q.append(b[ok])

@@ -186,13 +186,23 @@ def count_fringe_order(
     """
     valid = result.valid
     u = np.where(valid, np.sin(0.5 * result.delta_axis_insensitive) ** 2, 0.0)
-    mo = mono_order(u, mask=valid, flat=np.ones_like(u), smooth_px=0.0,
-                    anchor_mask=anchor_mask, anchor_order=anchor_order)  # fmt: skip
+    mo = mono_order(
+        u,
+        mask=valid,
+        flat=np.ones_like(u),
+        smooth_px=0.0,
+        anchor_mask=anchor_mask,
+        anchor_order=anchor_order,
+    )
     flip = np.sin(TWO_PI * np.nan_to_num(mo.order)) < 0
     iso = np.where(flip, result.isoclinic + np.pi / 2, result.isoclinic)
     iso = (iso + np.pi / 2) % np.pi - np.pi / 2
     reliable = mo.reliable & valid
-    info = {"valid_pixels": int(valid.sum()), "reliable_pixels": int(reliable.sum()),
-            "fold": "count", **mo.info}  # fmt: skip
+    info = {
+        "valid_pixels": int(valid.sum()),
+        "reliable_pixels": int(reliable.sum()),
+        "fold": "count",
+        **mo.info,
+    }
     offset = int(np.floor(np.nanmin(mo.order))) if np.isfinite(mo.order).any() else 0
     return FringeOrderMap(mo.order, reliable, iso, offset, 0, info)

@@ -43,9 +43,14 @@ def main() -> None:
     order, theta, mask = field(n)
     d = 2 * np.pi * order
     rng = np.random.default_rng(0)
-    table = (1 + np.cos(d), 1 - np.cos(d), 1 - np.sin(2 * theta) * np.sin(d),
-             1 + np.cos(2 * theta) * np.sin(d), 1 + np.sin(2 * theta) * np.sin(d),
-             1 - np.cos(2 * theta) * np.sin(d))  # fmt: skip
+    table = (
+        1 + np.cos(d),
+        1 - np.cos(d),
+        1 - np.sin(2 * theta) * np.sin(d),
+        1 + np.cos(2 * theta) * np.sin(d),
+        1 + np.sin(2 * theta) * np.sin(d),
+        1 - np.cos(2 * theta) * np.sin(d),
+    )
     imgs = [np.clip(0.02 + 0.45 * t + 0.01 * rng.standard_normal(t.shape), 0, 1) for t in table]
 
     t0 = time.perf_counter()
@@ -56,8 +61,7 @@ def main() -> None:
     rms_phase = float(np.sqrt(np.nanmean(err[fo.reliable] ** 2)))
 
     lam = PSM4_ASSUMED.wavenumber_grid(31)
-    o, rgb = colour_chart(PSM4_ASSUMED, light_source("LED", lam), Camera(), max_order=5.0,
-                          n=a.rows)  # fmt: skip
+    o, rgb = colour_chart(PSM4_ASSUMED, light_source("LED", lam), Camera(), max_order=5.0, n=a.rows)
     tab = CalibrationTable.from_chart(o, rgb)
     lim = order <= 5.0
     img = np.stack([np.interp(order, o, rgb[:, k]) for k in range(3)], axis=-1)
@@ -87,12 +91,18 @@ def main() -> None:
         "rgb_refined_rms_to_order3": rms(refined.order - order),
     }
     print(f"{n} x {n} px, {a.rows}-row table")
-    print(f"  six-step + resolve + unwrap {t_phase:6.2f} s   RMS {rms_phase:.4f} fringe, "
-          f"reliable {100 * out['phase_reliable_fraction']:.1f} % of the mask")  # fmt: skip
-    print(f"  RGB plain                  {t_plain:6.2f} s   RMS (N<=3) "
-          f"{out['rgb_plain_rms_to_order3']:.4f}")  # fmt: skip
-    print(f"  RGB refined                {t_ref:6.2f} s   RMS (N<=3) "
-          f"{out['rgb_refined_rms_to_order3']:.4f}")  # fmt: skip
+    print(
+        f"  six-step + resolve + unwrap {t_phase:6.2f} s   RMS {rms_phase:.4f} fringe, "
+        f"reliable {100 * out['phase_reliable_fraction']:.1f} % of the mask"
+    )
+    print(
+        f"  RGB plain                  {t_plain:6.2f} s   RMS (N<=3) "
+        f"{out['rgb_plain_rms_to_order3']:.4f}"
+    )
+    print(
+        f"  RGB refined                {t_ref:6.2f} s   RMS (N<=3) "
+        f"{out['rgb_refined_rms_to_order3']:.4f}"
+    )
     print(f"  peak memory {out['peak_mem_mb']:.0f} MB")
     if a.json:
         a.json.write_text(json.dumps(out, indent=2))

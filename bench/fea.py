@@ -165,9 +165,10 @@ def _split(res: dict, stats) -> None:
     it = np.array(stats.iteration_times).reshape(-1, 2)
     frac = 1.0 - it[:, 1] / np.maximum(it[:, 0], 1e-12)
     res["outside_factorization_fraction_per_iteration"] = {
-        "median": float(np.median(frac)), "max": float(frac.max()),
+        "median": float(np.median(frac)),
+        "max": float(frac.max()),
         "mean_weighted": float(1.0 - it[:, 1].sum() / it[:, 0].sum()),
-    }  # fmt: skip
+    }
 
 
 def _report(res: dict, stats, elapsed: float) -> None:

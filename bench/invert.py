@@ -90,9 +90,14 @@ def draw_case(rng, n: int, preset: dict) -> list[dict]:
         t = float(rng.uniform(0.0, 0.8)) * fz
         a = rng.uniform(0, 2 * np.pi)
         out.append(
-            {"x_mm": float(p[0]), "y_mm": float(p[1]), "Fz": fz, "Fx": t * np.cos(a),
-             "Fy": t * np.sin(a)}
-        )  # fmt: skip
+            {
+                "x_mm": float(p[0]),
+                "y_mm": float(p[1]),
+                "Fz": fz,
+                "Fx": t * np.cos(a),
+                "Fy": t * np.sin(a),
+            }
+        )
     return out
 
 
@@ -261,8 +266,13 @@ def main_bench(argv=None) -> None:
     ap.add_argument("--library", default=None, help="library folder (built when missing)")
     ap.add_argument("--work", default="bench/out/invert")
     ap.add_argument("--json", default=None)
-    ap.add_argument("--set", action="append", default=[], metavar="TABLE.KEY=VALUE",
-                    help="override one value of the preset's config (repeatable)")  # fmt: skip
+    ap.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="TABLE.KEY=VALUE",
+        help="override one value of the preset's config (repeatable)",
+    )
     a = ap.parse_args(argv)
     preset = PRESETS[a.preset]
     base = overrides(None, a.set, apply_overrides(load_config(preset["config"]), NOISE))

@@ -56,12 +56,18 @@ def mono_case(rows: int, cols: int) -> dict:
     ok = res.reliable
     err = np.abs(res.order - order)[ok]
     return {
-        "case": "mono", "rows": rows, "cols": cols, "render_s": t1 - t0,
-        "analyse_s": t2 - t1, "bands": res.info["bands"],
-        "order_rms": float(np.sqrt(np.mean(err**2))), "order_p99": float(np.percentile(err, 99)),
-        "order_max": float(err.max()), "reliable_share": float(ok.sum() / mask.sum()),
+        "case": "mono",
+        "rows": rows,
+        "cols": cols,
+        "render_s": t1 - t0,
+        "analyse_s": t2 - t1,
+        "bands": res.info["bands"],
+        "order_rms": float(np.sqrt(np.mean(err**2))),
+        "order_p99": float(np.percentile(err, 99)),
+        "order_max": float(err.max()),
+        "reliable_share": float(ok.sum() / mask.sum()),
         "peak_mem_mb": _peak_mb(),
-    }  # fmt: skip
+    }
 
 
 def _disc_photo(n: int, P: float, seed: int) -> np.ndarray:
@@ -89,14 +95,21 @@ def disc_case(n: int, loads) -> dict:
     fit = fit_disc_photos(images, geometry, diameter=D, thickness=T)
     t4 = time.perf_counter()
     return {
-        "case": f"disc x{len(loads)}", "rows": n, "cols": n, "photos": len(loads),
-        "render_s": t1 - t0, "find_discs_s": t2 - t1,
+        "case": f"disc x{len(loads)}",
+        "rows": n,
+        "cols": n,
+        "photos": len(loads),
+        "render_s": t1 - t0,
+        "find_discs_s": t2 - t1,
         "outline_support": outline[0].support if outline else 0.0,
-        "symmetry_s": t3 - t2, "fit_s": t4 - t3, "model_evaluations": fit.evaluations,
+        "symmetry_s": t3 - t2,
+        "fit_s": t4 - t3,
+        "model_evaluations": fit.evaluations,
         "f_sigma_error_pct": 100 * (fit.f_sigma / F_SIGMA - 1),
-        "f_sigma_sd_pct": 100 * fit.f_sigma_sd / F_SIGMA, "offset_order": fit.offset_order,
+        "f_sigma_sd_pct": 100 * fit.f_sigma_sd / F_SIGMA,
+        "offset_order": fit.offset_order,
         "peak_mem_mb": _peak_mb(),
-    }  # fmt: skip
+    }
 
 
 def main() -> None:

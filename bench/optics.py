@@ -101,10 +101,14 @@ def main() -> None:
             qq, sim = integrate_samples(smp, law, law.wavelength_ref)
             shape = grid.shape
             return OpticalMap(
-                grid, np.array([law.wavelength_ref]), qq.reshape(*shape, 1, 4),
-                np.where(smp.valid, sim, np.nan).reshape(shape), smp.valid.reshape(shape),
-                True, law,
-            ).fringe_order(0)  # fmt: skip
+                grid,
+                np.array([law.wavelength_ref]),
+                qq.reshape(*shape, 1, 4),
+                np.where(smp.valid, sim, np.nan).reshape(shape),
+                smp.valid.reshape(shape),
+                True,
+                law,
+            ).fringe_order(0)
 
         tc = time.perf_counter()
         exact = sample_rays(field, grid, args.samples)

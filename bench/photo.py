@@ -38,11 +38,11 @@ from fringekit.optics import (
 
 MODELS = {
     "ideal": PhotoModel(),
-    "realistic": PhotoModel(residual_rms_rad=0.05, vignetting=0.3, glare=0.02,
-                            jpeg_quality=90, seed=7),
-    "harsh": PhotoModel(residual_rms_rad=0.2, vignetting=0.5, glare=0.05, jpeg_quality=70,
-                        seed=7),
-}  # fmt: skip
+    "realistic": PhotoModel(
+        residual_rms_rad=0.05, vignetting=0.3, glare=0.02, jpeg_quality=90, seed=7
+    ),
+    "harsh": PhotoModel(residual_rms_rad=0.2, vignetting=0.5, glare=0.05, jpeg_quality=70, seed=7),
+}
 CAMERA = Camera(exposure=0.9, full_well=20000.0, read_noise=10.0)
 
 
@@ -59,8 +59,10 @@ def _score(fo, order, mask) -> dict:
 def run(rows: int, cols: int, name: str) -> dict:
     order, q, mask = indent_field(rows, cols)
     t0 = time.perf_counter()
-    frames = [photograph(q, a, CAMERA, MODELS[name], seed=k).astype(float) / 255
-              for k, a in enumerate(six_step_arrangements())]  # fmt: skip
+    frames = [
+        photograph(q, a, CAMERA, MODELS[name], seed=k).astype(float) / 255
+        for k, a in enumerate(six_step_arrangements())
+    ]
     t1 = time.perf_counter()
     res = six_step(frames, mask=mask)
     t2 = time.perf_counter()

@@ -118,10 +118,9 @@ def body_state(
     for p in parts[1:]:
         force += p.force
     cat = {k: np.concatenate([getattr(p, k) for p in parts]) for k in "H G J dU ddU".split()}
-    st = BodyState(
-        float(sum(p.energy for p in parts)), force, None, F,
-        np.concatenate([p.Jbar for p in parts]), min_J, **cat,
-    )  # fmt: skip
+    energy = float(sum(p.energy for p in parts))
+    Jbar = np.concatenate([p.Jbar for p in parts])
+    st = BodyState(energy, force, None, F, Jbar, min_J, **cat)
     return body_tangent(st, grads, groups) if tangent else st
 
 
@@ -249,10 +248,8 @@ def _tangent_block(st: BodyState, cut: slice, grads, groups, Ke) -> None:
         idx = _one_material(idx, c)
         pJ = dU[idx][:, None] * J[idx]  # (c, q): mean-dilatation pressure times J
         if isinstance(mat, NeoHookean):
-            _neo_hookean_stiffness(
-                mat, F[idx], g[idx], J[idx], pJ, grads.dNdX[idx], dV[idx], Ke, idx,
-                vol=(dv[idx], kv[idx]),
-            )  # fmt: skip
+            sel = (F[idx], g[idx], J[idx], pJ, grads.dNdX[idx], dV[idx])
+            _neo_hookean_stiffness(mat, *sel, Ke, idx, vol=(dv[idx], kv[idx]))
             continue
         Ke[idx] = 0.0
         _, _, A = mat.isochoric(F[idx], tangent=True, H=H[idx], G=G[idx], J=J[idx])

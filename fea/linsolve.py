@@ -64,9 +64,25 @@ class _Pardiso:
     def __init__(self, lib, mtype: int, single: bool):
         self.fn = lib.pardiso
         i32 = ctypes.POINTER(ctypes.c_int32)
-        self.fn.argtypes = [ctypes.POINTER(ctypes.c_int64), i32, i32, i32, i32, i32,
-                            ctypes.c_void_p, i32, i32, i32, i32, i32, i32,
-                            ctypes.c_void_p, ctypes.c_void_p, i32]  # fmt: skip
+        # PARDISO's arguments, in its order (oneMKL reference)
+        self.fn.argtypes = [
+            ctypes.POINTER(ctypes.c_int64),  # pt
+            i32,  # maxfct
+            i32,  # mnum
+            i32,  # mtype
+            i32,  # phase
+            i32,  # n
+            ctypes.c_void_p,  # a
+            i32,  # ia
+            i32,  # ja
+            i32,  # perm
+            i32,  # nrhs
+            i32,  # iparm
+            i32,  # msglvl
+            ctypes.c_void_p,  # b
+            ctypes.c_void_p,  # x
+            i32,  # error
+        ]
         self.fn.restype = None
         self.pt = np.zeros(64, np.int64)
         self.iparm = np.zeros(64, np.int32)
@@ -89,13 +105,24 @@ class _Pardiso:
         err = ctypes.c_int32(0)
         i32 = ctypes.POINTER(ctypes.c_int32)
         one = ctypes.c_int32(1)
-        self.fn(self.pt.ctypes.data_as(ctypes.POINTER(ctypes.c_int64)), ctypes.byref(one),
-                ctypes.byref(one), ctypes.byref(ctypes.c_int32(self.mtype)),
-                ctypes.byref(ctypes.c_int32(phase)), ctypes.byref(ctypes.c_int32(n)),
-                self._a.ctypes.data, self._ia.ctypes.data_as(i32), self._ja.ctypes.data_as(i32),
-                None, ctypes.byref(ctypes.c_int32(rhs.shape[1])), self.iparm.ctypes.data_as(i32),
-                ctypes.byref(ctypes.c_int32(0)), rhs.ctypes.data, x.ctypes.data,
-                ctypes.byref(err))  # fmt: skip
+        self.fn(
+            self.pt.ctypes.data_as(ctypes.POINTER(ctypes.c_int64)),  # pt
+            ctypes.byref(one),  # maxfct
+            ctypes.byref(one),  # mnum
+            ctypes.byref(ctypes.c_int32(self.mtype)),  # mtype
+            ctypes.byref(ctypes.c_int32(phase)),  # phase
+            ctypes.byref(ctypes.c_int32(n)),  # n
+            self._a.ctypes.data,  # a
+            self._ia.ctypes.data_as(i32),  # ia
+            self._ja.ctypes.data_as(i32),  # ja
+            None,  # perm
+            ctypes.byref(ctypes.c_int32(rhs.shape[1])),  # nrhs
+            self.iparm.ctypes.data_as(i32),  # iparm
+            ctypes.byref(ctypes.c_int32(0)),  # msglvl
+            rhs.ctypes.data,  # b
+            x.ctypes.data,  # x
+            ctypes.byref(err),  # error
+        )
         if err.value != 0:
             raise RuntimeError(f"PARDISO phase {phase} failed with error {err.value}")
         return x

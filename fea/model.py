@@ -244,8 +244,10 @@ class Model:
             d = float(self.c0[j, 2] - c[2])
         d = max(d, 0.02 * ind.radius)
         dd = 1e-3 * d
-        k = (dimitriadis_force(d + dd, ind.radius, E, h)
-             - dimitriadis_force(d - dd, ind.radius, E, h)) / (2 * dd)  # fmt: skip
+        k = (
+            dimitriadis_force(d + dd, ind.radius, E, h)
+            - dimitriadis_force(d - dd, ind.radius, E, h)
+        ) / (2 * dd)
         dofs = self.ind_free[j]
         pos = np.searchsorted(self.pattern.keys, dofs.astype(np.int64) * (self.n_free + 1))
         return pos, np.arange(len(dofs)), np.full(len(dofs), float(k) * self.frac[j])

@@ -23,10 +23,16 @@ __all__ = ["FEMStressField", "TET10_TO_TET4"]
 #: octahedron (mid-nodes 4..9) split along its 4-9 diagonal.
 TET10_TO_TET4 = np.array(
     [
-        [0, 4, 6, 7], [4, 1, 5, 8], [6, 5, 2, 9], [7, 8, 9, 3],
-        [4, 9, 5, 8], [4, 9, 8, 7], [4, 9, 7, 6], [4, 9, 6, 5],
+        [0, 4, 6, 7],
+        [4, 1, 5, 8],
+        [6, 5, 2, 9],
+        [7, 8, 9, 3],
+        [4, 9, 5, 8],
+        [4, 9, 8, 7],
+        [4, 9, 7, 6],
+        [4, 9, 6, 5],
     ]
-)  # fmt: skip
+)
 #: 4 linear triangles of a 6-node triangle (corners 0-2, mids (01), (12), (20)).
 TRI6_TO_TRI3 = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])
 
@@ -85,9 +91,11 @@ class FEMStressField:
         else:
             self._top = surface("interface")
             self._bottom = surface("bottom")
-        self._contact = [
-            (ind.centre[:2].copy(), ind.contact_radius) for ind in solution.indenters
-        ] if mask_contact else []  # fmt: skip
+        self._contact = (
+            [(ind.centre[:2].copy(), ind.contact_radius) for ind in solution.indenters]
+            if mask_contact
+            else []
+        )
         lo = mesh.points.min(axis=0)
         hi = mesh.points.max(axis=0)
         self.extent = (lo, hi)

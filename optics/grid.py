@@ -191,10 +191,8 @@ def _lattice_level(field, xy, want, step, s, chunk, progress, rtol, scale):
     b_n = np.zeros((len(needed), S))
     dzn = np.zeros(len(needed))
     kv = k[vn]
-    a_n[kv], b_n[kv] = _sample_ab(
-        field, np.column_stack([gx, gy])[vn], z0n[vn], z1n[vn], s, chunk, progress,
-        "lattice rays",
-    )  # fmt: skip
+    xy_n = np.column_stack([gx, gy])[vn]
+    a_n[kv], b_n[kv] = _sample_ab(field, xy_n, z0n[vn], z1n[vn], s, chunk, progress, "lattice rays")
     dzn[kv] = (z1n[vn] - z0n[vn]) / S
     # A posteriori check: bilinear interpolation of f errs by at most about
     # (|d2f/dx2| + |d2f/dy2|) step^2 / 8, and the second differences of the lattice rays

@@ -212,9 +212,11 @@ def integrate_layers(
     row_valid = np.zeros(len(ds), bool)
     row_valid[first.index[valid]] = True
     k = np.concatenate(
-        [np.repeat(law.retardation_per_stress_length(lam)[None, :], s.ds.shape[1], axis=0)
-         for s, law in zip(samples, laws, strict=True)]
-    )  # fmt: skip
+        [
+            np.repeat(law.retardation_per_stress_length(lam)[None, :], s.ds.shape[1], axis=0)
+            for s, law in zip(samples, laws, strict=True)
+        ]
+    )
     r = np.flatnonzero(row_valid)
     q_rows = integrate_path(ds[r], th[r], dz[r], k)
     if reflection:

@@ -158,8 +158,9 @@ def photograph(
             linear = _bayer(linear)
     img = replace(camera, sensitivities="mono").encode(linear, seed)
     if model.jpeg_quality is not None:
-        img = _jpeg(img if img.dtype == np.uint8 else (img // 257).astype(np.uint8),
-                    model.jpeg_quality)  # fmt: skip
+        img = _jpeg(
+            img if img.dtype == np.uint8 else (img // 257).astype(np.uint8), model.jpeg_quality
+        )
     return img
 
 

@@ -54,8 +54,10 @@ def test_manifest_resume_and_checksums(test_library, capsys):
     m2 = build_library(sensor_config(), test_library.folder, loads=LOADS, ratios=RATIOS,
                        workers=0, echo=msgs.append)  # fmt: skip
     assert "3 already solved" in msgs[0]
-    assert {n: f["sha256"] for n, f in m2["files"].items()} == before
-    assert json.loads((test_library.folder / "manifest.json").read_text())["files"] == m2["files"]
+    assert {n: f["sha256"] for n, f in m2.manifest["files"].items()} == before
+    assert json.loads((test_library.folder / "manifest.json").read_text())["files"] == (
+        m2.manifest["files"]
+    )
 
 
 def test_the_chain_of_a_build_and_of_a_resumed_one():

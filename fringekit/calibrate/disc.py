@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -29,11 +30,14 @@ from fringekit.calibrate.disc_photo import (
     WARN_RESIDUAL,
     DiscGeometry,
     DiscImage,
+    disc_coordinates,
     fit_disc_photos,
 )
+from fringekit.errors import InputError
+from fringekit.optics import DiametralDisc
 from fringekit.output.figures import disc_fit_figure
 
-__all__ = ["is_photo", "run_disc_photos"]
+__all__ = ["DiscCalibration", "calibrate_disc", "is_photo", "run_disc_photos"]
 
 
 def is_photo(path) -> bool:
@@ -59,9 +63,6 @@ def _geometry(photo, centre, radius_px, pixel_mm, diameter_mm) -> tuple[DiscGeom
 
 def _order_map(shape, geometry: DiscGeometry, fit, load_N, diameter, thickness):
     """(rows, cols) fitted total order P g / f_sigma + N_0 inside the disc, NaN outside."""
-    from fringekit.calibrate.disc_photo import disc_coordinates
-    from fringekit.optics import DiametralDisc
-
     r, c = np.mgrid[: shape[0], : shape[1]]
     xy = disc_coordinates(r.ravel(), c.ravel(), geometry, diameter)
     inside = np.hypot(xy[:, 0], xy[:, 1]) < 0.98 * diameter / 2
@@ -71,30 +72,127 @@ def _order_map(shape, geometry: DiscGeometry, fit, load_N, diameter, thickness):
     return (N + fit.offset_order).reshape(shape)
 
 
-def run_disc_photos(
-    images, loads, *, diameter_mm, thickness_mm, out, wavelength_nm=None, reference=None,
-    field="dark", centre=None, radius_px=None, pixel_mm=None, dark=None, echo=print,
-) -> dict:  # fmt: skip
-    """Fit f_sigma to disc photographs at known loads; write the outputs (module doc)."""
+@dataclass(frozen=True)
+class DiscCalibration:
+    """The material fringe value fitted to photographs of a disc in diametral compression.
+
+    Attributes
+    ----------
+    f_sigma_N_per_m, f_sigma_sd_N_per_m : float
+        The material fringe value and its 1-sigma (N/m; jackknife over the photographs,
+        or over eight sectors of one).
+    offset_order : float
+        The residual (frozen-stress) order common to all photographs.
+    images : list of dict
+        Per photograph: ``file``, ``load_N``, ``centre_order`` (the load's part) and
+        ``residual_rms`` (fraction of the fringe amplitude).
+    summary : dict
+        The disc found, the field, the wavelength, the uncertainty's method, warnings.
+    photos, orders : list of ndarray (rows, cols)
+        The grey photographs and the fitted fringe-order maps (for the figure).
+
+    Examples
+    --------
+    >>> import fringekit
+    >>> cal = fringekit.calibrate_disc(["p100.png", "p200.png"], load_N=[100, 200],
+    ...     diameter_mm=40, thickness_mm=6, wavelength_nm=546)  # doctest: +SKIP
+    >>> round(cal.f_sigma_N_per_m)  # doctest: +SKIP
+    7000
+    """
+
+    f_sigma_N_per_m: float
+    f_sigma_sd_N_per_m: float
+    offset_order: float
+    images: list
+    summary: dict = field(repr=False)
+    photos: list = field(repr=False)
+    orders: list = field(repr=False)
+
+    def result(self) -> dict:
+        """What ``disc_calibration.json`` holds."""
+        return {
+            "f_sigma_N_per_m": self.f_sigma_N_per_m,
+            "f_sigma_sd_N_per_m": self.f_sigma_sd_N_per_m,
+            "offset_order": self.offset_order,
+            "images": self.images,
+        }
+
+    def write(self, folder) -> Path:
+        """Write ``disc_calibration.json``, ``summary.json`` and ``disc_fit.png`` into
+        ``folder`` (created if missing); return it."""
+        out = Path(folder)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "disc_calibration.json").write_text(json.dumps(self.result(), indent=2))
+        (out / "summary.json").write_text(json.dumps(self.summary, indent=2))
+        titles = [f"{Path(im['file']).name}: {im['load_N']:g} N, centre {im['centre_order']:.3f}"
+                  for im in self.images]  # fmt: skip
+        disc_fit_figure(out / "disc_fit.png", self.photos, self.orders, titles)
+        return out
+
+
+def calibrate_disc(
+    images, *, load_N, diameter_mm, thickness_mm, wavelength_nm=None, reference=None,
+    field="dark", centre_px=None, radius_px=None, pixel_mm=None, dark=None, echo=print,
+) -> DiscCalibration:  # fmt: skip
+    """The material fringe value from photographs of a disc in diametral compression.
+
+    Fits Frocht's field through the polariscope to the photographs' intensities: the
+    illumination and background of each photo, a residual order common to all, and the
+    disc's centre, radius and load-axis tilt.
+
+    Parameters
+    ----------
+    images : sequence of paths
+        Photographs of the disc (transmission), one per load.
+    load_N : sequence of float
+        The diametral load of each photograph (N).
+    diameter_mm, thickness_mm : float
+        The disc's diameter and thickness (mm).
+    wavelength_nm : float, optional
+        The light's wavelength (nm), recorded with the result.
+    reference : path, optional
+        A photograph at zero load; pins the residual order.
+    field : {"dark", "bright"}
+        The polariscope's field.
+    centre_px, radius_px : optional
+        The disc's centre (row, col) and radius (px); default found in the photograph
+        (its outline, else the symmetry of its fringes).
+    pixel_mm : float, optional
+        The pixel pitch (mm), which gives the radius from the diameter.
+    dark : path, optional
+        A dark frame subtracted from every photograph.
+    echo : callable
+        Where the one line on the disc found goes.
+
+    Returns
+    -------
+    DiscCalibration
+
+    Raises
+    ------
+    InputError
+        Loads and photographs that do not pair up, photographs of different sizes, no
+        disc found, or photographs Frocht's field does not explain (residual above 25 %).
+    """
     t0 = time.perf_counter()
-    if len(loads) != len(images):
-        raise ValueError(
-            f"--load-N: {len(loads)} load(s) for {len(images)} photograph(s); give one per photo"
+    if len(load_N) != len(images):
+        raise InputError(
+            f"--load-N: {len(load_N)} load(s) for {len(images)} photograph(s); give one per photo"
         )
     photos = [grey_channel(load_image(p, dark=dark).data) for p in images]
-    names, all_loads = [str(p) for p in images], [float(v) for v in loads]
+    names, all_loads = [str(p) for p in images], [float(v) for v in load_N]
     if reference is not None:
         photos.append(grey_channel(load_image(reference, dark=dark).data))
         names.append(str(reference))
         all_loads.append(0.0)
     shapes = {p.shape for p in photos}
     if len(shapes) > 1:
-        raise ValueError(
+        raise InputError(
             f"--disc: the photographs differ in size ({sorted(shapes)}); allowed: one size"
         )
     D, t = diameter_mm * 1e-3, thickness_mm * 1e-3
     strongest = photos[int(np.argmax(all_loads))]
-    geometry, how = _geometry(strongest, centre, radius_px, pixel_mm, diameter_mm)
+    geometry, how = _geometry(strongest, centre_px, radius_px, pixel_mm, diameter_mm)
     echo(
         f"disc: centre ({geometry.row:.1f}, {geometry.col:.1f}) px, radius "
         f"{geometry.radius_px:.1f} px from the {how}; fitting {len(photos)} photograph(s)"
@@ -104,7 +202,7 @@ def run_disc_photos(
                           shared_light=reference is not None)  # fmt: skip
     worst = max(fit.residuals)
     if worst > REFUSE_RESIDUAL:
-        raise ValueError(
+        raise InputError(
             f"--disc: Frocht's field leaves an RMS residual of {100 * worst:.0f} % of the fringe "
             "amplitude: the photographs are not explained as a disc in diametral compression "
             "(check --load-N, --diameter-mm, --field, the disc found, or give --centre/--radius-px)"
@@ -116,18 +214,6 @@ def run_disc_photos(
             "%): f_sigma is uncertain beyond its stated sd; check the loads, the diameter, "
             "uneven residual stress, or fringes too dense for the pixels"
         )
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    result = {
-        "f_sigma_N_per_m": fit.f_sigma,
-        "f_sigma_sd_N_per_m": fit.f_sigma_sd,
-        "offset_order": fit.offset_order,
-        "images": [
-            {"file": n, "load_N": P, "centre_order": c, "residual_rms": r}
-            for n, P, c, r in zip(names, all_loads, fit.centre_orders, fit.residuals, strict=True)
-        ],
-    }
-    (out / "disc_calibration.json").write_text(json.dumps(result, indent=2))
     g = fit.geometry
     summary = {
         "disc": {"centre_px": [g.row, g.col], "radius_px": g.radius_px,
@@ -138,9 +224,24 @@ def run_disc_photos(
         "sd_method": fit.sd_method, "model_evaluations": fit.evaluations,
         "warnings": warnings, "time_s": time.perf_counter() - t0,
     }  # fmt: skip
-    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    images_out = [
+        {"file": n, "load_N": P, "centre_order": c, "residual_rms": r}
+        for n, P, c, r in zip(names, all_loads, fit.centre_orders, fit.residuals, strict=True)
+    ]
     orders = [_order_map(p.shape, g, fit, P, D, t) for p, P in zip(photos, all_loads, strict=True)]
-    titles = [f"{Path(n).name}: {P:g} N, centre {c:.3f}"
-              for n, P, c in zip(names, all_loads, fit.centre_orders, strict=True)]  # fmt: skip
-    disc_fit_figure(out / "disc_fit.png", photos, orders, titles)
-    return {**result, "summary": summary}
+    return DiscCalibration(fit.f_sigma, fit.f_sigma_sd, fit.offset_order, images_out, summary,
+                           photos, orders)  # fmt: skip
+
+
+def run_disc_photos(
+    images, loads, *, diameter_mm, thickness_mm, out, wavelength_nm=None, reference=None,
+    field="dark", centre=None, radius_px=None, pixel_mm=None, dark=None, echo=print,
+) -> dict:  # fmt: skip
+    """``fringekit calibrate --disc``: :func:`calibrate_disc`, then write ``out``."""
+    cal = calibrate_disc(
+        images, load_N=loads, diameter_mm=diameter_mm, thickness_mm=thickness_mm,
+        wavelength_nm=wavelength_nm, reference=reference, field=field, centre_px=centre,
+        radius_px=radius_px, pixel_mm=pixel_mm, dark=dark, echo=echo,
+    )  # fmt: skip
+    cal.write(out)
+    return {**cal.result(), "summary": cal.summary}

@@ -14,6 +14,15 @@ import sys
 import time
 from pathlib import Path
 
+from fringekit.analyze import (
+    MonoOptions,
+    PhaseOptions,
+    Region,
+    RGBOptions,
+    analyze,
+    choose_method,
+)
+from fringekit.errors import InputError
 from fringekit.output.versions import package_version
 
 __all__ = [
@@ -176,45 +185,43 @@ def exclusion_polygon(vertices):
 
 
 def cmd_analyze(args: argparse.Namespace) -> int:
-    from fringekit.analyze.run import run_analyze
-
     out = Path(args.out or "fringekit-out/analysis")
-    summary = run_analyze(
-        args.images,
-        out,
-        method=args.method,
-        dark=args.dark,
-        roi_circle=tuple(args.roi_circle) if args.roi_circle else None,
-        exclude=[tuple(e) for e in args.exclude_circle or []],
-        roi_polygon=roi_polygon(args),
+    region = Region(
+        circle=tuple(args.roi_circle) if args.roi_circle else None,
+        polygon=roi_polygon(args),
+        exclude_circles=[tuple(e) for e in args.exclude_circle or []],
         exclude_polygons=[exclusion_polygon(p) for p in args.exclude_polygon or []],
-        pixel_size=(args.pixel_mm or 0.0) * 1e-3,
+        disc_diameter_mm=args.roi_disc,
+    )
+    options = {
+        "phase": lambda: PhaseOptions(args.min_modulation, args.fold, args.reference),
+        "rgb": lambda: RGBOptions(
+            args.calibration, args.light, args.camera, args.max_order, args.exposure,
+            tuple(tuple(s) for s in args.seed or []), args.window,
+        ),
+        "mono": lambda: MonoOptions(args.field, args.flat, args.smooth_px),
+    }  # fmt: skip
+    method = choose_method(args.method, [str(p) for p in args.images])
+    if args.reference and method != "phase":
+        raise InputError(
+            f"--reference is for --method phase (six zero-load images); the {method} method "
+            "has none (calibrate --disc takes a zero-load photo)"
+        )
+    an = analyze(
+        args.images,
+        method=method,
+        pixel_mm=args.pixel_mm or 0.0,
         origin_px=tuple(args.origin_px) if args.origin_px else None,
+        region=region,
+        dark=args.dark,
         anchor_order=args.anchor_order,
         order_at=[tuple(p) for p in args.order_at or []],
-        line=tuple(args.line) if args.line else None,
-        f_sigma=args.f_sigma_N_per_m,
-        thickness=args.thickness_mm * 1e-3 if args.thickness_mm else None,
-        points=args.points,
-        phase={
-            "min_modulation": args.min_modulation,
-            "fold": args.fold,
-            "reference": args.reference,
-        },  # fmt: skip
-        rgb={
-            "calibration": args.calibration,
-            "chart": {
-                "light": args.light,
-                "camera": args.camera,
-                "max_order": args.max_order,
-                "exposure": args.exposure,
-            },
-            "seeds": [tuple(s) for s in args.seed or []],
-            "window": args.window,
-        },  # fmt: skip
-        mono={"field": args.field, "flat": args.flat, "smooth_px": args.smooth_px},
-        roi_disc=args.roi_disc * 1e-3 if args.roi_disc else None,
+        fringe_value_N_per_m=args.f_sigma_N_per_m,
+        thickness_mm=args.thickness_mm,
+        options=options[method](),
     )
+    an.write(out, line=tuple(args.line) if args.line else None, points=args.points)
+    summary = an.summary
     if not args.quiet:
         rng = summary["fringe_order_range"]
         print(

@@ -75,7 +75,7 @@ def cmd_library(args: argparse.Namespace) -> int:
         ratios=args.shear_ratio if args.shear_ratio is not None else DEFAULT_RATIOS,
         n_slabs=int(args.slabs), scheduler=args.scheduler, workers=args.workers,
         cache_dir=args.cache_dir, progress=not args.quiet,
-    )  # fmt: skip
+    ).manifest  # fmt: skip
     if not args.quiet:
         g = m["grid"]
         print(f"fringekit {fringekit_version()} - library {args.out}: "

@@ -27,11 +27,27 @@ import time
 from pathlib import Path
 
 import numpy as np
+from tqdm.auto import tqdm
 
 from fringekit._cluster import run_tasks
-from fringekit.config.files import ConfigError, to_toml
-from fringekit.library.lattice import default_lattice, sample_lattice
-from fringekit.library.store import FIELD_KEYS, FORMAT, diameter_id, field_file, sensor_key, sha256
+from fringekit.config.files import to_toml
+from fringekit.config.inputs import build_inputs
+from fringekit.config.model import as_config
+from fringekit.errors import ComputeError, ConfigError
+from fringekit.fea import SolveInterrupted, SolverError, solve
+from fringekit.library.lattice import PolarLattice, default_lattice, sample_lattice
+from fringekit.library.store import (
+    FIELD_KEYS,
+    FORMAT,
+    Library,
+    diameter_id,
+    field_file,
+    load_library,
+    sensor_key,
+    sha256,
+)
+from fringekit.meshes import build_mesh, default_cache_dir
+from fringekit.optics import FEMStressField
 from fringekit.output.versions import run_versions
 
 __all__ = [
@@ -100,12 +116,6 @@ def _branch_id(diameter_mm: float, load_n: float) -> str:
 def _solve_chain(task: dict, out: str, cache_dir: str | None, progress: bool = False) -> dict:
     """Solve one diameter's chain, writing ``branches/<id>.npz`` as each branch's last
     state converges (runs on a worker, or in this process with a progress bar)."""
-    from fringekit.config.inputs import build_inputs
-    from fringekit.fea import SolveInterrupted, SolverError, solve
-    from fringekit.library.lattice import PolarLattice
-    from fringekit.meshes import build_mesh
-    from fringekit.optics import FEMStressField
-
     lat = PolarLattice(np.array(task["r"]), np.array(task["phi"]), task["n_slabs"])
     branches, ratios = task["branches"], task["ratios"]
     cfg, parents, states = chain_config(task["config"], task["diameter_mm"],
@@ -149,8 +159,6 @@ def _solve_chain(task: dict, out: str, cache_dir: str | None, progress: bool = F
 def _state_bar(total: int, show: bool):
     if not show:
         return None
-    from tqdm.auto import tqdm
-
     return tqdm(total=total, desc="library load states", unit="state")
 
 
@@ -193,13 +201,50 @@ def _check_grid(loads, ratios, diameters) -> None:
 
 
 def build_library(
-    cfg: dict, out, *, diameters=None, loads=DEFAULT_LOADS_N, ratios=DEFAULT_RATIOS,
+    config, out, *, diameters=None, loads=DEFAULT_LOADS_N, ratios=DEFAULT_RATIOS,
     n_slabs: int = 16, scheduler=None, workers=None, cache_dir=None, progress=True, echo=print,
-) -> dict:  # fmt: skip
-    """Solve the unfinished branches, then assemble the library in ``out``; return the
-    manifest. ``diameters`` default to the config's indenters' diameters (mm)."""
-    from fringekit.meshes import default_cache_dir
+) -> Library:  # fmt: skip
+    """Solve a sensor over a grid of loads once: a response library for :func:`invert`
+    and fast predictions.
 
+    Parameters
+    ----------
+    config : Config, dict, path or str
+        The sensor (sheet, substrate, mesh, solver, optics); its indenters give the
+        default diameters.
+    out : path
+        The library folder: created, or resumed when it holds an unfinished build of the
+        same sensor (finished branches are not solved again).
+    diameters : sequence of float, optional
+        Indenter diameters (mm); default the config's.
+    loads : sequence of float
+        Normal loads (N), increasing.
+    ratios : sequence of float
+        Tangential over normal load, from 0 (full stick, along x; other directions are
+        rotations).
+    n_slabs : int
+        Through-thickness slabs of the stored retarder fields.
+    scheduler : str, optional
+        A Dask scheduler address; default a local cluster (``workers`` processes).
+    cache_dir : path, optional
+        Mesh cache root.
+    progress : bool
+        A progress bar with an ETA and one line per stage through ``echo``.
+
+    Returns
+    -------
+    Library
+        The assembled library, read back and checked.
+
+    Examples
+    --------
+    >>> import fringekit
+    >>> lib = fringekit.build_library(fringekit.Config.reference(), "lib-ref",
+    ...                               loads=[4, 6, 8, 10], ratios=[0, 0.2, 0.4])  # doctest: +SKIP
+    >>> lib.max_load_N  # doctest: +SKIP
+    10.0
+    """
+    cfg = as_config(config).data
     diameters = sorted({float(d["diameter_mm"]) for d in cfg["indenter"]} if diameters is None
                        else {float(d) for d in diameters})  # fmt: skip
     _check_grid(loads, ratios, diameters)
@@ -239,13 +284,12 @@ def build_library(
     failed = _run_chains(chains, out, str(cache_dir or default_cache_dir()), scheduler,
                          workers, progress, say)  # fmt: skip
     if failed:
-        from fringekit.predict.pipeline import PredictError
-
-        raise PredictError(f"library: the solve failed for diameter {failed[0]['id']}: "
+        raise ComputeError(f"library: the solve failed for diameter {failed[0]['id']}: "
                            f"{failed[0]['error']}; the {failed[0]['n_done']} branch(es) "
                            "solved are kept, re-run to resume")  # fmt: skip
     build_s = time.perf_counter() - t0
-    return _assemble(cfg, out, branches, diameters, loads, ratios, lat, mesh, build_s)
+    _assemble(cfg, out, branches, diameters, loads, ratios, lat, mesh, build_s)
+    return load_library(out)
 
 
 def _run_chains(chains, out: Path, cache: str, scheduler, workers, progress, say) -> list:

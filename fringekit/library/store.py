@@ -102,16 +102,32 @@ def _weights(grid: np.ndarray, v: float) -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass(frozen=True)
 class Library:
-    """A loaded library (see the module docstring).
+    """A response library of one sensor, read and checked (see the module docstring).
+
+    Open one with :meth:`Library.open`; build one with
+    :func:`fringekit.library.build_library` (``fringekit library build``).
 
     Attributes
     ----------
     folder : Path
+        The library folder.
     manifest : dict
+        ``manifest.json``: sensor, grid, lattice, mesh, versions, checksums.
     lattice : PolarLattice
-    load_N : (nF + 1,) normal loads with the implied zero first (N)
-    shear_ratio : (nS,)
-    fields : dict diameter_mm -> dict of arrays (with the zero-load field prepended)
+        The polar lattice the fields are sampled on.
+    load_N : ndarray (nF + 1,)
+        Normal loads with the implied zero first (N).
+    shear_ratio : ndarray (nS,)
+        Tangential load over normal load.
+    fields : dict
+        Diameter (mm) -> dict of arrays (with the zero-load field prepended).
+
+    Examples
+    --------
+    >>> from fringekit import Library
+    >>> lib = Library.open("lib-ref")  # doctest: +SKIP
+    >>> lib.diameters_mm, lib.max_load_N  # doctest: +SKIP
+    ([3.5], 10.0)
     """
 
     folder: Path
@@ -120,6 +136,12 @@ class Library:
     load_N: np.ndarray
     shear_ratio: np.ndarray
     fields: dict
+
+    @classmethod
+    def open(cls, folder: str | Path) -> Library:
+        """Read and check a library folder (checksums, format, shapes); every defect is
+        one :class:`~fringekit.errors.LibraryError` line."""
+        return load_library(folder)
 
     @property
     def diameters_mm(self) -> list[float]:

@@ -1,0 +1,352 @@
+"""Analyse fringe images as an API: :func:`analyze` turns image files into a fringe-order
+map (:class:`Analysis`), with typed options per method; :meth:`Analysis.write` gives the
+folder of ``fringekit analyze``.
+
+Pixel coordinates (row, col) are those of the image; lengths the user gives are in mm.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from fringekit.analysis import load_image, principal_stress_difference
+from fringekit.analyze.methods import analyse_phase, analyse_rgb
+from fringekit.analyze.mono import analyse_mono
+from fringekit.analyze.regions import disc_region
+from fringekit.analyze.write import write_analysis
+from fringekit.errors import InputError
+
+__all__ = [
+    "Analysis",
+    "MonoOptions",
+    "PhaseOptions",
+    "RGBOptions",
+    "Region",
+    "analyze",
+    "choose_method",
+]
+
+METHODS = ("phase", "rgb", "mono")
+
+
+@dataclass(frozen=True)
+class Region:
+    """The region of interest of an image, in pixels (row, col).
+
+    Attributes
+    ----------
+    circle : (row, col, radius), optional
+        A circular region; default the whole image.
+    polygon : sequence of (row, col), optional
+        A polygonal region (3 or more vertices).
+    exclude_circles : sequence of (row, col, radius)
+        Circles left out (an indenter's contact zone, a load point).
+    exclude_polygons : sequence of sequences of (row, col)
+        Polygons left out.
+    disc_diameter_mm : float, optional
+        Find a circular specimen of this diameter in the first image: it sets the circle,
+        the pixel size and the origin.
+
+    Examples
+    --------
+    >>> from fringekit import Region
+    >>> Region(exclude_circles=[(127.5, 127.5, 16)]).exclude_circles
+    ((127.5, 127.5, 16),)
+    """
+
+    circle: tuple[float, float, float] | None = None
+    polygon: tuple | None = None
+    exclude_circles: tuple = ()
+    exclude_polygons: tuple = ()
+    disc_diameter_mm: float | None = None
+
+    def __post_init__(self):
+        for name in ("exclude_circles", "exclude_polygons"):
+            object.__setattr__(self, name, tuple(tuple(v) for v in getattr(self, name)))
+
+
+@dataclass(frozen=True)
+class PhaseOptions:
+    """Options of the six-step phase method.
+
+    Attributes
+    ----------
+    min_modulation : float
+        Pixels whose modulation is below this fraction are unreliable.
+    fold : {"count", "isoclinic"}
+        How the folded phase is resolved (the other resolution checks it).
+    reference : sequence of paths, optional
+        Six images of the unloaded specimen; their residual retardation is removed.
+    """
+
+    min_modulation: float = 0.1
+    fold: str = "count"
+    reference: tuple | None = None
+
+
+@dataclass(frozen=True)
+class RGBOptions:
+    """Options of the white-light colour method.
+
+    Attributes
+    ----------
+    calibration : path, optional
+        A colour table (CSV ``order,R,G,B``); default a synthetic chart of the light and
+        camera below.
+    light, camera : str
+        The chart's light source and camera sensitivities.
+    max_order : float
+        The chart's range (fringe orders).
+    exposure : float
+        The chart's exposure (fraction of full scale).
+    seeds : sequence of (row, col, order)
+        Pixels of known order that start the refined search.
+    window : float
+        Half-width of the refined search about the neighbours' order (fringe).
+    """
+
+    calibration: str | None = None
+    light: str = "LED"
+    camera: str = "CIE1931"
+    max_order: float = 4.0
+    exposure: float = 0.9
+    seeds: tuple = ()
+    window: float = 0.25
+
+    def as_kwargs(self) -> dict:
+        chart = {"light": self.light, "camera": self.camera, "max_order": self.max_order,
+                 "exposure": self.exposure}  # fmt: skip
+        seeds = [tuple(s) for s in self.seeds]
+        return {"calibration": self.calibration, "chart": chart, "seeds": seeds,
+                "window": self.window}  # fmt: skip
+
+
+@dataclass(frozen=True)
+class MonoOptions:
+    """Options of the one-photograph monochrome method.
+
+    Attributes
+    ----------
+    field : {"dark", "bright"}
+        The polariscope's field.
+    flat : path, optional
+        An image of the light alone (no specimen, or no load in a bright field), for the
+        envelope instead of the fringes' own.
+    smooth_px : float
+        Gaussian smoothing of the photograph before counting (px).
+    """
+
+    field: str = "dark"
+    flat: str | None = None
+    smooth_px: float = 0.5
+
+
+#: Share of the region of interest that must be reliable before analyze stops warning
+#: (and, with ``--strict``, exits 1).
+MIN_RELIABLE_SHARE = 0.5
+
+
+def counts(order, reliable, mask, part: dict) -> dict:
+    """Pixel counts, the order range and the reliability warning of an analysis."""
+    finite = np.isfinite(order)
+    roi = int(mask.sum())
+    share = float(np.sum(reliable & mask)) / roi if roi else 0.0
+    out = {
+        "shape": list(order.shape),
+        "valid_pixels": int(finite.sum()),
+        "reliable_pixels": int(np.sum(reliable)),
+        "masked_pixels": int((~mask).sum()),
+        "fringe_order_range": [float(np.nanmin(order)), float(np.nanmax(order))]
+        if finite.any()
+        else None,
+        "reliable_fraction_of_roi": share,
+    }
+    warnings = []
+    if share < MIN_RELIABLE_SHARE:
+        why = part.get("unreliable_reason", "the order map is mostly a guess")
+        warnings.append(
+            f"only {100 * share:.0f} % of the region of interest is reliable (fewer than "
+            f"{100 * MIN_RELIABLE_SHARE:.0f} %): {why}"
+        )
+    if "extra_warning" in part:
+        warnings.append(part["extra_warning"])
+    if warnings:
+        out["warning"] = "; ".join(warnings)
+    return out
+
+
+_OPTIONS = {"phase": PhaseOptions, "rgb": RGBOptions, "mono": MonoOptions}
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """A fringe-order map read off images, with the method's other maps.
+
+    Attributes
+    ----------
+    method : str
+        ``"phase"``, ``"rgb"`` or ``"mono"``.
+    fringe_order : ndarray (rows, cols)
+        Total fringe order, NaN where unknown.
+    reliable : ndarray of bool (rows, cols)
+        Pixels whose order the method stands behind.
+    region : Region
+        The region of interest as given.
+    roi_mask : ndarray of bool (rows, cols)
+        The region of interest analysed (the region less saturated pixels).
+    maps : dict of str to ndarray
+        Every map of ``maps.npz``: the two above and the method's own (``isoclinic_rad``,
+        ``modulation``, ``order_sd``, ``colour_error``, ``stress_difference_Pa``...).
+    pixel_mm : float
+        The pixel pitch on the sheet (mm), 0 when not known.
+    origin_px : (row, col)
+        The pixel of the sensor origin.
+    summary : dict
+        Counts of valid and reliable pixels, the order range, warnings, the method's info.
+
+    Examples
+    --------
+    >>> import fringekit
+    >>> an = fringekit.analyze("dark_field.png", method="mono", pixel_mm=0.078125,
+    ...     region=fringekit.Region(exclude_circles=[(127.5, 127.5, 22)]))  # doctest: +SKIP
+    >>> an.fringe_order.shape  # doctest: +SKIP
+    (256, 256)
+    """
+
+    method: str
+    maps: dict = field(repr=False)
+    region: Region
+    roi_mask: np.ndarray = field(repr=False)
+    pixel_mm: float
+    origin_px: tuple[float, float]
+    summary: dict = field(repr=False)
+
+    @property
+    def fringe_order(self) -> np.ndarray:
+        return self.maps["fringe_order"]
+
+    @property
+    def reliable(self) -> np.ndarray:
+        return self.maps["reliable"]
+
+    def write(self, folder, *, line=None, points=None) -> Path:
+        """Write ``maps.npz``, the figures, ``profile.csv``/``.png`` along ``line`` (r0,
+        c0, r1, c1 px; default across the region), ``points.csv`` for a CSV of points, and
+        ``summary.json`` into ``folder``; return it."""
+        return write_analysis(self, Path(folder), line=line, points=points)
+
+
+def choose_method(method: str | None, paths: list[str]) -> str:
+    """The method asked for, or the default for the images given (checked)."""
+    if method is None:
+        single = len(paths) == 1 and not paths[0].lower().endswith((".tif", ".tiff"))
+        method = ("rgb" if load_image(paths[0]).data.ndim == 3 else "mono") if single else "phase"
+    if method not in METHODS:
+        raise InputError(f"--method {method} is not allowed; use phase, rgb or mono")
+    return method
+
+
+def analyze(
+    images: str | os.PathLike | Sequence[str | os.PathLike],
+    *,
+    method: str | None = None,
+    pixel_mm: float = 0.0,
+    origin_px: tuple[float, float] | None = None,
+    region: Region = Region(),
+    dark: str | os.PathLike | None = None,
+    anchor_order: float = 0.0,
+    order_at: Sequence[tuple[float, float, float]] = (),
+    fringe_value_N_per_m: float | None = None,
+    thickness_mm: float | None = None,
+    options: PhaseOptions | RGBOptions | MonoOptions | None = None,
+) -> Analysis:
+    """Fringe order from six phase-stepped images, one white-light colour image, or one
+    monochrome photograph.
+
+    Parameters
+    ----------
+    images : path or sequence of paths
+        ``phase``: six files in :data:`fringekit.analysis.SIX_STEP_ORDER` or one 6-page
+        TIFF; ``rgb``: one colour image; ``mono``: one image.
+    method : {"phase", "rgb", "mono"}, optional
+        Default ``rgb`` for one colour image, ``mono`` for one grey image, ``phase``
+        otherwise.
+    pixel_mm : float
+        The pixel pitch on the sheet (mm) for the sensor frame; 0 keeps pixels.
+    origin_px : (row, col), optional
+        The pixel of the sensor origin; default the image centre.
+    region : Region
+        The region of interest.
+    dark : path, optional
+        A dark frame subtracted from every image.
+    anchor_order : float
+        The order of the image border (the far field); ``order_at`` gives (row, col,
+        order) of pixels of known order instead, each the lowest about it.
+    fringe_value_N_per_m, thickness_mm : float, optional
+        Both give the principal stress difference map (``stress_difference_Pa``).
+    options : PhaseOptions, RGBOptions or MonoOptions, optional
+        The method's options (default: its defaults).
+
+    Returns
+    -------
+    Analysis
+        The maps and the summary; nothing is written.
+
+    Examples
+    --------
+    >>> import fringekit
+    >>> an = fringekit.analyze([f"six_step/step{k}.png" for k in range(1, 7)],
+    ...                        pixel_mm=0.078125)  # doctest: +SKIP
+    >>> float(an.summary["reliable_fraction_of_roi"]) > 0.9  # doctest: +SKIP
+    True
+    """
+    paths = [os.fspath(images)] if isinstance(images, (str, os.PathLike)) else [
+        os.fspath(p) for p in images
+    ]  # fmt: skip
+    if not paths:
+        raise InputError("analyze needs at least one image")
+    method = choose_method(method, paths)
+    opts = options if options is not None else _OPTIONS[method]()
+    if not isinstance(opts, _OPTIONS[method]):
+        raise InputError(f"options {type(opts).__name__} are not for --method {method}; give "
+                         f"{_OPTIONS[method].__name__}")  # fmt: skip
+    if (fringe_value_N_per_m is None) != (thickness_mm is None):
+        raise InputError("give both the fringe value and the thickness for stress, or neither")
+    circle, pixel_size = region.circle, pixel_mm * 1e-3
+    disc = None
+    if region.disc_diameter_mm is not None:
+        disc = disc_region(paths[0], region.disc_diameter_mm * 1e-3, dark)
+        circle, pixel_size = disc["roi_circle"], pixel_size or disc["pixel_size"]
+        origin_px = origin_px if origin_px is not None else disc["origin_px"]
+    mask_args = (circle, list(region.exclude_circles), region.polygon,
+                 [list(p) for p in region.exclude_polygons])  # fmt: skip
+    order_at = [tuple(p) for p in order_at]
+    if method == "phase":
+        kw = dataclasses.asdict(opts)
+        res = analyse_phase(paths, dark, mask_args, anchor_order, order_at, **kw)
+    elif method == "mono":
+        res = analyse_mono(paths, dark, mask_args, anchor_order, order_at,
+                           dataclasses.asdict(opts))  # fmt: skip
+    else:
+        res = analyse_rgb(paths, dark, mask_args, **opts.as_kwargs())
+    order, reliable, maps, part, mask = res
+    summary: dict = {"method": method, "images": paths}
+    if disc is not None:
+        summary["disc_found"] = disc["info"]
+    summary.update((k, v) for k, v in part.items() if k != "extra_warning")
+    rows, cols = order.shape
+    origin = tuple(origin_px) if origin_px is not None else ((rows - 1) / 2, (cols - 1) / 2)
+    maps.update(fringe_order=order, reliable=reliable, pixel_size_m=np.array(pixel_size))
+    if fringe_value_N_per_m is not None:
+        maps["stress_difference_Pa"] = principal_stress_difference(
+            order, fringe_value_N_per_m, thickness_mm * 1e-3
+        )
+    summary.update(counts(order, reliable, mask, part))
+    summary.update(pixel_size_mm=pixel_size * 1e3, origin_px=[float(v) for v in origin])
+    return Analysis(method, maps, region, mask, pixel_size * 1e3, origin, summary)

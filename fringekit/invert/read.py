@@ -1,0 +1,96 @@
+"""Reading what ``invert`` fits: the image files (decoded to linear intensity, with the
+saturated and no-data pixels), the sensor's config, and the pixel grid."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from scipy import ndimage
+
+from fringekit.analysis import load_image, load_six_step
+from fringekit.config.files import load_config
+from fringekit.errors import ConfigError
+from fringekit.optics import PixelGrid
+from fringekit.output.figures import NO_DATA_IMAGE_LEVEL
+
+__all__ = ["NO_DATA_MIN_PX", "pixel_grid", "read_measurement", "sensor_config"]
+
+#: A region filled with the no-data level in every channel, at least this many pixels,
+#: is left out of the fit (the contact discs of ``predict`` images).
+NO_DATA_MIN_PX = 12
+
+
+def _decode(frame, camera_name: str, colour: bool) -> np.ndarray:
+    """Linear intensities of a frame in [0, 1]: sRGB decoding for the CIE observer."""
+    if colour and camera_name == "CIE1931":
+        import colour as cs
+
+        return np.clip(cs.cctf_decoding(frame.data, function="sRGB"), 0.0, 1.0)
+    return frame.data
+
+
+def _no_data(stack: np.ndarray) -> np.ndarray:
+    """(rows, cols) bool: regions at the no-data fill level in every channel."""
+    level = NO_DATA_IMAGE_LEVEL
+    hit = np.all(np.abs(stack - level) < 0.6 / 255, axis=-1)
+    lab, n = ndimage.label(hit)
+    if not n:
+        return hit
+    sizes = ndimage.sum(hit, lab, np.arange(1, n + 1))
+    return np.concatenate([[False], sizes >= NO_DATA_MIN_PX])[lab]
+
+
+def read_measurement(paths, method: str | None, camera_name: str):
+    """(method, measured (P, C) linear, usable (P,), no-data (P,), shape) from the image
+    files: usable pixels are neither saturated nor at the no-data fill level."""
+    paths = [str(p) for p in paths]
+    if method is None:
+        single = len(paths) == 1
+        method = ("rgb" if load_image(paths[0]).data.ndim == 3 else "mono") if single else "phase"
+    want = 6 if method == "phase" else 1
+    if len(paths) != want:
+        raise ConfigError(f"--method {method} takes {want} image(s); got {len(paths)}")
+    if method == "phase":
+        frames = load_six_step(paths)
+        raw = np.stack([f.data if f.data.ndim == 2 else f.data.mean(-1) for f in frames], -1)
+        lin = raw
+        sat = np.any([f.saturated for f in frames], axis=0)
+    else:
+        f = load_image(paths[0])
+        if method == "rgb" and f.data.ndim != 3:
+            raise ConfigError(f"--method rgb needs a colour image; {paths[0]} is grey")
+        data = f.data if method == "rgb" or f.data.ndim == 2 else f.data.mean(-1)
+        raw = data.reshape(*data.shape[:2], -1)
+        lin = _decode(f, camera_name, method == "rgb").reshape(raw.shape) if method == "rgb" \
+            else raw  # fmt: skip
+        sat = f.saturated
+    nodata = _no_data(raw)
+    rows, cols = raw.shape[:2]
+    usable = (~sat & ~nodata).ravel()
+    return method, lin.reshape(rows * cols, -1), usable, nodata.ravel(), (rows, cols)
+
+
+def sensor_config(sensor, images) -> tuple[dict | None, str | None]:
+    """The image's sensor config: ``--sensor`` (a config file or a ``predict`` output
+    folder), else a ``config.toml`` of a ``predict`` folder the first image lies in."""
+    if sensor is not None:
+        p = Path(sensor)
+        path = p / "config.toml" if p.is_dir() else p
+        if not path.is_file():
+            raise ConfigError(f"--sensor {sensor}: no config file there")
+        return load_config(path), str(path)
+    here = Path(images[0]).resolve().parent
+    for folder in (here, here.parent, here.parent.parent):
+        if (folder / "config.toml").is_file() and (folder / "summary.json").is_file():
+            return load_config(folder / "config.toml"), str(folder / "config.toml")
+    return None, None
+
+
+def pixel_grid(shape, pixel_mm: float, origin_px) -> PixelGrid:
+    """The sensor-frame pixel grid of an image of ``shape`` (rows, cols) at ``pixel_mm``
+    (mm) with the origin at ``origin_px`` (row, col; default the image centre)."""
+    rows, cols = shape
+    r0, c0 = origin_px if origin_px is not None else ((rows - 1) / 2, (cols - 1) / 2)
+    p = pixel_mm * 1e-3
+    return PixelGrid((rows, cols), p, (-(c0 - (cols - 1) / 2) * p, (r0 - (rows - 1) / 2) * p))

@@ -85,10 +85,8 @@ def mesh_uncached(spec: MeshSpec, *, num_threads: int = 0) -> Mesh:
     """Mesh a bonded sheet/substrate block with quadratic tetrahedra, without the cache.
 
     Users call :func:`meshes.build_mesh` (``use_cache=False`` meshes again and does not
-    write the cache), which calls this.
-
-    With the default ``spec.mesher = "layered"`` the result depends only on ``spec``
-    (and the numpy and scipy versions), bit for bit.
+    write the cache), which calls this. With the default ``spec.mesher = "layered"`` the
+    result depends only on ``spec`` (and the numpy and scipy versions), bit for bit.
 
     Parameters
     ----------
@@ -109,6 +107,16 @@ def mesh_uncached(spec: MeshSpec, *, num_threads: int = 0) -> Mesh:
     MeshQualityError
         If the tets cannot be put onto the exact geometry or contain inverted or
         degenerate cells.
+
+    Examples
+    --------
+    >>> from fringekit.meshes import MeshSpec, Sizing
+    >>> from fringekit.meshes.build import mesh_uncached
+    >>> sizing = Sizing(h_contact=2e-3, h_sheet=3e-3, h_far=10e-3)
+    >>> spec = MeshSpec(sizing=sizing, symmetry="quarter")
+    >>> mesh = mesh_uncached(spec)
+    >>> mesh.cells.shape[1], sorted(mesh.facets)[:2]
+    (10, ['bottom', 'contact'])
     """
     t0 = time.perf_counter()
     if spec.mesher == "layered":

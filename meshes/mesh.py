@@ -14,9 +14,11 @@ from .topology import TET_FACE_MIDS, TET_FACES, signed_volumes
 
 __all__ = ["FacetSet", "Mesh", "REGION_SHEET", "REGION_SUBSTRATE", "REGION_NAMES", "FACET_SETS"]
 
-#: Region ids stored per cell.
+#: Region id (``Mesh.regions``) of the cells of the photoelastic sheet.
 REGION_SHEET = 0
+#: Region id of the cells of the substrate (the polycarbonate plate).
 REGION_SUBSTRATE = 1
+#: Region names by id: ``REGION_NAMES[REGION_SHEET] == "sheet"``.
 REGION_NAMES = ("sheet", "substrate")
 
 #: Names of the boundary facet sets a mesh may carry. ``symmetry_y0`` is the mirror
@@ -34,12 +36,25 @@ def _readonly(a: np.ndarray) -> np.ndarray:
 class FacetSet:
     """Boundary (or interface) facets as 6-node triangles owned by a cell.
 
-    Attributes
+    Parameters
     ----------
-    cells : (m,) int64
+    cells : (m,) int64 array
         Owning cell of each facet. For ``interface`` the owner is the sheet cell.
-    local : (m,) int8
+    local : (m,) int8 array
         Face index 0..3 in :data:`meshes.topology.TET_FACES` of the owner.
+
+    Raises
+    ------
+    ValueError
+        ``cells`` and ``local`` not 1-D of equal length.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.meshes import FacetSet
+    >>> fs = FacetSet(cells=np.array([0, 0]), local=np.array([1, 3]))
+    >>> len(fs), fs.cells.dtype.name, fs.local.dtype.name
+    (2, 'int64', 'int8')
     """
 
     cells: np.ndarray
@@ -66,18 +81,42 @@ class FacetSet:
 class Mesh:
     """Quadratic tetrahedral mesh of a bonded sheet/substrate block.
 
-    Attributes
+    Made by :func:`build_mesh`; the arrays are read-only.
+
+    Parameters
     ----------
-    points : (n, 3) float64
+    points : (n, 3) float64 array
         Node coordinates (m). Corner nodes first, mid-edge nodes after.
-    cells : (c, 10) int64
+    cells : (c, 10) int64 array
         VTK QUADRATIC_TETRA connectivity, all positively oriented.
-    regions : (c,) int8
+    regions : (c,) int8 array
         :data:`REGION_SHEET` or :data:`REGION_SUBSTRATE` per cell.
     facets : mapping str -> FacetSet
         Named facet sets, see :data:`FACET_SETS`.
     spec : MeshSpec or None
         The inputs the mesh was generated from.
+
+    Raises
+    ------
+    ValueError
+        Arrays of the wrong shape, node ids out of range, or unknown facet set names.
+
+    Examples
+    --------
+    >>> from fringekit.meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh
+    >>> layers = Layers(sheet_thickness=2e-3, substrate_thickness=0.0, width=10e-3, length=10e-3)
+    >>> sizing = Sizing(h_contact=1e-3, refine_radius=1.5e-3, h_far=4e-3, h_sheet=2e-3)
+    >>> spec = MeshSpec(layers, (IndenterSite(radius=1e-3),), sizing, symmetry="quarter")
+    >>> mesh = build_mesh(spec, use_cache=False)
+    >>> mesh.points.shape, mesh.cells.shape
+    ((245, 3), (108, 10))
+    >>> sorted(mesh.facets)
+    ['bottom', 'contact', 'interface', 'sides', 'symmetry_x0', 'symmetry_y0']
+    >>> mesh.facet_nodes("contact").shape  # 6-node triangles of the contact face
+    (18, 6)
+    >>> from fringekit.meshes import REGION_SHEET
+    >>> round(mesh.region_volume(REGION_SHEET) * 1e9, 3)  # 5 x 5 x 2 mm quarter, mm^3
+    50.0
     """
 
     points: np.ndarray

@@ -25,7 +25,39 @@ _PLANES = {0: "symmetry_x0", 1: "symmetry_y0"}
 
 
 def mirror(mesh: Mesh, axis: int) -> Mesh:
-    """Mirror ``mesh`` about its symmetry plane (see :func:`mirror_with_sources`)."""
+    """Mirror ``mesh`` about its symmetry plane (see :func:`mirror_with_sources`).
+
+    Parameters
+    ----------
+    mesh : Mesh
+        A half or quarter model.
+    axis : {0, 1}
+        Mirror about x = 0 (0) or y = 0 (1). A quarter model is mirrored about x = 0
+        first.
+
+    Returns
+    -------
+    Mesh
+        Both halves, the plane's facet set removed, ``spec.symmetry`` one step fuller.
+
+    Raises
+    ------
+    ValueError
+        ``axis`` not 0 or 1, or the mesh has no symmetry plane on that axis.
+
+    Examples
+    --------
+    >>> from fringekit.meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh
+    >>> layers = Layers(sheet_thickness=2e-3, substrate_thickness=0.0, width=10e-3, length=10e-3)
+    >>> sizing = Sizing(h_contact=1e-3, refine_radius=1.5e-3, h_far=4e-3, h_sheet=2e-3)
+    >>> spec = MeshSpec(layers, (IndenterSite(radius=1e-3),), sizing, symmetry="quarter")
+    >>> mesh = build_mesh(spec, use_cache=False)
+    >>> from fringekit.meshes import mirror
+    >>> half = mirror(mesh, 0)
+    >>> full = mirror(half, 1)
+    >>> half.spec.symmetry, full.spec.symmetry, full.n_cells == 4 * mesh.n_cells
+    ('half', 'full', True)
+    """
     return mirror_with_sources(mesh, axis)[0]
 
 
@@ -38,10 +70,17 @@ def mirror_with_sources(mesh: Mesh, axis: int) -> tuple[Mesh, np.ndarray]:
     model's results on the full sensor and to check symmetry boundary conditions on
     identical meshes.
 
+    Parameters
+    ----------
+    mesh : Mesh
+        A half or quarter model.
+    axis : {0, 1}
+        The plane's normal: x (0) or y (1).
+
     Returns
     -------
     mirrored : Mesh
-    sources : (n_mirrored,) int64
+    sources : (n_mirrored,) int64 array
         The point of ``mesh`` each point of ``mirrored`` is (a copy or the mirror image
         of): the first ``mesh.n_points`` are the identity, so nodal fields unfold as
         ``field[sources]`` with the components that change sign flipped on the copies.
@@ -50,6 +89,22 @@ def mirror_with_sources(mesh: Mesh, axis: int) -> tuple[Mesh, np.ndarray]:
     ------
     ValueError
         ``axis`` not 0 or 1, or the mesh has no symmetry plane on that axis.
+
+    Examples
+    --------
+    >>> from fringekit.meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh
+    >>> layers = Layers(sheet_thickness=2e-3, substrate_thickness=0.0, width=10e-3, length=10e-3)
+    >>> sizing = Sizing(h_contact=1e-3, refine_radius=1.5e-3, h_far=4e-3, h_sheet=2e-3)
+    >>> spec = MeshSpec(layers, (IndenterSite(radius=1e-3),), sizing, symmetry="quarter")
+    >>> mesh = build_mesh(spec, use_cache=False)
+    >>> from fringekit.meshes import mirror_with_sources
+    >>> half, sources = mirror_with_sources(mesh, 0)
+    >>> n = mesh.n_points
+    >>> half.n_points - n  # the copies: every node off the plane x = 0
+    210
+    >>> import numpy as np
+    >>> bool(np.array_equal(half.points[n:, 0], -mesh.points[sources[n:], 0]))
+    True
     """
     if axis not in _PLANES:
         raise ValueError(f"axis = {axis!r} is not allowed; use 0 (x = 0) or 1 (y = 0)")

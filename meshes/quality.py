@@ -70,7 +70,35 @@ def radius_ratios(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class QualityReport:
-    """Summary figures of a tetrahedral mesh."""
+    """Summary figures of a tetrahedral mesh (made by :func:`quality_report`).
+
+    Parameters
+    ----------
+    n_points, n_cells, n_dofs : int
+        Nodes, cells and displacement degrees of freedom (3 per node).
+    cells_per_region : dict
+        Region name -> number of cells.
+    min_dihedral_deg, max_dihedral_deg : float
+        Extreme interior dihedral angles (degrees).
+    min_radius_ratio, mean_radius_ratio : float
+        Normalised radius ratio 3 r_in / R_circ (1 for a regular tet, 0 when flat).
+    min_volume_m3 : float
+        Smallest cell volume (m^3).
+
+    Examples
+    --------
+    >>> from fringekit.meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh
+    >>> layers = Layers(sheet_thickness=2e-3, substrate_thickness=0.0, width=10e-3, length=10e-3)
+    >>> sizing = Sizing(h_contact=1e-3, refine_radius=1.5e-3, h_far=4e-3, h_sheet=2e-3)
+    >>> spec = MeshSpec(layers, (IndenterSite(radius=1e-3),), sizing, symmetry="quarter")
+    >>> mesh = build_mesh(spec, use_cache=False)
+    >>> from fringekit.meshes import quality_report
+    >>> report = quality_report(mesh.points, mesh.cells, mesh.regions)
+    >>> report.as_dict()["cells_per_region"]
+    {'sheet': 108, 'substrate': 0}
+    >>> print(report)  # doctest: +ELLIPSIS
+    245 nodes, 108 quadratic tets (sheet: 108, substrate: 0), 735 DOF; dihedral ...
+    """
 
     n_points: int
     n_cells: int
@@ -95,11 +123,51 @@ class QualityReport:
 
 
 class MeshQualityError(ComputeError, ValueError):
-    """Raised when a mesh has inverted or degenerate elements."""
+    """Raised when a mesh has inverted or degenerate elements.
+
+    A :class:`fringekit.errors.ComputeError` (and a ``ValueError``): the mesher could
+    not produce a usable mesh of valid inputs.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.meshes import MeshQualityError, check_quality
+    >>> flat = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], float)  # 4 points in a plane
+    >>> try:
+    ...     check_quality(flat, np.array([[0, 1, 2, 3]]))
+    ... except MeshQualityError as err:
+    ...     print(str(err).split(" (")[0])
+    1 inverted or zero-volume tetrahedra
+    """
 
 
 def quality_report(points, cells, regions, region_names=("sheet", "substrate")) -> QualityReport:
-    """Compute the :class:`QualityReport` of a tet mesh (corner nodes are used)."""
+    """The :class:`QualityReport` of a tet mesh (its corner nodes).
+
+    Parameters
+    ----------
+    points : (n, 3) float array
+        Node coordinates (m).
+    cells : (c, 4) or (c, 10) int array
+        Tetrahedra; only the 4 corner nodes are used.
+    regions : (c,) int array
+        Region id per cell.
+    region_names : sequence of str
+        Name of region id 0, 1, ...
+
+    Returns
+    -------
+    QualityReport
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.meshes import quality_report
+    >>> tet = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    >>> r = quality_report(tet, np.array([[0, 1, 2, 3]]), np.array([0]))
+    >>> r.n_dofs, round(r.min_dihedral_deg, 1), round(r.max_dihedral_deg, 1)
+    (12, 54.7, 90.0)
+    """
     dih = dihedral_angles(points, cells)
     rr = radius_ratios(points, cells)
     vol = signed_volumes(points, cells)
@@ -122,11 +190,35 @@ def check_quality(points, cells, *, min_dihedral_deg: float = 1.0, min_radius_ra
 
     Parameters
     ----------
+    points : (n, 3) float array
+        Node coordinates (m).
+    cells : (c, 4) or (c, 10) int array
+        Tetrahedra; only the 4 corner nodes are used.
     min_dihedral_deg : float
         Smallest acceptable dihedral angle (degrees). Default 1 degree: below it the
         element Jacobian is too ill-conditioned for a large-deformation solve.
     min_radius_ratio : float
         Smallest acceptable normalised radius ratio (dimensionless).
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    MeshQualityError
+        A cell of volume <= 0, or one below either threshold.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.meshes import check_quality
+    >>> tet = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    >>> check_quality(tet, np.array([[0, 1, 2, 3]]))  # fine: returns None
+    >>> check_quality(tet, np.array([[0, 2, 1, 3]]))  # inverted
+    Traceback (most recent call last):
+    ...
+    fringekit.meshes.quality.MeshQualityError: 1 inverted or zero-volume tetrahedra ...
     """
     vol = signed_volumes(points, cells)
     bad = np.flatnonzero(vol <= 0)

@@ -47,6 +47,20 @@ class Layers:
     width, length : float
         Lateral size along x and y of the full sheet (m). Default 40 mm x 40 mm
         (assumed: large enough that the free sides barely affect a 3.5 mm indenter).
+
+    Raises
+    ------
+    ValueError
+        A thickness or size that is not finite and positive (the substrate may be 0).
+
+    Examples
+    --------
+    >>> from fringekit.meshes import Layers
+    >>> lay = Layers(sheet_thickness=3e-3, substrate_thickness=15e-3)
+    >>> lay.z_top, lay.z_bottom
+    (0.003, -0.015)
+    >>> Layers(substrate_thickness=0.0).z_bottom  # a single sheet on a rigid base
+    0.0
     """
 
     sheet_thickness: float = 3e-3
@@ -75,7 +89,25 @@ class Layers:
 class IndenterSite:
     """Where an indenter touches the sheet: centre (x, y) and sphere radius (m).
 
-    Default: the reference 3.5 mm diameter head at the centre (seed paper, Fig. 3).
+    Parameters
+    ----------
+    x, y : float
+        Centre of the contact on the undeformed contact face (m), in the frame of the
+        FULL sheet (origin at its centre).
+    radius : float
+        Sphere radius (m). Default: the reference 3.5 mm diameter head (seed paper,
+        Fig. 3).
+
+    Raises
+    ------
+    ValueError
+        A non-finite centre or a radius that is not > 0.
+
+    Examples
+    --------
+    >>> from fringekit.meshes import IndenterSite
+    >>> IndenterSite(x=5e-3, radius=2e-3)
+    IndenterSite(x=0.005, y=0.0, radius=0.002)
     """
 
     x: float = 0.0
@@ -113,6 +145,19 @@ class Sizing:
     growth : float
         Grading rate: the target size grows by ``growth`` per unit distance from the
         refined zone (dimensionless, > 0).
+
+    Raises
+    ------
+    ValueError
+        A size that is not > 0, or not ``h_contact <= h_sheet <= h_far``.
+
+    Examples
+    --------
+    A coarse sizing for quick checks:
+
+    >>> from fringekit.meshes import Sizing
+    >>> Sizing(h_contact=1e-3, h_sheet=2e-3).h_far
+    0.008
     """
 
     h_contact: float = 0.6e-3
@@ -155,6 +200,31 @@ class MeshSpec:
         ``"layered"`` (default) extrudes a graded plane triangulation through the
         layers and gives the same mesh on every run; ``"tetwild"`` runs fTetWild, whose
         mesh changes from run to run.
+
+    Raises
+    ------
+    ValueError
+        An unknown symmetry or mesher, no indenter, indenters outside the sheet or
+        overlapping, a refined size thicker than the sheet, or a symmetry the indenter
+        set does not have.
+
+    Examples
+    --------
+    The default is the reference sensor (3 mm sheet on 15 mm polycarbonate, 40 x 40 mm,
+    one 3.5 mm head at the centre); a small single-layer quarter model meshes in
+    milliseconds:
+
+    >>> from fringekit.meshes import MeshSpec
+    >>> MeshSpec().layers.sheet_thickness
+    0.003
+    >>> from fringekit.meshes import IndenterSite, Layers, MeshSpec, Sizing
+    >>> layers = Layers(sheet_thickness=2e-3, substrate_thickness=0.0, width=10e-3, length=10e-3)
+    >>> sizing = Sizing(h_contact=1e-3, refine_radius=1.5e-3, h_far=4e-3, h_sheet=2e-3)
+    >>> spec = MeshSpec(layers, (IndenterSite(radius=1e-3),), sizing, symmetry="quarter")
+    >>> spec.bounds()  # (xmin, xmax, ymin, ymax, zmin, zmax) of the quarter, m
+    (0.0, 0.005, 0.0, 0.005, 0.0, 0.002)
+    >>> MeshSpec.from_dict(spec.to_dict()) == spec
+    True
     """
 
     layers: Layers = field(default_factory=Layers)

@@ -19,14 +19,25 @@ def hertz_force(depth, radius: float, E: float, nu: float):
 
     Parameters
     ----------
-    depth : float or array (m)
-    radius : float (m)
-    E : float (Pa)
+    depth : float or array
+        Indentation depth (m).
+    radius : float
+        Sphere radius (m).
+    E : float
+        Young's modulus of the half-space (Pa); the sphere is rigid.
     nu : float
+        Poisson's ratio of the half-space.
 
     Returns
     -------
-    force : float or array (N), the shape of ``depth``
+    force : float or array
+        Normal force (N), the shape of ``depth``.
+
+    Examples
+    --------
+    >>> from fringekit.fea import hertz_force
+    >>> round(float(hertz_force(0.1e-3, radius=1.75e-3, E=4e6, nu=0.49)), 3)  # N
+    0.294
     """
     Es = E / (1 - nu**2)
     return 4.0 / 3.0 * Es * np.sqrt(radius) * np.asarray(depth) ** 1.5
@@ -40,15 +51,27 @@ def dimitriadis_force(depth, radius: float, E: float, thickness: float, *, bonde
 
     Parameters
     ----------
-    depth : float or array (m)
-    radius, thickness : float (m)
-    E : float (Pa)
+    depth : float or array
+        Indentation depth (m).
+    radius, thickness : float
+        Sphere radius and layer thickness (m).
+    E : float
+        Young's modulus of the layer (Pa).
     bonded : bool
         The layer bonded to the base (eq. 12) or sliding on it (eq. 13).
 
     Returns
     -------
-    force : float or array (N)
+    force : float or array
+        Normal force (N), the shape of ``depth``.
+
+    Examples
+    --------
+    A thin layer is stiffer than the half-space of :func:`hertz_force`:
+
+    >>> from fringekit.fea import dimitriadis_force
+    >>> round(float(dimitriadis_force(0.1e-3, radius=1.75e-3, E=4e6, thickness=3e-3)), 3)  # N
+    0.353
     """
     d = np.asarray(depth, dtype=float)
     chi = np.sqrt(radius * d) / thickness
@@ -58,8 +81,32 @@ def dimitriadis_force(depth, radius: float, E: float, thickness: float, *, bonde
 
 
 def depth_guess(force: float, radius: float, E: float, thickness: float) -> float:
-    """Depth (m) at which the bonded-layer formula gives ``force`` (N), by bisection
-    on [0, 0.95 radius]; 0 for a force <= 0."""
+    """Depth at which the bonded-layer formula (:func:`dimitriadis_force`) gives a force.
+
+    Bisection on [0, 0.95 radius]; the solver's first guess of an indenter's depth.
+
+    Parameters
+    ----------
+    force : float
+        Normal force (N).
+    radius, thickness : float
+        Sphere radius and layer thickness (m).
+    E : float
+        Young's modulus of the layer (Pa).
+
+    Returns
+    -------
+    float
+        Depth (m); 0 for a force <= 0.
+
+    Examples
+    --------
+    >>> from fringekit.fea import depth_guess, dimitriadis_force
+    >>> f = dimitriadis_force(0.1e-3, radius=1.75e-3, E=4e6, thickness=3e-3)
+    >>> d = depth_guess(float(f), radius=1.75e-3, E=4e6, thickness=3e-3)
+    >>> round(d * 1e3, 6)  # mm: the depth the force came from
+    0.1
+    """
     lo, hi = 0.0, 0.95 * radius
     if force <= 0:
         return 0.0

@@ -50,7 +50,30 @@ def _check_nu(nu: float) -> None:
 
 @dataclass(frozen=True)
 class Material:
-    """Base class: shear modulus ``mu`` and bulk modulus ``K`` (Pa)."""
+    """Base class of the hyperelastic solids: shear modulus ``mu`` and bulk modulus ``K``.
+
+    Subclasses (:class:`NeoHookean`, :class:`MooneyRivlin`) give the isochoric energy; the
+    volumetric part U(J) = K/2 (J - 1)^2 is shared.
+
+    Parameters
+    ----------
+    mu : float
+        Small-strain shear modulus (Pa), > 0.
+    K : float
+        Bulk modulus (Pa), > 0.
+
+    Raises
+    ------
+    ValueError
+        A modulus that is not finite and positive.
+
+    Examples
+    --------
+    >>> from fringekit.fea import Material, NeoHookean
+    >>> sheet = NeoHookean.from_E_nu(4e6, 0.49)
+    >>> isinstance(sheet, Material), round(sheet.E), round(sheet.nu, 2)
+    (True, 4000000, 0.49)
+    """
 
     mu: float
     K: float
@@ -186,10 +209,28 @@ def deviatoric_piola_factor(H: np.ndarray, G: np.ndarray) -> np.ndarray:
 class NeoHookean(Material):
     """Compressible / nearly incompressible neo-Hookean solid.
 
+    Psi = mu/2 (I1_bar - 3) + K/2 (J - 1)^2 (module docstring).
+
     Parameters
     ----------
     mu, K : float
         Shear and bulk moduli (Pa). Use :meth:`from_E_nu` for engineering constants.
+
+    Raises
+    ------
+    ValueError
+        A modulus that is not finite and positive.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.fea import NeoHookean
+    >>> mat = NeoHookean.from_E_nu(E=4e6, nu=0.49)
+    >>> round(mat.mu / 1e6, 4), round(mat.K / 1e6, 2)  # MPa
+    (1.3423, 66.67)
+    >>> W, P, A = mat.isochoric(np.eye(3)[None])  # undeformed: no energy, no stress
+    >>> float(W[0]), float(abs(P).max()), A.shape
+    (0.0, 0.0, (1, 3, 3, 3, 3))
     """
 
     @classmethod
@@ -231,6 +272,18 @@ class MooneyRivlin(Material):
         Mooney-Rivlin constants (Pa), c10 > 0, c01 >= 0.
     K : float
         Bulk modulus (Pa).
+
+    Raises
+    ------
+    ValueError
+        c10 or K not > 0, or c01 < 0.
+
+    Examples
+    --------
+    >>> from fringekit.fea import MooneyRivlin
+    >>> mat = MooneyRivlin(c10=0.5e6, c01=0.2e6, K=1e9)
+    >>> mat.mu, mat.to_dict()["model"]
+    (1400000.0, 'MooneyRivlin')
     """
 
     c10: float = 0.0
@@ -310,10 +363,30 @@ _MODELS = {"neo-hookean": NeoHookean, "mooney-rivlin": MooneyRivlin}
 
 
 def material_from_dict(d: dict) -> Material:
-    """Build a material from ``{"model": ..., ...}`` in SI units.
+    """Build a material from ``{"model": ..., ...}`` in SI units (a config table).
 
-    ``model`` is ``"neo-hookean"`` (with ``E`` and ``nu``, or ``mu`` and ``K``) or
-    ``"mooney-rivlin"`` (with ``c10``, ``c01``, ``K``).
+    Parameters
+    ----------
+    d : dict
+        ``model`` is ``"neo-hookean"`` (the default; with ``E`` and ``nu``, or ``mu`` and
+        ``K``) or ``"mooney-rivlin"`` (with ``c10``, ``c01``, ``K``); moduli in Pa.
+
+    Returns
+    -------
+    Material
+
+    Raises
+    ------
+    ValueError
+        An unknown model, or parameters that do not match it.
+
+    Examples
+    --------
+    >>> from fringekit.fea import SHEET_DEFAULT, material_from_dict
+    >>> material_from_dict({"model": "neo-hookean", "E": 4e6, "nu": 0.49}) == SHEET_DEFAULT
+    True
+    >>> material_from_dict({"model": "mooney-rivlin", "c10": 0.5e6, "c01": 0.2e6, "K": 1e9}).mu
+    1400000.0
     """
     d = dict(d)
     model = str(d.pop("model", "neo-hookean")).lower()

@@ -34,6 +34,8 @@ def _finite_array(name: str, value, shape_tail: tuple[int, ...] = ()) -> np.ndar
 class Indenter:
     """A rigid sphere with its load path.
 
+    Loads are the physical loads on the whole indenter, whatever symmetry the mesh uses.
+
     Parameters
     ----------
     x, y : float
@@ -50,6 +52,23 @@ class Indenter:
     shear_force : sequence of (fx, fy), optional
         Target tangential force at each load state (N). Needs friction; without it the
         indenter does not move sideways.
+
+    Raises
+    ------
+    ValueError
+        Both or neither of ``normal_force`` and ``depth`` after the default, negative or
+        non-finite loads, a depth beyond the radius, or load paths of different lengths.
+
+    Examples
+    --------
+    >>> from fringekit.fea import Indenter
+    >>> Indenter().normal_force  # the reference load
+    (8.0,)
+    >>> ind = Indenter(normal_force=[2, 4], shear_force=[(0, 0), (1, 0)])
+    >>> ind.n_states, ind.force_control, ind.shear_targets().tolist()
+    (2, True, [[0.0, 0.0], [1.0, 0.0]])
+    >>> Indenter(depth=[0.2e-3]).normal_targets().tolist()  # m
+    [0.0002]
     """
 
     x: float = 0.0
@@ -122,12 +141,13 @@ class Indenter:
 
 @dataclass(frozen=True)
 class ContactSettings:
-    """Contact enforcement.
+    """Contact enforcement (augmented Lagrangian, Coulomb friction).
 
     Parameters
     ----------
     friction : float
-        Coulomb coefficient (>= 0); 0 is frictionless, ``math.inf`` full stick.
+        Coulomb coefficient (>= 0); 0 is frictionless, ``math.inf``
+        (:data:`FRICTION_STICK`) full stick.
     penalty_factor : float
         Normal penalty as a multiple of E_sheet / h, h the mean contact facet size
         (dimensionless). The augmented-Lagrangian updates remove the penetration it leaves.
@@ -139,6 +159,20 @@ class ContactSettings:
         Largest allowed penetration as a fraction of the indentation depth (issue 3: 1 %).
     max_updates : int
         Largest number of multiplier updates per load state.
+
+    Raises
+    ------
+    ValueError
+        A negative or NaN friction, a factor or tolerance that is not > 0, or
+        ``max_updates < 1``.
+
+    Examples
+    --------
+    >>> from fringekit.fea import FRICTION_STICK, ContactSettings
+    >>> ContactSettings(friction=FRICTION_STICK).friction
+    inf
+    >>> ContactSettings(friction=0.5, penetration_tol=0.005).max_updates
+    12
     """
 
     friction: float = 0.0
@@ -177,10 +211,22 @@ class SolverSettings:
     max_cutbacks : int
         Halvings of the load increment before giving up.
     backend : {"auto", "pardiso", "scipy"}
-        Sparse direct solver.
+        Sparse direct solver (:class:`LinearSolver`).
     precision : {"mixed", "double"}
         PARDISO's factorization: single precision refined to double-precision accuracy
         (about twice as fast; :mod:`fea.linsolve`), or double precision.
+
+    Raises
+    ------
+    ValueError
+        Tolerances outside (0, 1), ``max_iterations < 2``, ``max_cutbacks < 0`` or an
+        unknown precision.
+
+    Examples
+    --------
+    >>> from fringekit.fea import SolverSettings
+    >>> SolverSettings(backend="scipy", max_cutbacks=4).force_tol
+    1e-08
     """
 
     force_tol: float = 1e-8

@@ -20,16 +20,41 @@ __all__ = ["IndenterState", "Solution", "unfold", "write_solution_vtu"]
 class IndenterState:
     """One indenter at a converged load state (physical values, whole indenter).
 
-    Attributes
+    Parameters
     ----------
-    centre : (3,) current sphere centre (m).
-    radius : float (m).
-    depth : float, indentation depth from first touch of the undeformed face (m).
-    force : (3,) force the indenter exerts on the sheet (N); z < 0 presses.
-    contact_radius : float, radius of the circle with the projected contact area (m).
-    max_penetration : float, largest penetration at a quadrature point (m).
-    points : (k, 3) current positions of the contact quadrature points (model part, m).
-    pressure : (k,) Cauchy contact pressure at those points (Pa).
+    centre : (3,) float array
+        Current sphere centre (m).
+    radius : float
+        Sphere radius (m).
+    depth : float
+        Indentation depth from first touch of the undeformed face (m).
+    force : (3,) float array
+        Force the indenter exerts on the sheet (N); z < 0 presses.
+    contact_radius : float
+        Radius of the circle with the projected contact area (m).
+    max_penetration : float
+        Largest penetration at a quadrature point (m).
+    points : (k, 3) float array
+        Current positions of the contact quadrature points (model part, m).
+    pressure : (k,) float array
+        Cauchy contact pressure at those points (Pa).
+
+    Examples
+    --------
+    >>> from fringekit.meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh
+    >>> from fringekit.fea import Indenter, solve
+    >>> layers = Layers(sheet_thickness=2e-3, substrate_thickness=0.0, width=10e-3, length=10e-3)
+    >>> sizing = Sizing(h_contact=1e-3, refine_radius=1.5e-3, h_far=4e-3, h_sheet=2e-3)
+    >>> spec = MeshSpec(layers, (IndenterSite(radius=1e-3),), sizing, symmetry="quarter")
+    >>> mesh = build_mesh(spec, use_cache=False)
+    >>> solutions, stats = solve(mesh, [Indenter(radius=1e-3, normal_force=[0.2, 0.5])])
+    >>> ind = solutions[-1].indenters[0]
+    >>> round(float(-ind.force[2]), 3)  # N pressing
+    0.5
+    >>> round(ind.depth * 1e3, 2), round(ind.contact_radius * 1e3, 1)  # mm
+    (0.15, 0.4)
+    >>> sorted(ind.as_dict())[:3]
+    ['centre_mm', 'contact_radius_mm', 'depth_mm']
     """
 
     centre: np.ndarray
@@ -67,20 +92,45 @@ def _extrapolation_matrix() -> np.ndarray:
 
 @dataclass(frozen=True)
 class Solution:
-    """Converged state of the sensor at one load state.
+    """Converged state of the sensor at one load state (made by :func:`solve`).
 
-    Attributes
+    Parameters
     ----------
-    mesh : Mesh, the reference mesh.
-    displacement : (n, 3) nodal displacements (m).
-    stress_qp : (c, q, 3, 3) Cauchy stress at the 4 quadrature points of each cell (Pa).
-    jbar : (c,) element mean dilatation (current / reference volume).
-    indenters : tuple of IndenterState.
-    base_reaction : (3,) force of the fixed base on the modelled part (N).
-    model_fraction : tuple of float, share of each indenter that is modelled (1, 1/2, 1/4).
-    load_factor : float, position along the load path (state index, may be fractional
-        for a state reached before a failure).
-    log : list of dict, one row per Newton iteration.
+    mesh : Mesh
+        The reference mesh.
+    displacement : (n, 3) float array
+        Nodal displacements (m).
+    stress_qp : (c, q, 3, 3) float array
+        Cauchy stress at the 4 quadrature points of each cell (Pa).
+    jbar : (c,) float array
+        Element mean dilatation (current / reference volume).
+    indenters : tuple of IndenterState
+    base_reaction : (3,) float array
+        Force of the fixed base on the modelled part (N).
+    model_fraction : tuple of float
+        Share of each indenter that is modelled (1, 1/2, 1/4).
+    load_factor : float
+        Position along the load path (state index, may be fractional for a state
+        reached before a failure).
+    log : list of dict
+        One row per Newton iteration.
+
+    Examples
+    --------
+    >>> from fringekit.meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh
+    >>> from fringekit.fea import Indenter, solve
+    >>> layers = Layers(sheet_thickness=2e-3, substrate_thickness=0.0, width=10e-3, length=10e-3)
+    >>> sizing = Sizing(h_contact=1e-3, refine_radius=1.5e-3, h_far=4e-3, h_sheet=2e-3)
+    >>> spec = MeshSpec(layers, (IndenterSite(radius=1e-3),), sizing, symmetry="quarter")
+    >>> mesh = build_mesh(spec, use_cache=False)
+    >>> solutions, stats = solve(mesh, [Indenter(radius=1e-3, normal_force=[0.2, 0.5])])
+    >>> sol = solutions[-1]
+    >>> sol.displacement.shape, sol.stress_qp.shape, sol.model_fraction
+    ((245, 3), (108, 4, 3, 3), (0.25,))
+    >>> sol.stress_nodes.shape  # recovered to the nodes, Pa
+    (245, 3, 3)
+    >>> round(float(sol.base_reaction[2]), 3)  # N on the quarter: a quarter of 0.5 N
+    0.125
     """
 
     mesh: Mesh
@@ -194,16 +244,48 @@ def write_solution_vtu(
     """Write the state as a VTU (quadratic tets) readable by ParaView and pyvista.
 
     SI units throughout (m, Pa), in the sensor frame (x, y on the contact face, z up,
-    interface at z = 0). With ``full`` (default) a half or quarter model is unfolded onto
-    the whole sensor (:func:`unfold`); ``full=False`` writes the modelled part only.
-
-    Point data: ``displacement_m``; ``cauchy_stress_Pa`` (9 components, row-major
-    sigma_xx, sigma_xy, ... sigma_zz); ``von_mises_stress_Pa``;
+    interface at z = 0). Point data: ``displacement_m``; ``cauchy_stress_Pa`` (9
+    components, row-major sigma_xx, sigma_xy, ... sigma_zz); ``von_mises_stress_Pa``;
     ``secondary_principal_stress_difference_Pa`` = sqrt((sxx - syy)^2 + 4 sxy^2), what a
     camera looking along z sees. Cell data: ``region`` (0 photoelastic sheet,
     1 substrate) and ``volume_ratio_Jbar``, the element's mean dilatation (deformed over
     undeformed volume, 1 = no volume change). Field data: ``model`` says which part of
     the sensor was modelled and what the file holds.
+
+    Parameters
+    ----------
+    sol : Solution
+    path : str or os.PathLike
+        File to write (replaced atomically); missing folders are made.
+    deformed : bool
+        Points at their deformed positions (default) or undeformed.
+    full : bool
+        Unfold a half or quarter model onto the whole sensor (default); False writes the
+        modelled part only.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Examples
+    --------
+    >>> from fringekit.meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh
+    >>> from fringekit.fea import Indenter, solve
+    >>> layers = Layers(sheet_thickness=2e-3, substrate_thickness=0.0, width=10e-3, length=10e-3)
+    >>> sizing = Sizing(h_contact=1e-3, refine_radius=1.5e-3, h_far=4e-3, h_sheet=2e-3)
+    >>> spec = MeshSpec(layers, (IndenterSite(radius=1e-3),), sizing, symmetry="quarter")
+    >>> mesh = build_mesh(spec, use_cache=False)
+    >>> solutions, stats = solve(mesh, [Indenter(radius=1e-3, normal_force=[0.2, 0.5])])
+    >>> import tempfile
+    >>> import pyvista as pv
+    >>> from fringekit.fea import write_solution_vtu
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     grid = pv.read(write_solution_vtu(solutions[-1], f"{d}/state.vtu"))
+    >>> grid.n_cells == 4 * mesh.n_cells  # the quarter unfolded
+    True
+    >>> "cauchy_stress_Pa" in grid.point_data
+    True
     """
     import pyvista as pv  # lazy: VTK takes ~0.3 s to load; only VTU files need it
 

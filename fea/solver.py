@@ -58,10 +58,30 @@ FIRST_DEPTH = 0.1
 class SolverError(ComputeError):
     """The solver could not reach a load state.
 
-    Attributes
+    A :class:`fringekit.errors.ComputeError`.
+
+    Parameters
     ----------
+    message : str
     solutions : list of Solution
         Every state converged before the failure (the last one is kept).
+
+    Examples
+    --------
+    Too few Newton iterations and no cut-back for a load far beyond the small sheet:
+
+    >>> from fringekit.meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh
+    >>> from fringekit.fea import Indenter, SolverError, SolverSettings, solve
+    >>> layers = Layers(sheet_thickness=2e-3, substrate_thickness=0.0, width=10e-3, length=10e-3)
+    >>> sizing = Sizing(h_contact=1e-3, refine_radius=1.5e-3, h_far=4e-3, h_sheet=2e-3)
+    >>> spec = MeshSpec(layers, (IndenterSite(radius=1e-3),), sizing, symmetry="quarter")
+    >>> mesh = build_mesh(spec, use_cache=False)
+    >>> hard = SolverSettings(max_iterations=2, max_cutbacks=0, backend="scipy")
+    >>> try:
+    ...     solve(mesh, [Indenter(radius=1e-3, normal_force=[0.1, 50.0])], settings=hard)
+    ... except SolverError as err:
+    ...     print(len(err.solutions), str(err)[:48])
+    0 the solver could not reach load state 1 of 2 (in
     """
 
     def __init__(self, message: str, solutions: list):
@@ -70,7 +90,23 @@ class SolverError(ComputeError):
 
 
 class SolveInterrupted(SolverError, Interrupted):
-    """The user interrupted the solve (Ctrl-C); ``solutions`` keeps the converged states."""
+    """The user interrupted the solve (Ctrl-C); ``solutions`` keeps the converged states.
+
+    A :class:`SolverError` and a :class:`fringekit.errors.Interrupted`.
+
+    Parameters
+    ----------
+    message : str
+    solutions : list of Solution
+        Every state converged before the interruption.
+
+    Examples
+    --------
+    >>> from fringekit.fea import SolveInterrupted, SolverError
+    >>> err = SolveInterrupted("interrupted by the user on the way to load state 2 of 3", [])
+    >>> isinstance(err, SolverError), err.solutions
+    (True, [])
+    """
 
 
 def _check_indenters(indenters: tuple) -> int:
@@ -163,17 +199,38 @@ def solve(
         A load path that branches: load state k is reached from the converged state
         ``parents[k - 1]`` (0 = unloaded, an earlier state otherwise) instead of from
         state k - 1. A response library solves one chain of normal loads with a
-        tangential branch from each (:mod:`fringekit.library_build`).
+        tangential branch from each (:mod:`fringekit.library.build`).
 
     Returns
     -------
-    solutions : list of Solution, one per load state.
+    solutions : list of Solution
+        One per load state.
     stats : SolveStats
 
     Raises
     ------
     SolverError
         When a load state cannot be reached; ``err.solutions`` keeps converged states.
+    SolveInterrupted
+        On Ctrl-C, with the converged states.
+    ValueError
+        Indenters of different load-path lengths or invalid ``parents``.
+
+    Examples
+    --------
+    0.2 N then 0.5 N on a 2 mm sheet (a quarter model of 245 nodes; a second or so):
+
+    >>> from fringekit.meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh
+    >>> from fringekit.fea import Indenter, solve
+    >>> layers = Layers(sheet_thickness=2e-3, substrate_thickness=0.0, width=10e-3, length=10e-3)
+    >>> sizing = Sizing(h_contact=1e-3, refine_radius=1.5e-3, h_far=4e-3, h_sheet=2e-3)
+    >>> spec = MeshSpec(layers, (IndenterSite(radius=1e-3),), sizing, symmetry="quarter")
+    >>> mesh = build_mesh(spec, use_cache=False)
+    >>> solutions, stats = solve(mesh, [Indenter(radius=1e-3, normal_force=[0.2, 0.5])])
+    >>> [round(float(-s.indenters[0].force[2]), 3) for s in solutions]  # N, whole indenter
+    [0.2, 0.5]
+    >>> round(solutions[-1].indenters[0].depth * 1e3, 2)  # mm
+    0.15
     """
     t_start = time.perf_counter()
     indenters = tuple(indenters)

@@ -9,9 +9,49 @@ __all__ = ["SolveStats"]
 
 @dataclass
 class SolveStats:
-    """Where the time went (s) and how many iterations it took.
+    """Where the time of a solve went (s) and how many iterations it took.
 
-    Filled in while a solve runs (the one mutable record of the fea stage).
+    Returned by :func:`solve` next to the solutions; filled in while the solve runs (the
+    one mutable record of the fea stage). Times in s.
+
+    Parameters
+    ----------
+    dofs : int
+        Free degrees of freedom.
+    backend : str
+        The linear solver used (``"pardiso"`` or ``"scipy"``).
+    time_setup, time_assembly, time_contact : float
+        Wall time of the setup, element assembly and contact terms (s).
+    time_analysis, time_factorize, time_solve, time_total : float
+        Wall time of the symbolic analyses, numeric factorizations, triangular solves
+        and the whole solve (s).
+    newton_iterations : int
+        Newton iterations over all load states.
+    iterations_per_state : list of int
+        Newton iterations of each load state.
+    iteration_times : list of (float, float)
+        Per Newton iteration: (wall time, factorization time) (s).
+    cutbacks, al_updates, cycle_breaks, reanchors : int
+        Halved increments, augmented-Lagrangian multiplier updates, updates made to
+        break a two-value cycle, and re-anchorings of stuck points (friction).
+    tangent_assemblies, residual_evaluations : int
+        Element tangents formed, and body evaluations of energy and residual.
+    factorizations, factor_reuses : int
+        Sparse factorizations, and Newton steps solved on an earlier factor.
+
+    Examples
+    --------
+    >>> from fringekit.meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh
+    >>> from fringekit.fea import Indenter, solve
+    >>> layers = Layers(sheet_thickness=2e-3, substrate_thickness=0.0, width=10e-3, length=10e-3)
+    >>> sizing = Sizing(h_contact=1e-3, refine_radius=1.5e-3, h_far=4e-3, h_sheet=2e-3)
+    >>> spec = MeshSpec(layers, (IndenterSite(radius=1e-3),), sizing, symmetry="quarter")
+    >>> mesh = build_mesh(spec, use_cache=False)
+    >>> solutions, stats = solve(mesh, [Indenter(radius=1e-3, normal_force=[0.2, 0.5])])
+    >>> stats.dofs, len(stats.iterations_per_state)
+    (525, 2)
+    >>> stats.time_total > 0, sorted(stats.as_dict())[:2]
+    (True, ['al_updates', 'backend'])
     """
 
     dofs: int = 0

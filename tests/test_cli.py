@@ -385,8 +385,8 @@ def test_calibrate_and_estimate_end_to_end(tiny_images, cache_dir, capsys):
                  "--quiet"]) == 0  # fmt: skip
     centre = geo[1:3]
     assert main(["estimate", str(an), "--calibration", calf, "--centre", *centre,
-                 "--out", str(an)]) == 0  # fmt: skip
-    got = json.loads((an / "estimate.json").read_text())
+                 "--out", str(root / "est")]) == 0  # fmt: skip
+    got = json.loads((root / "est" / "estimate.json").read_text())
     assert got["normal_N"] == pytest.approx(8.0, rel=0.03)
     capsys.readouterr()
     assert main(["calibrate", str(root / "tiny.toml"), "--out", str(root / "c1")]) == 2
@@ -423,7 +423,8 @@ def test_sweep_killed_then_resumed_matches_an_uninterrupted_run(tiny_run, cache_
     finally:
         os.killpg(proc.pid, signal.SIGKILL)
         proc.wait()
-    finished = [p for p in (out / "cases").iterdir() if not p.name.endswith(".part")]
+    finished = [p for p in (out / "cases").iterdir() if not p.name.endswith(".part")
+                and not p.name.startswith(".")]  # a killed case's run folder and lock
     assert 1 <= len(finished) < 4
     for p in finished:  # a finished case is whole: its summary and result are readable
         assert json.loads((p / "result.json").read_text())["status"] == "ok"

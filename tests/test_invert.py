@@ -176,6 +176,8 @@ def test_bad_inputs_are_one_line_and_write_nothing(test_library, tmp_path, capsy
     out = tmp_path / "out"
     out.mkdir()
     (out / "loads.csv").write_text("earlier\n")
+    mark = {"command": "invert", "files": ["loads.csv"]}  # an earlier run of invert
+    (out / ".fringekit-run.json").write_text(json.dumps(mark))
     base = ["invert", str(tmp_path / "max.png"), "--library", str(lib), "--out", str(out)]
     # refused as beyond the range: by its normal load, its fringes, or (as the fit finds
     # on this library) a tangential load above the largest ratio

@@ -20,6 +20,7 @@ import numpy as np
 
 from fringekit.analysis import compare_maps
 from fringekit.output.figures import comparison_figure
+from fringekit.output.folders import claim_output
 
 __all__ = ["find_maps", "OrderMap", "read_order_map", "run_compare"]
 
@@ -120,28 +121,27 @@ def run_compare(
                        hint="--measured-pixel-mm (the measured pixel pitch)")  # fmt: skip
     pf, mf, pred, meas = p.path, m.path, p.order, m.order
     pp, mp, cp, rel = p.pixel_size, m.pixel_size, p.indenter_rc, m.reliable
-    comp = compare_maps(
-        pred, meas, predicted_pixel_size=pp, measured_pixel_size=mp, centre_predicted=cp,
-        centre_measured=centre_measured, rotation_deg=rotation_deg, mask=rel,
-    )  # fmt: skip
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    comparison_figure(
-        comp, out / "comparison.png", title=f"{pf.parent.name} vs {mf.parent.name}",
-        pixel_size=mp, centre_xy_mm=p.indenter_xy_mm or (0.0, 0.0),
-    )  # fmt: skip
-    np.savez_compressed(
-        out / "residual.npz", residual=comp.residual, predicted=comp.predicted, measured=meas
-    )
-    summary = {
-        "prediction": str(pf),
-        "measurement": str(mf),
-        "rms_fringe": comp.rms,
-        "p95_fringe": comp.p95,
-        "centre_measured_px": list(comp.centre_measured),
-        "scale": comp.scale,
-        "rotation_deg": comp.rotation_deg,
-        **comp.info,
-    }
-    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    with claim_output(out, command="compare", inputs=[prediction, measurement]) as work:
+        comp = compare_maps(
+            pred, meas, predicted_pixel_size=pp, measured_pixel_size=mp, centre_predicted=cp,
+            centre_measured=centre_measured, rotation_deg=rotation_deg, mask=rel,
+        )  # fmt: skip
+        comparison_figure(
+            comp, work / "comparison.png", title=f"{pf.parent.name} vs {mf.parent.name}",
+            pixel_size=mp, centre_xy_mm=p.indenter_xy_mm or (0.0, 0.0),
+        )  # fmt: skip
+        np.savez_compressed(
+            work / "residual.npz", residual=comp.residual, predicted=comp.predicted, measured=meas
+        )
+        summary = {
+            "prediction": str(pf),
+            "measurement": str(mf),
+            "rms_fringe": comp.rms,
+            "p95_fringe": comp.p95,
+            "centre_measured_px": list(comp.centre_measured),
+            "scale": comp.scale,
+            "rotation_deg": comp.rotation_deg,
+            **comp.info,
+        }
+        (work / "summary.json").write_text(json.dumps(summary, indent=2))
     return summary

@@ -36,6 +36,7 @@ from fringekit.calibrate.disc_photo import (
 from fringekit.errors import InputError
 from fringekit.optics import DiametralDisc
 from fringekit.output.figures import disc_fit_figure
+from fringekit.output.folders import claim_output
 
 __all__ = ["DiscCalibration", "calibrate_disc", "is_photo", "run_disc_photos"]
 
@@ -238,10 +239,11 @@ def run_disc_photos(
     field="dark", centre=None, radius_px=None, pixel_mm=None, dark=None, echo=print,
 ) -> dict:  # fmt: skip
     """``fringekit calibrate --disc``: :func:`calibrate_disc`, then write ``out``."""
-    cal = calibrate_disc(
-        images, load_N=loads, diameter_mm=diameter_mm, thickness_mm=thickness_mm,
-        wavelength_nm=wavelength_nm, reference=reference, field=field, centre_px=centre,
-        radius_px=radius_px, pixel_mm=pixel_mm, dark=dark, echo=echo,
-    )  # fmt: skip
-    cal.write(out)
+    with claim_output(out, command="calibrate", inputs=[*images, reference, dark]) as work:
+        cal = calibrate_disc(
+            images, load_N=loads, diameter_mm=diameter_mm, thickness_mm=thickness_mm,
+            wavelength_nm=wavelength_nm, reference=reference, field=field, centre_px=centre,
+            radius_px=radius_px, pixel_mm=pixel_mm, dark=dark, echo=echo,
+        )  # fmt: skip
+        cal.write(work)
     return {**cal.result(), "summary": cal.summary}

@@ -10,13 +10,13 @@ map (:func:`fringekit.disc.fringe_value_from_disc`).
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 
 from fringekit.analysis import estimate_load, fringe_features, load_calibration
 from fringekit.analyze.compare import read_order_map
 from fringekit.calibrate.disc_map import disc_outline, fringe_value_from_disc
+from fringekit.output.folders import claim_output
 
 __all__ = ["run_estimate", "run_disc"]
 
@@ -43,9 +43,8 @@ def run_estimate(maps, calibration, *, pixel_mm=None, centre=None, out=None) -> 
     est = estimate_load(cal, feats)
     est.update(maps=str(f), calibration=str(calibration), features=feats, centre_rc=list(rc))
     if out is not None:
-        out = Path(out)
-        out.mkdir(parents=True, exist_ok=True)
-        (out / "estimate.json").write_text(json.dumps(est, indent=2, default=float))
+        with claim_output(out, command="estimate", inputs=[maps, calibration]) as work:
+            (work / "estimate.json").write_text(json.dumps(est, indent=2, default=float))
     return est
 
 

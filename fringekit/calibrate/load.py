@@ -27,6 +27,7 @@ from fringekit.analysis import (
 from fringekit.config.files import ConfigError, effective_config, normal_path, to_toml
 from fringekit.config.inputs import optics_setup
 from fringekit.output.figures import calibration_figure
+from fringekit.output.folders import claim_output
 from fringekit.predict.pipeline import PredictError, solve_config
 from fringekit.predict.render import fringe_order_map
 
@@ -48,8 +49,10 @@ def run_calibrate(
     use_cache: bool = True,
     progress: bool = True,
     echo=print,
+    inputs=(),
 ) -> dict:
-    """Calibrate features against the load along ``cfg``'s load path; see module doc."""
+    """Calibrate features against the load along ``cfg``'s load path; see module doc.
+    ``inputs``: the files the config came from (never inside ``out``)."""
     say = echo if progress else (lambda s: None)
     ind0 = cfg["indenter"][0]
     path = normal_path(ind0)
@@ -60,7 +63,16 @@ def run_calibrate(
         )
     optics = optics_setup(cfg)
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    with claim_output(out, command="calibrate", inputs=inputs) as work:
+        cal, n_states = _calibrate(cfg, work, optics, cache_dir, use_cache, progress, say)
+    if cal["error"]:
+        raise PredictError(f"{cal['error']}; calibrated on the {n_states} converged states "
+                           f"in {out}")  # fmt: skip
+    return cal
+
+
+def _calibrate(cfg, out: Path, optics, cache_dir, use_cache, progress, say) -> tuple[dict, int]:
+    """Solve, render and fit into the empty folder ``out``: the calibration, the states."""
     (out / "config.toml").write_text(to_toml(cfg))
     t0 = time.perf_counter()
     mesh, sols, stats, failure = solve_config(
@@ -98,6 +110,4 @@ def run_calibrate(
     np.savetxt(out / "features.csv", np.array(rows, float), delimiter=",", header=head,
                comments="", fmt="%.6g")  # fmt: skip
     calibration_figure(out / "calibration.png", cal, profiles)
-    if failure:
-        raise PredictError(f"{failure}; calibrated on the {len(sols)} converged states in {out}")
-    return cal
+    return cal, len(sols)

@@ -23,6 +23,7 @@ from fringekit.analyze import (
     choose_method,
 )
 from fringekit.errors import InputError
+from fringekit.output.folders import claim_output
 from fringekit.output.versions import package_version
 
 __all__ = [
@@ -74,21 +75,23 @@ def cmd_mesh(args: argparse.Namespace) -> int:
     }
     cfg = apply_overrides(cfg, shorthands) if shorthands else cfg
     spec = mesh_spec(cfg)
-    t0 = time.perf_counter()
-    mesh = build_mesh(spec, cache_dir=args.cache_dir, use_cache=not args.no_cache)
-    elapsed = time.perf_counter() - t0
-    rep = quality_report(mesh.points, mesh.cells, mesh.regions)
     out = Path(args.out) if args.out else Path("fringekit-out") / cfg["case"]
-    vtu = write_vtu(mesh, out / "mesh.vtu")
-    summary = {
-        "fringekit_version": fringekit_version(),
-        "mesh_spec_SI": spec.to_dict(),
-        "quality": rep.as_dict(),
-        "facet_sets": {k: len(v) for k, v in mesh.facets.items()},
-        "time_s": elapsed,
-        "vtu": str(vtu),
-    }
-    (out / "mesh_summary.json").write_text(json.dumps(summary, indent=2))
+    with claim_output(out, command="mesh", inputs=[args.config]) as work:
+        t0 = time.perf_counter()
+        mesh = build_mesh(spec, cache_dir=args.cache_dir, use_cache=not args.no_cache)
+        elapsed = time.perf_counter() - t0
+        rep = quality_report(mesh.points, mesh.cells, mesh.regions)
+        write_vtu(mesh, work / "mesh.vtu")
+        vtu = out / "mesh.vtu"
+        summary = {
+            "fringekit_version": fringekit_version(),
+            "mesh_spec_SI": spec.to_dict(),
+            "quality": rep.as_dict(),
+            "facet_sets": {k: len(v) for k, v in mesh.facets.items()},
+            "time_s": elapsed,
+            "vtu": str(vtu),
+        }
+        (work / "mesh_summary.json").write_text(json.dumps(summary, indent=2))
     if not args.quiet:
         print(f"fringekit {fringekit_version()} - {cfg['case']} mesh ({spec.symmetry} model)")
         print(f"  {rep}")
@@ -123,11 +126,12 @@ def cmd_predict(args: argparse.Namespace) -> int:
     if args.library:
         from fringekit.predict.from_library import run_library_predict
 
-        run_library_predict(cfg, args.library, out, progress=not args.quiet)
+        run_library_predict(cfg, args.library, out, progress=not args.quiet, inputs=[args.config])
         return 0
     summary = run_predict(
-        cfg, out, cache_dir=args.cache_dir, use_cache=not args.no_cache, progress=not args.quiet
-    )
+        cfg, out, cache_dir=args.cache_dir, use_cache=not args.no_cache, progress=not args.quiet,
+        inputs=[args.config],
+    )  # fmt: skip
     if not args.quiet:
         took = time.perf_counter() - t0
         print(f"fringekit {fringekit_version()} - {cfg['case']}: done in {took:.1f} s")
@@ -207,20 +211,22 @@ def cmd_analyze(args: argparse.Namespace) -> int:
             f"--reference is for --method phase (six zero-load images); the {method} method "
             "has none (calibrate --disc takes a zero-load photo)"
         )
-    an = analyze(
-        args.images,
-        method=method,
-        pixel_mm=args.pixel_mm or 0.0,
-        origin_px=tuple(args.origin_px) if args.origin_px else None,
-        region=region,
-        dark=args.dark,
-        anchor_order=args.anchor_order,
-        order_at=[tuple(p) for p in args.order_at or []],
-        fringe_value_N_per_m=args.f_sigma_N_per_m,
-        thickness_mm=args.thickness_mm,
-        options=options[method](),
-    )
-    an.write(out, line=tuple(args.line) if args.line else None, points=args.points)
+    given = [*args.images, *(args.reference or []), args.dark, args.flat, args.calibration]
+    with claim_output(out, command="analyze", inputs=[*given, args.points]) as work:
+        an = analyze(
+            args.images,
+            method=method,
+            pixel_mm=args.pixel_mm or 0.0,
+            origin_px=tuple(args.origin_px) if args.origin_px else None,
+            region=region,
+            dark=args.dark,
+            anchor_order=args.anchor_order,
+            order_at=[tuple(p) for p in args.order_at or []],
+            fringe_value_N_per_m=args.f_sigma_N_per_m,
+            thickness_mm=args.thickness_mm,
+            options=options[method](),
+        )
+        an.write(work, line=tuple(args.line) if args.line else None, points=args.points)
     summary = an.summary
     if not args.quiet:
         rng = summary["fringe_order_range"]
@@ -290,8 +296,8 @@ def _disc_map(args: argparse.Namespace) -> int:
         centre=tuple(args.centre) if args.centre else None,
     )  # fmt: skip
     if args.out:
-        Path(args.out).mkdir(parents=True, exist_ok=True)
-        (Path(args.out) / "fringe_value.json").write_text(json.dumps(res, indent=2))
+        with claim_output(args.out, command="calibrate", inputs=args.disc) as work:
+            (work / "fringe_value.json").write_text(json.dumps(res, indent=2))
     print(
         f"fringe value f_sigma = {res['f_sigma_N_per_m']:.4g} N/m per fringe (whole-field "
         f"fit over {res['pixels']} pixels, residual {res['rms_residual_fringe']:.3f} fringe"
@@ -321,8 +327,9 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     cfg = overrides(args.config, args.set or [], base=base)
     out = Path(args.out) if args.out else Path("fringekit-out") / cfg["case"]
     cal = run_calibrate(
-        cfg, out, cache_dir=args.cache_dir, use_cache=not args.no_cache, progress=not args.quiet
-    )
+        cfg, out, cache_dir=args.cache_dir, use_cache=not args.no_cache, progress=not args.quiet,
+        inputs=[args.config],
+    )  # fmt: skip
     if not args.quiet:
         print(
             f"fringekit calibrate - {len(cal['loads_N'])} load states, results in {out}/ "
@@ -365,7 +372,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else Path("fringekit-out") / sweep["name"]
     res = run_sweep(
         sweep, out, scheduler=args.scheduler, workers=args.workers, cache_dir=args.cache_dir,
-        progress=not args.quiet,
+        progress=not args.quiet, inputs=[args.sweep],
     )  # fmt: skip
     if not args.quiet:
         print(

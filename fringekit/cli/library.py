@@ -74,7 +74,7 @@ def cmd_library(args: argparse.Namespace) -> int:
         cfg, Path(args.out), diameters=args.diameter_mm, loads=args.load_N or DEFAULT_LOADS_N,
         ratios=args.shear_ratio if args.shear_ratio is not None else DEFAULT_RATIOS,
         n_slabs=int(args.slabs), scheduler=args.scheduler, workers=args.workers,
-        cache_dir=args.cache_dir, progress=not args.quiet,
+        cache_dir=args.cache_dir, progress=not args.quiet, inputs=[args.config],
     ).manifest  # fmt: skip
     if not args.quiet:
         g = m["grid"]

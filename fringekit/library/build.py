@@ -48,6 +48,7 @@ from fringekit.library.store import (
 )
 from fringekit.meshes import build_mesh, default_cache_dir
 from fringekit.optics import FEMStressField
+from fringekit.output.folders import atomic_write, claim_output
 from fringekit.output.versions import run_versions
 
 __all__ = [
@@ -173,10 +174,8 @@ def _sample(sol, field, lat) -> dict:
 
 
 def _save_npz(dest: Path, **arrays) -> None:
-    """``np.savez`` to ``dest`` through a ``.part`` file: it appears whole or not at all."""
-    part = dest.with_name(dest.name + ".part.npz")
-    np.savez(part, **arrays)
-    os.replace(part, dest)
+    """``np.savez`` to ``dest``: it appears whole or not at all."""
+    atomic_write(dest, lambda part: np.savez(part, **arrays))
 
 
 def _finished(path: Path, settings: dict) -> bool:
@@ -203,6 +202,7 @@ def _check_grid(loads, ratios, diameters) -> None:
 def build_library(
     config, out, *, diameters=None, loads=DEFAULT_LOADS_N, ratios=DEFAULT_RATIOS,
     n_slabs: int = 16, scheduler=None, workers=None, cache_dir=None, progress=True, echo=print,
+    inputs=(),
 ) -> Library:  # fmt: skip
     """Solve a sensor over a grid of loads once: a response library for :func:`invert`
     and fast predictions.
@@ -252,6 +252,45 @@ def build_library(
         raise ConfigError("optics.include_substrate = true is not supported by a library "
                           "(it stores the sheet's stress only); set it to false")  # fmt: skip
     out = Path(out)
+    given = [config] if isinstance(config, (str, os.PathLike)) else []
+    with claim_output(out, command="library build", inputs=[*given, *inputs], resume=True):
+        _same_sensor(out, sensor_key(cfg))
+        return _build(cfg, out, diameters, loads, ratios, n_slabs, scheduler, workers,
+                      cache_dir, progress, echo)  # fmt: skip
+
+
+def _same_sensor(out: Path, key: dict) -> None:
+    """A library folder is resumed only by a build of its own sensor (the manifest's, or
+    a finished branch's when the build was stopped): another is refused before solving."""
+    try:
+        built = json.loads((out / "manifest.json").read_text())["sensor"]
+    except (OSError, ValueError, KeyError, TypeError):
+        built = None
+    for f in [] if built else sorted((out / "branches").glob("*.npz"))[:1]:
+        try:
+            with np.load(f) as z:
+                built = json.loads(str(z["settings"]))["sensor"]
+        except (OSError, ValueError, KeyError):
+            pass
+    if not isinstance(built, dict):
+        return
+    have = json.loads(json.dumps(key))  # as stored: lists, not tuples
+    for table in sorted(set(built) | set(have)):
+        a, b = built.get(table), have.get(table)
+        pairs = [(f"{table}.{k}", a.get(k), b.get(k)) for k in sorted(set(a) | set(b))] if (
+            isinstance(a, dict) and isinstance(b, dict)) else [(table, a, b)]  # fmt: skip
+        for name, was, now in pairs:
+            if was != now:
+                raise ConfigError(
+                    f"--out {out} is the library of another sensor: built for {name} = "
+                    f"{json.dumps(was)}, this config has {json.dumps(now)}; give an empty or "
+                    "new folder, or the sensor the library was built for"
+                )
+
+
+def _build(cfg, out: Path, diameters, loads, ratios, n_slabs, scheduler, workers, cache_dir,
+           progress, echo) -> Library:  # fmt: skip
+    """Solve the unfinished branches into the claimed folder ``out``, then assemble it."""
     lat = library_lattice(cfg, n_slabs)
     key = sensor_key(cfg)
     mesh = dict(cfg["mesh"], symmetry="half")
@@ -365,7 +404,5 @@ def _assemble(cfg, out: Path, tasks, diameters, loads, ratios, lat, mesh, build_
         "build_s": build_s,
         "versions": run_versions(),
     }  # fmt: skip
-    tmp = out / "manifest.json.part"
-    tmp.write_text(json.dumps(manifest, indent=1))
-    os.replace(tmp, out / "manifest.json")
+    atomic_write(out / "manifest.json", json.dumps(manifest, indent=1))
     return manifest

@@ -23,7 +23,7 @@ from fringekit.library.synth import synthesise
 from fringekit.optics import (
     OpticalMap,
 )
-from fringekit.output.folders import run_folder
+from fringekit.output.folders import claim_output
 from fringekit.predict.render import (
     grid_figure,
     monochrome_images,
@@ -118,13 +118,13 @@ def _render(cfg, lib, inds, d: Path) -> dict:
     }
 
 
-def run_library_predict(cfg: dict, library, out, *, echo=print, progress=True) -> dict:
+def run_library_predict(cfg: dict, library, out, *, echo=print, progress=True, inputs=()) -> dict:
     """Synthesise the config's final state from ``library`` into ``out``; the summary."""
     t0 = time.perf_counter()
-    lib = load_library(library)
-    check_sensor(lib, cfg, "the config")
-    inds = config_indenters(cfg, lib)
-    with run_folder(out) as work:
+    with claim_output(out, command="predict", inputs=[library, *inputs]) as work:
+        lib = load_library(library)
+        check_sensor(lib, cfg, "the config")
+        inds = config_indenters(cfg, lib)
         (work / "config.toml").write_text(to_toml(cfg))
         rendered = _render(cfg, lib, inds, work / "state_01")
         summary = {

@@ -26,7 +26,6 @@ import copy
 import json
 import logging
 import os
-import shutil
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -39,7 +38,7 @@ from fringekit.errors import ComputeError, Interrupted
 from fringekit.fea import SolveInterrupted, SolverError, write_solution_vtu
 from fringekit.fea.store import solve_cached
 from fringekit.meshes import build_mesh, quality_report
-from fringekit.output.folders import swap_in, work_folder
+from fringekit.output.folders import atomic_write, claim_output
 from fringekit.output.numbers import significant
 from fringekit.output.versions import run_versions
 from fringekit.predict.render import render_state, write_state
@@ -201,9 +200,8 @@ class Prediction:
             write_state(out, rs, self.config.data, self.optics)
         summary = copy.deepcopy(self.summary)
         summary["times_s"]["write_s"] = time.perf_counter() - t0
-        tmp = out / "summary.json.part"
-        tmp.write_text(json.dumps(significant(summary), indent=2, allow_nan=False))
-        os.replace(tmp, out / "summary.json")
+        text = json.dumps(significant(summary), indent=2, allow_nan=False)
+        atomic_write(out / "summary.json", text)
         return out
 
 
@@ -332,6 +330,7 @@ def run_predict(
     use_cache: bool = True,
     progress: bool = True,
     echo: Callable[[str], None] = print,
+    inputs=(),
 ) -> dict:
     """``fringekit predict``: :func:`predict`, then write the folder ``out``; the summary.
 
@@ -339,7 +338,9 @@ def run_predict(
     ``out`` always holds exactly one run. A run that fails to converge keeps its converged
     states; when ``out`` already holds an earlier run, that run is kept and the failed
     one goes to ``<out>-failed`` (``<out>-interrupted`` after Ctrl-C during the solve). A
-    run stopped by an error or an interrupt elsewhere leaves ``out`` as it was.
+    run stopped by an error or an interrupt elsewhere leaves ``out`` as it was. ``out`` is
+    claimed by :func:`fringekit.output.folders.claim_output`: a folder that holds anything
+    but an earlier prediction, or holds ``inputs`` (the config file), is refused.
 
     Raises
     ------
@@ -351,8 +352,8 @@ def run_predict(
     out = Path(out)
     cfg = as_config(cfg)
     build_inputs(cfg.data)  # a bad config fails before the output folder is touched
-    work = work_folder(out)
-    try:
+    claim = claim_output(out, command="predict", inputs=inputs)
+    with claim as work:
         try:
             pred, error = (
                 predict(
@@ -362,12 +363,9 @@ def run_predict(
             )
         except PredictError as exc:
             pred, error = exc.prediction, exc
+            claim.divert(pred.status)  # an earlier run in out is kept
         pred.write(work)
-    except BaseException:
-        shutil.rmtree(work, ignore_errors=True)
-        raise
-    dest = out.with_name(f"{out.name}-{pred.status}") if error and out.exists() else out
-    swap_in(work, dest)
+    dest = claim.dest
     if error is not None:
         raise type(error)(
             f"{pred.summary['error']}; the {len(pred.solutions)} converged state(s) are "

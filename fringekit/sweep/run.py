@@ -29,6 +29,7 @@ from __future__ import annotations
 import copy
 import csv
 import hashlib
+import io
 import itertools
 import json
 import os
@@ -40,6 +41,7 @@ from pathlib import Path
 from fringekit._cluster import run_tasks
 from fringekit.config.files import ConfigError, apply_overrides, load_config, tomllib
 from fringekit.output.figures import sweep_plots
+from fringekit.output.folders import atomic_write, claim_output
 
 __all__ = ["load_sweep", "expand_cases", "run_sweep", "collect_results"]
 
@@ -156,29 +158,32 @@ def run_sweep(
     cache_dir: str | os.PathLike | None = None,
     progress: bool = True,
     echo=print,
+    inputs=(),
 ) -> dict:
-    """Run the sweep's unfinished cases on Dask, then rebuild the table and plots."""
+    """Run the sweep's unfinished cases on Dask, then rebuild the table and plots
+    (``inputs``: the sweep file, never inside ``out``)."""
     from fringekit.meshes import default_cache_dir
 
     out = Path(out)
-    (out / "cases").mkdir(parents=True, exist_ok=True)
-    cache = str(cache_dir or default_cache_dir())
-    todo = [c for c in sweep["cases"] if not _finished(out, c)]
-    done_before = len(sweep["cases"]) - len(todo)
-    say = echo if progress else (lambda s: None)
-    say(f"sweep {sweep['name']}: {len(sweep['cases'])} cases, {done_before} already finished")
-    t0 = time.perf_counter()
+    with claim_output(out, command="sweep", inputs=inputs, resume=True):
+        (out / "cases").mkdir(parents=True, exist_ok=True)
+        cache = str(cache_dir or default_cache_dir())
+        todo = [c for c in sweep["cases"] if not _finished(out, c)]
+        done_before = len(sweep["cases"]) - len(todo)
+        say = echo if progress else (lambda s: None)
+        say(f"sweep {sweep['name']}: {len(sweep['cases'])} cases, {done_before} already finished")
+        t0 = time.perf_counter()
 
-    def report(res: dict) -> None:
-        if res["status"] != "ok":
-            say(f"case {res['id']} failed: {res.get('error')}")
+        def report(res: dict) -> None:
+            if res["status"] != "ok":
+                say(f"case {res['id']} failed: {res.get('error')}")
 
-    run_tasks(
-        _run_case, todo, [f"case-{c['id']}" for c in todo], str(out.resolve()), cache,
-        scheduler=scheduler, workers=workers, progress=progress, desc="cases", unit="case",
-        on_result=report,
-    )  # fmt: skip
-    table = collect_results(sweep, out)
+        run_tasks(
+            _run_case, todo, [f"case-{c['id']}" for c in todo], str(out.resolve()), cache,
+            scheduler=scheduler, workers=workers, progress=progress, desc="cases", unit="case",
+            on_result=report,
+        )  # fmt: skip
+        table = collect_results(sweep, out)
     return {
         "cases": len(sweep["cases"]),
         "run": len(todo),
@@ -220,12 +225,11 @@ def collect_results(sweep: dict, out: str | os.PathLike) -> list[dict]:
         )
     fields = ["id", *keys, "status", "max_fringe_order", "force_z_N", "depth_mm",
               "contact_radius_mm", "time_s", "error"]  # fmt: skip
-    tmp = out / "results.csv.part"
-    with tmp.open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=fields)
-        w.writeheader()
-        w.writerows(rows)
-    os.replace(tmp, out / "results.csv")
+    table = io.StringIO()
+    w = csv.DictWriter(table, fieldnames=fields)
+    w.writeheader()
+    w.writerows(rows)
+    atomic_write(out / "results.csv", table.getvalue())
     (out / "results.json").write_text(json.dumps(rows, indent=2, default=float))
     sweep_plots(rows, keys, out / "plots")
     return rows

@@ -38,7 +38,25 @@ _SOURCES = {
 
 @dataclass(frozen=True)
 class Spectrum:
-    """Relative spectral power S (W,) sampled at wavelengths (W,) (m)."""
+    """Relative spectral power of a light source, sampled at wavelengths.
+
+    Parameters
+    ----------
+    wavelengths : (W,) float array
+        Sample wavelengths (m), ascending.
+    power : (W,) float array
+        Relative spectral power S (any unit: images are normalised by the source white).
+    name : str
+        Label for reports.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.optics import Spectrum
+    >>> flat = Spectrum(np.array([500e-9, 550e-9, 600e-9]), np.ones(3), "flat")
+    >>> (flat.weights * 1e9).round(6).tolist()  # quadrature weights, nm
+    [50.0, 50.0, 50.0]
+    """
 
     wavelengths: np.ndarray
     power: np.ndarray
@@ -58,11 +76,31 @@ class Spectrum:
 
 
 def light_source(name: str = "LED", wavelengths=None) -> Spectrum:
-    """A colour-science light source resampled to ``wavelengths`` (m).
+    """A colour-science light source resampled to ``wavelengths``.
 
-    ``name``: ``"D65"`` (daylight), ``"A"`` (halogen/tungsten, CIE A) or ``"LED"``
-    (CIE LED-B3, a phosphor-converted white LED, CIE 15:2018). Default wavelengths:
-    31 samples 400..700 nm.
+    Parameters
+    ----------
+    name : {"D65", "A", "LED"}
+        ``"D65"`` (daylight), ``"A"`` (halogen/tungsten, CIE A) or ``"LED"`` (CIE LED-B3,
+        a phosphor-converted white LED, CIE 15:2018).
+    wavelengths : (W,) float array, optional
+        Wavelengths (m); default 31 samples 400..700 nm.
+
+    Returns
+    -------
+    Spectrum
+
+    Raises
+    ------
+    ValueError
+        An unknown source name.
+
+    Examples
+    --------
+    >>> from fringekit.optics import light_source
+    >>> led = light_source("LED")
+    >>> led.name, led.wavelengths.shape, round(float(led.wavelengths[0]) * 1e9)
+    ('LED', (31,), 400)
     """
     import colour  # lazy: colour-science takes ~0.7 s to load; only white light needs it
 
@@ -75,7 +113,7 @@ def light_source(name: str = "LED", wavelengths=None) -> Spectrum:
 
 @dataclass(frozen=True)
 class Camera:
-    """Camera response.
+    """Camera response: spectral sensitivities, exposure, noise and encoding.
 
     Parameters
     ----------
@@ -95,6 +133,23 @@ class Camera:
     read_noise : float
         Read noise, electrons RMS.
     bit_depth : {8, 16}
+        Bits per channel of the encoded image.
+
+    Raises
+    ------
+    ValueError
+        A bit depth other than 8 or 16, an exposure that is not > 0, or read noise
+        without a full well.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.optics import Camera
+    >>> cam = Camera(sensitivities="mono", bit_depth=8)
+    >>> cam.encode(np.array([0.0, 0.5, 1.0])).tolist()  # exposure 0.9
+    [0, 115, 230]
+    >>> Camera(full_well=2e4, read_noise=10.0).encode(np.full(3, 0.5), seed=1).dtype
+    dtype('uint8')
     """
 
     sensitivities: str = "CIE1931"
@@ -181,9 +236,38 @@ def white_light_image(
     seed: int | None = 0,
     linear: bool = False,
 ) -> np.ndarray:
-    """RGB image (rows, cols, 3) of quaternions q (rows, cols, W, 4) at spectrum.wavelengths.
+    """RGB image of a specimen in white light.
 
-    Returns encoded integers (``camera.bit_depth``), or linear floats when ``linear``.
+    Parameters
+    ----------
+    q : (rows, cols, W, 4) float array
+        Path quaternions at ``spectrum.wavelengths``.
+    spectrum : Spectrum
+    camera : Camera
+    arrangement : Arrangement, optional
+        Default: the dark-field circular polariscope.
+    seed : int or None
+        Seed of the camera noise.
+    linear : bool
+        Return linear floats instead of encoded integers.
+
+    Returns
+    -------
+    (rows, cols, 3) array
+        Encoded integers (``camera.bit_depth``), or linear floats when ``linear``.
+
+    Examples
+    --------
+    Zero and one fringe at 575 nm in white light: black, and a colour:
+
+    >>> import numpy as np
+    >>> from fringekit.optics import PSM4_ASSUMED, Camera, light_source, retarder
+    >>> from fringekit.optics import white_light_image
+    >>> led = light_source("LED")
+    >>> k = PSM4_ASSUMED.relative_retardation(led.wavelengths)  # (31,)
+    >>> q = retarder(2 * np.pi * np.array([[0.0], [1.0]])[None] * k, np.pi / 8)  # (1, 2, 31, 4)
+    >>> white_light_image(q, led, Camera()).tolist()
+    [[[0, 0, 0], [47, 35, 196]]]
     """
     arrangement = arrangement or dark_field_circular()
     t = intensity(q, arrangement)  # (rows, cols, W)
@@ -197,8 +281,26 @@ def white_light_matrix(spectrum: Spectrum, camera: Camera) -> np.ndarray:
 
     The source spectrum and quadrature weights times the channel sensitivities, each
     channel normalised to 1 for full transmission, then (for the CIE observer) the linear
-    map to sRGB primaries under the source white (``_to_rgb_linear``, linear in its input,
-    applied here to the unit channel vectors)."""
+    map to sRGB primaries under the source white (applied to the unit channel vectors).
+
+    Parameters
+    ----------
+    spectrum : Spectrum
+    camera : Camera
+
+    Returns
+    -------
+    (W, 3) float array
+
+    Examples
+    --------
+    Full transmission at every wavelength is white:
+
+    >>> from fringekit.optics import Camera, light_source, white_light_matrix
+    >>> m = white_light_matrix(light_source("D65"), Camera())
+    >>> m.shape, m.sum(axis=0).round(3).tolist()
+    ((31, 3), [1.0, 1.0, 1.0])
+    """
     qc = camera.responses(spectrum.wavelengths)  # (W, 3)
     wq = (spectrum.power * spectrum.weights)[:, None] * qc
     return (wq / wq.sum(0)) @ _to_rgb_linear(np.eye(3), spectrum, camera)
@@ -207,7 +309,30 @@ def white_light_matrix(spectrum: Spectrum, camera: Camera) -> np.ndarray:
 def monochrome_image(
     q: np.ndarray, arrangement: Arrangement, camera: Camera, *, seed: int | None = 0
 ) -> np.ndarray:
-    """Grey image (rows, cols) for quaternions at one wavelength (rows, cols, 4)."""
+    """Grey image of a specimen at one wavelength.
+
+    Parameters
+    ----------
+    q : (rows, cols, 4) float array
+        Path quaternions.
+    arrangement : Arrangement
+    camera : Camera
+        Its exposure, noise, gamma and bit depth apply (not the sRGB curve).
+    seed : int or None
+        Seed of the camera noise.
+
+    Returns
+    -------
+    (rows, cols) uint8 or uint16 array
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.optics import Camera, dark_field_circular, monochrome_image, retarder
+    >>> q = retarder(np.array([[0.0, np.pi]]), 0.0)  # zero and half a fringe
+    >>> monochrome_image(q, dark_field_circular(), Camera()).tolist()
+    [[0, 230]]
+    """
     # any name but "CIE1931" encodes with ``gamma`` instead of the sRGB curve
     return replace(camera, sensitivities="mono").encode(intensity(q, arrangement), seed)
 
@@ -226,10 +351,33 @@ def colour_chart(
     Fringe order N at the law's reference wavelength; at wavelength lam the retardation
     is 2 pi N (k(lam) / k(lam_ref)) with k = 2 pi C / lam (dispersion included).
 
+    Parameters
+    ----------
+    law : StressOpticLaw
+    spectrum : Spectrum
+    camera : Camera
+    max_order : float
+        Highest order of the table.
+    n : int
+        Rows.
+    arrangement : Arrangement, optional
+        Default: the dark-field circular polariscope.
+
     Returns
     -------
-    orders : (n,) fringe orders 0..max_order
-    rgb : (n, 3) linear RGB in [0, 1] (no noise, no quantisation)
+    orders : (n,) float array
+        Fringe orders 0..max_order.
+    rgb : (n, 3) float array
+        Linear RGB in [0, 1] (no noise, no quantisation).
+
+    Examples
+    --------
+    >>> from fringekit.optics import PSM4_ASSUMED, Camera, colour_chart, light_source
+    >>> orders, rgb = colour_chart(PSM4_ASSUMED, light_source("LED"), Camera(), max_order=2.0, n=5)
+    >>> orders.tolist()
+    [0.0, 0.5, 1.0, 1.5, 2.0]
+    >>> rgb.round(2).tolist()[:3]  # black, white, the violet of the first order
+    [[0.0, 0.0, 0.0], [0.99, 1.0, 0.81], [0.03, 0.02, 0.61]]
     """
     orders = np.linspace(0.0, max_order, n)
     delta = 2 * np.pi * orders[:, None] * law.relative_retardation(spectrum.wavelengths)[None, :]
@@ -239,7 +387,35 @@ def colour_chart(
 
 
 def write_image(path, image: np.ndarray) -> None:
-    """Write an 8/16-bit grey or RGB image as PNG or TIFF (by suffix)."""
+    """Write an 8/16-bit grey or RGB image as PNG or TIFF (by suffix).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        ``.png``, ``.tif`` or ``.tiff``.
+    image : (rows, cols) or (rows, cols, 3) uint8 or uint16 array
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    ValueError
+        Another dtype, or a 16-bit RGB PNG (write a TIFF).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> import numpy as np
+    >>> from fringekit.analysis import load_image
+    >>> from fringekit.optics import write_image
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     write_image(f"{d}/grey.png", np.array([[0, 65535], [1000, 2000]], np.uint16))
+    ...     frame = load_image(f"{d}/grey.png")
+    >>> frame.bit_depth, float(frame.data.max())
+    (16, 1.0)
+    """
     img = np.asarray(image)
     if img.dtype not in (np.uint8, np.uint16):
         raise ValueError(f"image dtype {img.dtype} is not allowed; use uint8 or uint16")

@@ -38,7 +38,11 @@ TRI6_TO_TRI3 = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])
 
 
 class FEMStressField:
-    """A :class:`fea.Solution` seen by the optics.
+    """A :class:`fea.Solution` seen by the optics: a :class:`StressField` of the deformed sheet.
+
+    Rays are vertical lines in the current configuration, from the deformed interface
+    to the deformed contact face; the stress is the solution's recovered nodal stress,
+    interpolated linearly (module docstring). Half and quarter models are unfolded.
 
     Parameters
     ----------
@@ -51,6 +55,32 @@ class FEMStressField:
         The photoelastic sheet (rays from the deformed interface to the deformed contact
         face) or the polycarbonate (from the fixed bottom to the deformed interface, with
         the stress recovered from substrate cells only).
+
+    Raises
+    ------
+    ValueError
+        An unknown region, or a mesh without cells of that region.
+
+    Examples
+    --------
+    The smallest FEM case end to end (about a second, most of it loading VTK and the
+    first solve):
+
+    >>> from fringekit.meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh
+    >>> from fringekit.fea import Indenter, solve
+    >>> from fringekit.optics import PSM4_ASSUMED, FEMStressField, PixelGrid, optical_map
+    >>> layers = Layers(sheet_thickness=2e-3, substrate_thickness=0.0, width=10e-3, length=10e-3)
+    >>> sizing = Sizing(h_contact=1e-3, refine_radius=1.5e-3, h_far=4e-3, h_sheet=2e-3)
+    >>> spec = MeshSpec(layers, (IndenterSite(radius=1e-3),), sizing, symmetry="quarter")
+    >>> mesh = build_mesh(spec, use_cache=False)
+    >>> solutions, _ = solve(mesh, [Indenter(radius=1e-3, normal_force=[0.5])])
+    >>> field = FEMStressField(solutions[-1])
+    >>> omap = optical_map(field, PixelGrid((9, 9), 1e-3), PSM4_ASSUMED, n_samples=8)
+    >>> bool(omap.mask[4, 4]), int(omap.mask.sum())  # the contact zone at the centre is masked
+    (False, 80)
+    >>> import numpy as np
+    >>> round(float(np.nanmax(omap.fringe_order())), 2)
+    0.35
     """
 
     def __init__(self, solution, *, mask_contact: bool = True, region: str = "sheet"):

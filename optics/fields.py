@@ -19,6 +19,31 @@ __all__ = ["StressField", "UniformStress", "TwistedStress", "DiametralDisc", "Bo
 
 
 class StressField(Protocol):
+    """What the optics integrates: a stress field and the photoelastic layer's extent.
+
+    Any object with these two methods is a field (a protocol, not a base class):
+    :class:`UniformStress`, :class:`TwistedStress`, :class:`DiametralDisc`,
+    :class:`Boussinesq` and :class:`FEMStressField`.
+
+    Methods
+    -------
+    stress(points)
+        Cauchy stress (..., 3, 3) in Pa at points (..., 3) in m.
+    z_range(xy)
+        Bottom z, top z (m) of the photoelastic layer under xy (P, 2), and a validity
+        mask (P,).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.optics import StressField, UniformStress
+    >>> def layer_thickness(field: StressField, xy):
+    ...     z0, z1, valid = field.z_range(np.asarray(xy, float))
+    ...     return np.where(valid, z1 - z0, 0.0)
+    >>> layer_thickness(UniformStress(np.zeros((3, 3)), z1=2e-3), [[0.0, 0.0]]).tolist()  # m
+    [0.002]
+    """
+
     def stress(self, points: np.ndarray) -> np.ndarray:
         """Cauchy stress (..., 3, 3) in Pa at points (..., 3) in m."""
 
@@ -33,7 +58,29 @@ def _sym(sxx, syy, szz, sxy, sxz, syz) -> np.ndarray:
 
 @dataclass(frozen=True)
 class UniformStress:
-    """Homogeneous stress (3, 3) (Pa) in a slab z0 <= z <= z1 (m) of lateral half-size."""
+    """Homogeneous stress in a slab z0 <= z <= z1 (a closed-form test field).
+
+    Parameters
+    ----------
+    sigma : (3, 3) float array
+        Cauchy stress (Pa).
+    z0, z1 : float
+        Bottom and top of the layer (m).
+    half_size : float
+        Lateral half-size of the slab (m); rays outside |x|, |y| <= half_size are not
+        valid.
+
+    Examples
+    --------
+    Transmission through 3 mm at 0.1 MPa: N = t ds / f_sigma.
+
+    >>> import numpy as np
+    >>> from fringekit.optics import PSM4_ASSUMED, PixelGrid, UniformStress, optical_map
+    >>> field = UniformStress(np.diag([1e5, 0.0, 0.0]), z0=0.0, z1=3e-3)
+    >>> omap = optical_map(field, PixelGrid((2, 2), 1e-3), PSM4_ASSUMED, reflection=False)
+    >>> round(float(omap.fringe_order()[0, 0]), 4), round(3e-3 * 1e5 / PSM4_ASSUMED.f_sigma, 4)
+    (0.7774, 0.7774)
+    """
 
     sigma: np.ndarray
     z0: float = 0.0
@@ -56,6 +103,29 @@ class TwistedStress:
 
     theta(z) = theta0 + rate (z - z0); sigma_xx - sigma_yy = ds cos 2 theta,
     2 sigma_xy = ds sin 2 theta (the closed-form twisted retarder test case).
+
+    Parameters
+    ----------
+    ds : float
+        Secondary principal stress difference (Pa).
+    theta0 : float
+        Principal angle at z0 (rad).
+    rate : float
+        Turn of the angle per unit height (rad/m).
+    z0, z1 : float
+        Bottom and top of the layer (m).
+
+    Examples
+    --------
+    Axes turning by 90 degrees through the sheet: the light sees a retarder and a
+    rotator (Aben's characteristic parameters), not the simple order:
+
+    >>> import numpy as np
+    >>> from fringekit.optics import PSM4_ASSUMED, PixelGrid, TwistedStress, optical_map
+    >>> field = TwistedStress(ds=1e5, theta0=0.0, rate=np.pi / 2 / 3e-3, z1=3e-3)
+    >>> omap = optical_map(field, PixelGrid((1, 1), 1e-3), PSM4_ASSUMED, reflection=False)
+    >>> round(float(omap.simple_order[0, 0]), 3), round(float(omap.rotation[0, 0, 0]), 2)
+    (0.777, 1.44)
     """
 
     ds: float
@@ -86,6 +156,27 @@ class DiametralDisc:
     every digital-photoelasticity benchmark). Centre: sigma_x = 2P/(pi t D),
     sigma_y = -6P/(pi t D). The disc occupies z in [0, t]; rays along z give
     N = t (sigma1 - sigma2) / f_sigma in transmission.
+
+    Parameters
+    ----------
+    P : float
+        Diametral load (N, compressive).
+    D : float
+        Diameter (m).
+    t : float
+        Thickness (m).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.optics import PSM4_ASSUMED, DiametralDisc, PixelGrid, optical_map
+    >>> disc = DiametralDisc(P=10.0, D=20e-3, t=5e-3)
+    >>> ds = disc.stress_difference(np.zeros((1, 2)))[0]  # at the centre: 8P / (pi t D), Pa
+    >>> round(float(ds)), round(8 * 10.0 / (np.pi * 5e-3 * 20e-3))
+    (254648, 254648)
+    >>> omap = optical_map(disc, PixelGrid((21, 21), 1e-3), PSM4_ASSUMED, reflection=False)
+    >>> round(float(omap.fringe_order()[10, 10]), 3), int(omap.mask.sum())  # pixels on the disc
+    (3.299, 305)
     """
 
     P: float
@@ -131,8 +222,31 @@ class Boussinesq:
     - sigma_t = -F/(2 pi) (1 - 2 nu) [1/r^2 - zeta/(rho r^2) - zeta/rho^3]
     - sigma_z = -3 F zeta^3 / (2 pi rho^5),  tau_rz = -3 F r zeta^2 / (2 pi rho^5)
 
-    The layer spans z in [z_top - thickness, z_top]; ``core`` (m) masks the singular
-    region r < core around the load axis.
+    Parameters
+    ----------
+    F : float
+        Normal force (N, pressing).
+    nu : float
+        Poisson's ratio.
+    z_top : float
+        Height of the loaded surface (m).
+    thickness : float
+        The layer spans z in [z_top - thickness, z_top] (m).
+    core : float
+        Rays within this radius of the load axis (m) are not valid (the singularity).
+
+    Examples
+    --------
+    On the axis, 1 mm below a 1 N load: sigma_z = -3 F / (2 pi zeta^2):
+
+    >>> import numpy as np
+    >>> from fringekit.optics import Boussinesq
+    >>> field = Boussinesq(F=1.0, z_top=3e-3)
+    >>> s = field.stress(np.array([0.0, 0.0, 2e-3]))
+    >>> round(float(s[2, 2])), round(-3 / (2 * np.pi * 1e-3**2))  # Pa
+    (-477465, -477465)
+    >>> field.z_range(np.array([[0.0, 0.0], [2e-3, 0.0]]))[2].tolist()  # the core is masked
+    [False, True]
     """
 
     F: float

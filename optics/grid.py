@@ -26,7 +26,11 @@ __all__ = ["PixelGrid", "RaySamples", "sample_points", "sample_rays"]
 
 @dataclass(frozen=True)
 class PixelGrid:
-    """A rectangular camera grid.
+    """A rectangular camera grid over the sheet.
+
+    Pixel (row, col) has its centre at x = x0 + (col - (cols - 1) / 2) pixel_size,
+    y = y0 - (row - (rows - 1) / 2) pixel_size: row 0 is the top of the image (largest
+    y), as a camera looking down the z axis from the contact side shows it.
 
     Parameters
     ----------
@@ -36,6 +40,24 @@ class PixelGrid:
         Pixel pitch on the sheet (m).
     center : (x0, y0)
         Sheet coordinates of the image centre (m).
+
+    Raises
+    ------
+    ValueError
+        A shape below 1 x 1 or a pitch that is not > 0.
+
+    Examples
+    --------
+    >>> from fringekit.optics import PixelGrid
+    >>> grid = PixelGrid((3, 4), pixel_size=1e-3)
+    >>> grid.n_pixels, grid.xy().shape
+    (12, (12, 2))
+    >>> [float(v) for v in grid.pixel_to_xy(0, 0)]  # top left pixel centre, m
+    [-0.0015, 0.001]
+    >>> [float(v) for v in grid.xy_to_pixel(-0.0015, 0.001)]
+    [0.0, 0.0]
+    >>> PixelGrid.from_field_of_view(20e-3, (96, 96)).pixel_size  # m
+    0.00020833333333333335
     """
 
     shape: tuple[int, int]
@@ -83,7 +105,7 @@ class PixelGrid:
 
 @dataclass(frozen=True)
 class RaySamples:
-    """Stress sampled along vertical rays.
+    """Stress sampled along vertical rays (made by :func:`sample_rays`).
 
     Only what the optics needs is kept: the secondary principal stress difference and
     angle at each slab midpoint (optics.jones.secondary_principal), not the full tensor.
@@ -91,14 +113,32 @@ class RaySamples:
     (``field.fold_xy``) share one row; the mirror flips the shear stresses that set the
     angle, so such a pixel sees its row with theta -> -theta.
 
-    Attributes
+    Parameters
     ----------
-    ds : (R, S) float, Pa — secondary principal stress difference, one row per distinct ray.
-    theta : (R, S) float, rad — secondary principal angle.
-    dz : (R, S) float, m — slab thickness along the ray.
-    valid : (P,) bool — pixels whose ray crosses the photoelastic layer.
-    index : (P,) int — the row of each pixel's ray.
-    mirror : (P,) bool — the pixel sees its row mirrored (theta -> -theta).
+    ds : (R, S) float array
+        Secondary principal stress difference (Pa), one row per distinct ray.
+    theta : (R, S) float array
+        Secondary principal angle (rad).
+    dz : (R, S) float array
+        Slab thickness along the ray (m).
+    valid : (P,) bool array
+        Pixels whose ray crosses the photoelastic layer.
+    index : (P,) int array
+        The row of each pixel's ray.
+    mirror : (P,) bool array
+        The pixel sees its row mirrored (theta -> -theta).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.optics import PSM4_ASSUMED, PixelGrid, UniformStress
+    >>> field = UniformStress(np.diag([1e5, 0.0, 0.0]), z0=0.0, z1=3e-3)  # 0.1 MPa, 3 mm
+    >>> from fringekit.optics import sample_rays
+    >>> rays = sample_rays(field, PixelGrid((2, 2), 1e-3), n_samples=4)
+    >>> rays.ds.shape, rays.n_pixels, float(rays.dz[0, 0])  # rows, slabs; m
+    ((4, 4), 4, 0.00075)
+    >>> rays.per_pixel().index.tolist()
+    [0, 1, 2, 3]
     """
 
     ds: np.ndarray
@@ -259,18 +299,37 @@ def sample_points(
     Parameters
     ----------
     field : StressField
-    xy : (n, 2) ray positions (m)
+    xy : (n, 2) float array
+        Ray positions (m).
     n_samples : int
         Slabs of equal thickness per ray (midpoint rule, as :func:`sample_rays`).
+    chunk : int
+        Points located at a time.
 
     Returns
     -------
-    a, b : (n, S) Pa
-        sigma_xx - sigma_yy and 2 sigma_xy at the slab midpoints (zero on invalid rays).
-    dz : (n,) m
-        Slab thickness (zero on invalid rays).
-    valid : (n,) bool
+    a, b : (n, S) float arrays
+        sigma_xx - sigma_yy and 2 sigma_xy (Pa) at the slab midpoints (zero on invalid
+        rays).
+    dz : (n,) float array
+        Slab thickness (m; zero on invalid rays).
+    valid : (n,) bool array
         Rays that cross the layer (outside the contact zones).
+
+    Raises
+    ------
+    ValueError
+        ``n_samples < 1``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.optics import PSM4_ASSUMED, PixelGrid, UniformStress
+    >>> field = UniformStress(np.diag([1e5, 0.0, 0.0]), z0=0.0, z1=3e-3)  # 0.1 MPa, 3 mm
+    >>> from fringekit.optics import sample_points
+    >>> a, b, dz, valid = sample_points(field, [[0.0, 0.0], [1e-3, 2e-3]], n_samples=3)
+    >>> a.shape, a[0].tolist(), dz.tolist(), valid.tolist()
+    ((2, 3), [100000.0, 100000.0, 100000.0], [0.001, 0.001], [True, True])
     """
     if int(n_samples) < 1:
         raise ValueError(f"n_samples = {n_samples!r} is not allowed; need >= 1")
@@ -310,9 +369,42 @@ def sample_rays(
     whose lattice neighbours leave the layer (the contact zone, the sheet's edge) are
     sampled directly. A step well below the FE field's own resolution costs nothing in
     accuracy (tests/test_optics_fem.py measures it) and makes the sampling cost follow
-    the field, not the image. ``None`` samples every distinct pixel ray.
+    the field, not the image.
 
-    Points are located ``chunk`` at a time; ``progress`` shows a bar over the blocks.
+    Parameters
+    ----------
+    field : StressField
+    grid : PixelGrid
+    n_samples : int
+        Slabs per ray.
+    lateral_step : float, optional
+        Pitch (m) of the ray lattice; None samples every distinct pixel ray.
+    lateral_rtol : float
+        Error bound of the lattice interpolation, relative to the largest ray integral
+        of the stress difference; lattice cells above it are refined by halving.
+    chunk : int
+        Points located at a time.
+    progress : bool
+        Show a bar over the blocks.
+
+    Returns
+    -------
+    RaySamples
+
+    Raises
+    ------
+    ValueError
+        ``n_samples < 1`` or a lateral step that is not > 0.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.optics import PSM4_ASSUMED, PixelGrid, UniformStress
+    >>> field = UniformStress(np.diag([1e5, 0.0, 0.0]), z0=0.0, z1=3e-3)  # 0.1 MPa, 3 mm
+    >>> from fringekit.optics import sample_rays
+    >>> rays = sample_rays(field, PixelGrid((2, 3), 1e-3), n_samples=4)
+    >>> rays.ds.shape, bool(rays.valid.all()), float(rays.ds.max())  # Pa
+    ((6, 4), True, 100000.0)
     """
     if int(n_samples) < 1:
         raise ValueError(f"n_samples = {n_samples!r} is not allowed; need >= 1")

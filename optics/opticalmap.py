@@ -47,20 +47,41 @@ def _switches(chosen: np.ndarray, guide: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class OpticalMap:
-    """What the sheet does to light, per pixel and wavelength.
+    """What the sheet does to light, per pixel and wavelength (made by :func:`optical_map`).
 
-    Attributes
+    Parameters
     ----------
     grid : PixelGrid
-    wavelengths : (W,) m
-    q : (rows, cols, W, 4) — path quaternions (reflection double pass when
-        ``reflection``); ``jones`` gives the (rows, cols, W, 2, 2) complex matrices.
-    simple_order : (rows, cols) — N = (passes) * integral(ds dz) / f_sigma at the law's
-        reference wavelength, the rotation-free estimate.
-    mask : (rows, cols) bool — True where the ray crosses the photoelastic layer.
+    wavelengths : (W,) float array
+        Wavelengths (m).
+    q : (rows, cols, W, 4) float array
+        Path quaternions (reflection double pass when ``reflection``); ``jones`` gives
+        the (rows, cols, W, 2, 2) complex matrices.
+    simple_order : (rows, cols) float array
+        N = (passes) * integral(ds dz) / f_sigma at the law's reference wavelength, the
+        rotation-free estimate; NaN outside ``mask``.
+    mask : (rows, cols) bool array
+        True where the ray crosses the photoelastic layer.
     reflection : bool
     law : StressOpticLaw
-    timings : dict of seconds
+    timings : dict
+        Seconds spent sampling and integrating.
+
+    Examples
+    --------
+    Viewed in reflection, the light crosses the 3 mm sheet twice:
+
+    >>> import numpy as np
+    >>> from fringekit.optics import PSM4_ASSUMED, PixelGrid, UniformStress
+    >>> field = UniformStress(np.diag([1e5, 0.0, 0.0]), z0=0.0, z1=3e-3)  # 0.1 MPa, 3 mm
+    >>> from fringekit.optics import optical_map
+    >>> omap = optical_map(field, PixelGrid((2, 2), 1e-3), PSM4_ASSUMED, n_samples=4)
+    >>> omap.q.shape, omap.jones.shape, bool(omap.mask.all())
+    ((2, 2, 1, 4), (2, 2, 1, 2, 2), True)
+    >>> round(float(omap.fringe_order()[0, 0]), 4), round(float(omap.simple_order[0, 0]), 4)
+    (1.5548, 1.5548)
+    >>> round(float(omap.principal_angle()[0, 0]), 6), bool(omap.branch_ambiguous().any())
+    (0.0, False)
     """
 
     grid: PixelGrid
@@ -160,9 +181,36 @@ def integrate_samples(
     *,
     reflection: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Path quaternions (P, W, 4) and simple fringe order (P,) from ray samples.
+    """Path quaternions and simple fringe order from ray samples (one layer).
 
     One layer of :func:`integrate_layers`.
+
+    Parameters
+    ----------
+    samples : RaySamples
+    law : StressOpticLaw
+    wavelengths : (W,) float array
+        Wavelengths (m).
+    reflection : bool
+        Double pass U^T U.
+
+    Returns
+    -------
+    q : (P, W, 4) float array
+        Path quaternions per pixel.
+    simple : (P,) float array
+        Rotation-free fringe order at the law's reference wavelength.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.optics import PSM4_ASSUMED, PixelGrid, UniformStress
+    >>> field = UniformStress(np.diag([1e5, 0.0, 0.0]), z0=0.0, z1=3e-3)  # 0.1 MPa, 3 mm
+    >>> from fringekit.optics import integrate_samples, sample_rays
+    >>> rays = sample_rays(field, PixelGrid((2, 2), 1e-3), n_samples=4)
+    >>> q, simple = integrate_samples(rays, PSM4_ASSUMED, [575e-9], reflection=False)
+    >>> q.shape, simple.round(4).tolist()
+    ((4, 1, 4), [0.7774, 0.7774, 0.7774, 0.7774])
     """
     q, simple, _ = integrate_layers([samples], [law], wavelengths, reflection=reflection)
     return q, simple
@@ -180,19 +228,48 @@ def integrate_layers(
 
     Parameters
     ----------
-    samples : list of RaySamples on the same grid, in the order the light meets them
-        (for the sensor viewed from the PC side: the polycarbonate, then the sheet; the
-        coated contact face reflects it back, ``docs/theory.md``).
-    laws : one StressOpticLaw per layer
-    wavelengths : (W,) m
-    reflection : bool — double pass U^T U
-    reference : int — the layer whose law defines the fringe order (default: the last,
-        the photoelastic sheet)
+    samples : list of RaySamples
+        On the same grid, in the order the light meets them (for the sensor viewed from
+        the PC side: the polycarbonate, then the sheet; the coated contact face reflects
+        it back, ``docs/theory.md``).
+    laws : list of StressOpticLaw
+        One per layer.
+    wavelengths : (W,) float array
+        Wavelengths (m).
+    reflection : bool
+        Double pass U^T U.
+    reference : int
+        The layer whose law defines the fringe order (default: the last, the
+        photoelastic sheet).
 
     Returns
     -------
-    q : (P, W, 4); simple : (P,) rotation-free order summed over the layers, in fringes of
-    the reference law at its reference wavelength; valid : (P,) rays valid in every layer
+    q : (P, W, 4) float array
+        Path quaternions per pixel.
+    simple : (P,) float array
+        Rotation-free order summed over the layers, in fringes of the reference law at
+        its reference wavelength.
+    valid : (P,) bool array
+        Rays valid in every layer.
+
+    Raises
+    ------
+    ValueError
+        Not one law per layer, or wavelengths outside 360-830 nm.
+
+    Examples
+    --------
+    The same stress in a polycarbonate layer adds 386 / 7000 of the sheet's order:
+
+    >>> import numpy as np
+    >>> from fringekit.optics import PSM4_ASSUMED, PixelGrid, UniformStress
+    >>> field = UniformStress(np.diag([1e5, 0.0, 0.0]), z0=0.0, z1=3e-3)  # 0.1 MPa, 3 mm
+    >>> from fringekit.optics import POLYCARBONATE_ASSUMED, integrate_layers, sample_rays
+    >>> rays = sample_rays(field, PixelGrid((1, 2), 1e-3), n_samples=4)
+    >>> laws = [POLYCARBONATE_ASSUMED, PSM4_ASSUMED]
+    >>> q, simple, valid = integrate_layers([rays, rays], laws, [575e-9], reflection=False)
+    >>> q.shape, simple.round(4).tolist(), valid.tolist()
+    ((2, 1, 4), [0.8202, 0.8202], [True, True])
     """
     if len(samples) != len(laws) or not samples:
         raise ValueError("give one StressOpticLaw per layer of samples (and at least one)")
@@ -258,12 +335,31 @@ def optical_map(
         Provides ``stress(points)`` (Pa) and ``z_range(xy)`` (m); see optics.fields.
     grid : PixelGrid
     law : StressOpticLaw
-    wavelengths : array of m, optional
-        Default: the law's reference wavelength.
+    wavelengths : (W,) float array, optional
+        Wavelengths (m). Default: the law's reference wavelength.
     n_samples : int
         Slabs per ray (midpoint rule).
     reflection : bool
         Double pass through the layer (the sensor is viewed in reflection).
+
+    Returns
+    -------
+    OpticalMap
+
+    Raises
+    ------
+    ValueError
+        Wavelengths outside 360-830 nm or ``n_samples < 1``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.optics import PSM4_ASSUMED, PixelGrid, UniformStress
+    >>> field = UniformStress(np.diag([1e5, 0.0, 0.0]), z0=0.0, z1=3e-3)  # 0.1 MPa, 3 mm
+    >>> from fringekit.optics import optical_map
+    >>> omap = optical_map(field, PixelGrid((2, 2), 1e-3), PSM4_ASSUMED, [500e-9, 600e-9])
+    >>> omap.q.shape, omap.fringe_order(1).round(3).tolist()  # orders at 600 nm
+    ((2, 2, 2, 4), [[1.49, 1.49], [1.49, 1.49]])
     """
     lam = check_wavelengths(law.wavelength_ref if wavelengths is None else wavelengths)
     t0 = time.perf_counter()

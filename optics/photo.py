@@ -54,6 +54,18 @@ class PhotoModel:
         JPEG quality 1-100; None writes no JPEG.
     seed : int
         Seed of the residual field (noise uses the ``seed`` of :func:`photograph`).
+
+    Raises
+    ------
+    ValueError
+        A value outside its range.
+
+    Examples
+    --------
+    >>> from fringekit.optics import PhotoModel
+    >>> lab = PhotoModel(residual_rms_rad=0.05, vignetting=0.3, glare=0.02, jpeg_quality=90)
+    >>> lab.bayer, lab.seed
+    (False, 0)
     """
 
     residual_rms_rad: float = 0.0
@@ -96,7 +108,27 @@ def _smooth_field(shape, scale_px: float, rng) -> np.ndarray:
 
 
 def residual_birefringence(shape, model: PhotoModel) -> np.ndarray:
-    """(rows, cols, 4) quaternions of the smooth residual retarder of ``model``."""
+    """Quaternions of the smooth random residual retarder of ``model``.
+
+    Parameters
+    ----------
+    shape : (rows, cols)
+    model : PhotoModel
+        Its ``residual_rms_rad``, ``residual_scale`` and ``seed`` set the field.
+
+    Returns
+    -------
+    (rows, cols, 4) float array
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.optics import PhotoModel, characteristic, residual_birefringence
+    >>> q = residual_birefringence((32, 32), PhotoModel(residual_rms_rad=0.1, seed=3))
+    >>> delta = characteristic(q)[0]
+    >>> q.shape, round(float(np.sqrt(np.mean(delta**2))), 2)  # rad RMS
+    ((32, 32, 4), 0.1)
+    """
     rng = np.random.default_rng(model.seed)
     scale = model.residual_scale * shape[1]
     delta = model.residual_rms_rad * _smooth_field(shape, scale, rng)
@@ -141,11 +173,41 @@ def photograph(
     seed: int | None = 0,
     tint=None,
 ) -> np.ndarray:
-    """A monochrome-light photograph (8/16-bit) of specimen quaternions q (rows, cols, 4).
+    """A monochrome-light photograph (8/16-bit) of specimen quaternions.
 
-    ``tint`` (3,) renders the monochrome light as a colour image (e.g. green light on a
-    colour camera: (0.1, 1.0, 0.2)); the Bayer mosaic then applies. Returns (rows, cols)
-    or (rows, cols, 3).
+    Residual birefringence, vignetting, glare, the camera's noise, a Bayer mosaic and
+    JPEG compression as ``model`` sets them; seeded, so the same inputs give the same
+    image bit for bit.
+
+    Parameters
+    ----------
+    q : (rows, cols, 4) float array
+        Specimen path quaternions.
+    arrangement : Arrangement
+    camera : Camera
+    model : PhotoModel
+    seed : int or None
+        Seed of the camera noise.
+    tint : (3,) float array, optional
+        Renders the monochrome light as a colour image (e.g. green light on a colour
+        camera: (0.1, 1.0, 0.2)); the Bayer mosaic then applies.
+
+    Returns
+    -------
+    (rows, cols) or (rows, cols, 3) uint8 or uint16 array
+
+    Examples
+    --------
+    >>> from fringekit.optics import Camera, PhotoModel, dark_field_circular, indent_field
+    >>> from fringekit.optics import photograph
+    >>> order, q, mask = indent_field(16, 16)
+    >>> model = PhotoModel(residual_rms_rad=0.05, vignetting=0.2, jpeg_quality=90, seed=1)
+    >>> img = photograph(q, dark_field_circular(), Camera(), model)
+    >>> img.dtype.name, img.shape
+    ('uint8', (16, 16))
+    >>> green = (0.1, 1.0, 0.2)  # green light on a colour camera
+    >>> photograph(q, dark_field_circular(), Camera(), PhotoModel(bayer=True), tint=green).shape
+    (16, 16, 3)
     """
     q = np.asarray(q, float)
     if model.residual_rms_rad > 0:
@@ -165,13 +227,35 @@ def photograph(
 
 
 def indent_field(rows: int, cols: int, core: float = 0.06):
-    """A specimen of known order for photograph tests and benchmarks: a smooth indent-like
-    field, N = 0.3 + 2.6 exp(-(r / 0.3)^2) with r the distance from the image centre over
-    the shorter side (0.3 at the border, 2.9 in the middle), principal axes radial.
+    """A specimen of known order for photograph tests and benchmarks.
 
-    Returns (order (rows, cols), quaternions (rows, cols, 4), mask: r > ``core``, the
-    contact zone without data). At camera size the order changes by 0.002-0.005 fringe
-    per pixel in the far field.
+    A smooth indent-like field, N = 0.3 + 2.6 exp(-(r / 0.3)^2) with r the distance from
+    the image centre over the shorter side (0.3 at the border, 2.9 in the middle),
+    principal axes radial. At camera size the order changes by 0.002-0.005 fringe per
+    pixel in the far field.
+
+    Parameters
+    ----------
+    rows, cols : int
+        Image shape (px).
+    core : float
+        Radius of the contact zone without data, as a fraction of the shorter side.
+
+    Returns
+    -------
+    order : (rows, cols) float array
+        Fringe order.
+    q : (rows, cols, 4) float array
+        Quaternions of the retarder of each pixel.
+    mask : (rows, cols) bool array
+        r > ``core``.
+
+    Examples
+    --------
+    >>> from fringekit.optics import indent_field
+    >>> order, q, mask = indent_field(64, 64)
+    >>> round(float(order.max()), 2), round(float(order[0, 0]), 2), q.shape, int((~mask).sum())
+    (2.9, 0.31, (64, 64, 4), 52)
     """
     r, c = np.mgrid[:rows, :cols].astype(float)
     s = min(rows, cols)

@@ -46,12 +46,12 @@ def _waveplate(a: float, retardance: float) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Arrangement:
-    """One polariscope setting.
+    """One polariscope setting: polariser, quarter-wave plates and analyser.
 
     Parameters
     ----------
     polariser : float
-        Polariser angle (rad).
+        Polariser angle (rad, from the x axis).
     analyser : float
         Analyser angle (rad).
     qwp_in, qwp_out : float or None
@@ -61,6 +61,17 @@ class Arrangement:
         Retardance error of both quarter-wave plates (rad): each has pi/2 + qwp_error.
     name : str
         Label used in file names.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.optics import SIX_STEPS, intensity, retarder
+    >>> step2 = SIX_STEPS[1]  # dark-field circular
+    >>> step2.name, step2.input_state().shape, step2.output_matrix().shape
+    ('step2', (2,), (2, 2))
+    >>> off = step2.misaligned(analyser=np.radians(1.0))  # a 1 degree analyser error
+    >>> round(float(intensity(retarder(0.0, 0.0), off)), 6)  # leaks sin^2(1 deg) at zero load
+    0.000305
     """
 
     polariser: float
@@ -97,17 +108,79 @@ class Arrangement:
 
 
 def dark_field_circular(**err) -> Arrangement:
-    """Circular polariscope, dark field (step 2 of the six-step table): I = Ia/2 (1 - cos d)."""
+    """Circular polariscope, dark field (step 2 of the six-step table).
+
+    I = I_a/2 (1 - cos d) for a retarder d: black at zero load.
+
+    Parameters
+    ----------
+    **err : float
+        Element errors (rad) as in :meth:`Arrangement.misaligned`: ``polariser``,
+        ``qwp_in``, ``qwp_out``, ``analyser``, ``qwp_error``.
+
+    Returns
+    -------
+    Arrangement
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.optics import dark_field_circular, intensity, retarder
+    >>> [round(float(intensity(retarder(d, 0.3), dark_field_circular())), 6) for d in (0, np.pi)]
+    [0.0, 1.0]
+    """
     return SIX_STEPS[1].misaligned(**err) if err else SIX_STEPS[1]
 
 
 def bright_field_circular(**err) -> Arrangement:
-    """Circular polariscope, bright field (step 1): I = Ia/2 (1 + cos d)."""
+    """Circular polariscope, bright field (step 1 of the six-step table).
+
+    I = I_a/2 (1 + cos d) for a retarder d: bright at zero load.
+
+    Parameters
+    ----------
+    **err : float
+        Element errors (rad) as in :meth:`Arrangement.misaligned`.
+
+    Returns
+    -------
+    Arrangement
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.optics import bright_field_circular, intensity, retarder
+    >>> [round(float(intensity(retarder(d, 0.3), bright_field_circular())), 6) for d in (0, np.pi)]
+    [1.0, 0.0]
+    """
     return SIX_STEPS[0].misaligned(**err) if err else SIX_STEPS[0]
 
 
 def plane_polariscope(polariser: float = 0.0, *, dark: bool = True) -> Arrangement:
-    """Plane polariscope; dark field with crossed analyser, bright with parallel."""
+    """Plane polariscope: dark field with crossed analyser, bright with parallel.
+
+    Parameters
+    ----------
+    polariser : float
+        Polariser angle (rad).
+    dark : bool
+        Crossed (dark field) or parallel analyser.
+
+    Returns
+    -------
+    Arrangement
+        Without quarter-wave plates: the intensity depends on the isoclinic.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.optics import intensity, plane_polariscope, retarder
+    >>> crossed = plane_polariscope(0.0)
+    >>> round(float(intensity(retarder(np.pi, 0.0), crossed)), 6)  # axes along the polariser
+    0.0
+    >>> round(float(intensity(retarder(np.pi, np.pi / 4), crossed)), 6)  # at 45 degrees
+    1.0
+    """
     analyser = polariser + (np.pi / 2 if dark else 0.0)
     return Arrangement(polariser, analyser, name="plane_dark" if dark else "plane_bright")
 
@@ -125,16 +198,58 @@ SIX_STEPS = (
 
 
 def six_step_arrangements(**err) -> tuple[Arrangement, ...]:
-    """The six steps, each with the same element errors (see :meth:`Arrangement.misaligned`)."""
+    """The six phase-stepped arrangements, each with the same element errors.
+
+    Parameters
+    ----------
+    **err : float
+        Element errors (rad) as in :meth:`Arrangement.misaligned`.
+
+    Returns
+    -------
+    tuple of 6 Arrangement
+        :data:`SIX_STEPS` (in :data:`analysis.SIX_STEP_ORDER`) when no error is given.
+
+    Examples
+    --------
+    Intensities of a retarder of d = pi/2 at 22.5 degrees; steps 1 and 2 (1 +- cos d)
+    are equal there:
+
+    >>> import numpy as np
+    >>> from fringekit.optics import intensity, retarder, six_step_arrangements
+    >>> q = retarder(np.pi / 2, np.pi / 8)
+    >>> [round(float(intensity(q, a)), 3) for a in six_step_arrangements()]
+    [0.5, 0.5, 0.146, 0.854, 0.854, 0.146]
+    """
     return tuple(a.misaligned(**err) for a in SIX_STEPS) if err else SIX_STEPS
 
 
 def intensity(q: np.ndarray, arrangement: Arrangement, source: float = 1.0) -> np.ndarray:
-    """Detected intensity for model quaternions q (..., 4).
+    """Detected intensity for model quaternions q (..., 4) in one arrangement.
 
-    ``source`` is I_a, the intensity after the polariser for a perfect element, so a
-    dark-field circular polariscope gives I = I_a/2 (1 - cos d) for a retarder d.
     Reflection is included by passing U_refl's quaternion (optics.jones.qtranspose).
+
+    Parameters
+    ----------
+    q : (..., 4) float array
+        Path quaternions of the model (:mod:`optics.jones`).
+    arrangement : Arrangement
+    source : float
+        I_a, the intensity after the polariser for a perfect element, so a
+        dark-field circular polariscope gives I = I_a/2 (1 - cos d) for a retarder d.
+
+    Returns
+    -------
+    (...) float array
+        Intensity, in units of ``source``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.optics import dark_field_circular, intensity, retarder
+    >>> d = np.linspace(0, 2 * np.pi, 5)  # rad
+    >>> intensity(retarder(d, 0.0), dark_field_circular()).round(3).tolist()
+    [0.0, 0.5, 1.0, 0.5, 0.0]
     """
     q = np.asarray(q, float)
     m = intensity_form(arrangement)

@@ -61,18 +61,32 @@ CAL_VERSION = 2  # 2: feature names carry their units (radius_mm_fringe_k, ...)
 
 
 def radial_profile(order, pixel_size, centre_rc):
-    """Azimuthal mean of the order in 1-pixel annuli.
+    """Azimuthal mean of a fringe-order map in 1-pixel annuli about an axis.
 
     Parameters
     ----------
-    order : (rows, cols) fringe order, NaN where unknown
-    pixel_size : float (m)
-    centre_rc : (row, col) the axis in pixels
+    order : (rows, cols) float array
+        Fringe order, NaN where unknown.
+    pixel_size : float
+        Pixel pitch (m).
+    centre_rc : (row, col)
+        The axis (px).
 
     Returns
     -------
-    r_mm : (k,) annulus radii (mm)
-    mean : (k,) azimuthal mean order, NaN where no pixel
+    r_mm : (k,) float array
+        Annulus radii (mm).
+    mean : (k,) float array
+        Azimuthal mean order, NaN where no pixel.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.analysis import radial_profile
+    >>> r = np.hypot(*np.mgrid[-10:11, -10:11])
+    >>> r_mm, mean = radial_profile(2.0 - 0.1 * r, 0.1e-3, (10, 10))
+    >>> r_mm[:3].round(3).tolist(), mean[:3].round(3).tolist()
+    ([0.0, 0.1, 0.2], [2.0, 1.879, 1.784])
     """
     rows, cols = order.shape
     r, c = np.mgrid[:rows, :cols]
@@ -96,18 +110,46 @@ def fringe_features(
     r_in_mm: float = 2.0,
     r_out_mm: float = 6.0,
 ) -> dict[str, float]:
-    """Scalar features of a fringe-order map about an indenter axis.
+    """Scalar features of a fringe-order map about an indenter axis (module docstring).
 
     Parameters
     ----------
-    order : (rows, cols) fringe order, NaN where unknown (masks, the contact zone)
-    pixel_size : float (m)
-    centre_rc : (row, col) the indenter axis in pixels
-    radii_mm, fringes, r_in_mm, r_out_mm : see the module docstring
+    order : (rows, cols) float array
+        Fringe order, NaN where unknown (masks, the contact zone).
+    pixel_size : float
+        Pixel pitch (m).
+    centre_rc : (row, col)
+        The indenter axis (px).
+    radii_mm : sequence of float
+        Radii (mm) of the ``order_at_<r>mm`` features.
+    fringes : sequence of int
+        Orders k of the ``radius_mm_fringe_<k>`` features.
+    r_in_mm, r_out_mm : float
+        The annulus (mm) of ``integrated_order_fringe_mm2`` and the centroid.
 
     Returns
     -------
-    dict of float (NaN where a feature is not defined, e.g. a fringe the load does not reach)
+    dict of str -> float
+        NaN where a feature is not defined (e.g. a fringe the load does not reach).
+
+    Raises
+    ------
+    ValueError
+        A map that is not 2-D, or a pixel size that is not > 0.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.analysis import calibrate_from_maps, fringe_features
+    >>> r_mm = np.hypot(*np.mgrid[-60:61, -60:61]) * 0.1  # 0.1 mm pixels, axis at (60, 60)
+    >>> def order_map(load):  # Hertz-like: order ~ load^(2/3)
+    ...     return (load / 8) ** (2 / 3) * 3.0 * np.exp(-((r_mm / 2.5) ** 2))
+    >>> loads = [2.0, 4.0, 8.0, 12.0]
+    >>> features = [fringe_features(order_map(f), 1e-4, (60, 60)) for f in loads]
+    >>> cal = calibrate_from_maps(loads, np.zeros((4, 2)), features)
+    >>> f8 = features[2]  # 8 N
+    >>> round(f8["order_at_2mm"], 3), round(f8["radius_mm_fringe_1"], 3)
+    (1.581, 2.615)
     """
     order = np.asarray(order, float)
     if order.ndim != 2:
@@ -193,13 +235,41 @@ def _linear_fit(y, x):
 
 
 def calibrate_from_maps(loads_N, shears_N, features: list[dict]) -> dict:
-    """Fit load-to-feature relations.
+    """Fit load-to-feature relations: F = a feature^b per feature (module docstring).
 
     Parameters
     ----------
-    loads_N : (S,) normal load at each state (N)
-    shears_N : (S, 2) shear at each state (N)
-    features : S dicts from :func:`fringe_features`
+    loads_N : (S,) float array
+        Normal load at each state (N).
+    shears_N : (S, 2) float array
+        Shear at each state (N).
+    features : list of S dict
+        From :func:`fringe_features`.
+
+    Returns
+    -------
+    dict
+        ``version``, ``loads_N``, ``shears_N``, the ``features`` table, and the fits
+        ``normal_fits`` (feature -> power law with its scatter and range) and
+        ``shear_fits`` (axis -> linear fit on the centroid).
+
+    Raises
+    ------
+    ValueError
+        No feature changes with the load along the path.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.analysis import calibrate_from_maps, fringe_features
+    >>> r_mm = np.hypot(*np.mgrid[-60:61, -60:61]) * 0.1  # 0.1 mm pixels, axis at (60, 60)
+    >>> def order_map(load):  # Hertz-like: order ~ load^(2/3)
+    ...     return (load / 8) ** (2 / 3) * 3.0 * np.exp(-((r_mm / 2.5) ** 2))
+    >>> loads = [2.0, 4.0, 8.0, 12.0]
+    >>> features = [fringe_features(order_map(f), 1e-4, (60, 60)) for f in loads]
+    >>> cal = calibrate_from_maps(loads, np.zeros((4, 2)), features)
+    >>> round(cal["normal_fits"]["order_at_2mm"]["b"], 3)  # F ~ order^(3/2)
+    1.5
     """
     names = sorted(features[0])
     table = {n: [f[n] for f in features] for n in names}
@@ -235,8 +305,42 @@ def calibrate_from_maps(loads_N, shears_N, features: list[dict]) -> dict:
 def estimate_load(cal: dict, features: dict, *, extrapolate: float = 0.1) -> dict:
     """Invert a calibration: the normal load (and shear, where calibrated) from features.
 
-    Features outside the calibrated range by more than ``extrapolate`` (relative) are not
-    used. Returns ``{"normal_N", "normal_sigma_N", "per_feature": {...}, "shear_N"}``.
+    Parameters
+    ----------
+    cal : dict
+        From :func:`calibrate_from_maps` or :func:`load_calibration`.
+    features : dict
+        Of the map to estimate, from :func:`fringe_features`.
+    extrapolate : float
+        Features outside the calibrated range by more than this (relative) are not used.
+
+    Returns
+    -------
+    dict
+        ``normal_N``, ``normal_sigma_N`` (N), ``spread_N``, ``per_feature`` estimates,
+        ``consistency_chi2``; ``shear_N`` where calibrated; a ``warning`` when the
+        features disagree.
+
+    Raises
+    ------
+    ValueError
+        Too few features in the calibrated range, or features inconsistent with the
+        calibration.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.analysis import calibrate_from_maps, fringe_features
+    >>> r_mm = np.hypot(*np.mgrid[-60:61, -60:61]) * 0.1  # 0.1 mm pixels, axis at (60, 60)
+    >>> def order_map(load):  # Hertz-like: order ~ load^(2/3)
+    ...     return (load / 8) ** (2 / 3) * 3.0 * np.exp(-((r_mm / 2.5) ** 2))
+    >>> loads = [2.0, 4.0, 8.0, 12.0]
+    >>> features = [fringe_features(order_map(f), 1e-4, (60, 60)) for f in loads]
+    >>> cal = calibrate_from_maps(loads, np.zeros((4, 2)), features)
+    >>> from fringekit.analysis import estimate_load
+    >>> est = estimate_load(cal, fringe_features(order_map(6.0), 1e-4, (60, 60)))
+    >>> round(est["normal_N"], 3), len(est["per_feature"])
+    (6.0, 7)
     """
     per = {}
     if not cal["normal_fits"]:  # a shear-only calibration at one normal load
@@ -311,6 +415,37 @@ def _shear(cal: dict, features: dict) -> list[float]:
 
 
 def save_calibration(cal: dict, path: str | os.PathLike) -> Path:
+    """Write a calibration as JSON, atomically.
+
+    Parameters
+    ----------
+    cal : dict
+        From :func:`calibrate_from_maps`.
+    path : str or os.PathLike
+        File to write; missing folders are made.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.analysis import calibrate_from_maps, fringe_features
+    >>> r_mm = np.hypot(*np.mgrid[-60:61, -60:61]) * 0.1  # 0.1 mm pixels, axis at (60, 60)
+    >>> def order_map(load):  # Hertz-like: order ~ load^(2/3)
+    ...     return (load / 8) ** (2 / 3) * 3.0 * np.exp(-((r_mm / 2.5) ** 2))
+    >>> loads = [2.0, 4.0, 8.0, 12.0]
+    >>> features = [fringe_features(order_map(f), 1e-4, (60, 60)) for f in loads]
+    >>> cal = calibrate_from_maps(loads, np.zeros((4, 2)), features)
+    >>> import tempfile
+    >>> from fringekit.analysis import load_calibration, save_calibration
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     back = load_calibration(save_calibration(cal, f"{d}/calibration.json"))
+    >>> back["normal_fits"] == cal["normal_fits"]
+    True
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".part")
@@ -320,6 +455,36 @@ def save_calibration(cal: dict, path: str | os.PathLike) -> Path:
 
 
 def load_calibration(path: str | os.PathLike) -> dict:
+    """Read a calibration written by :func:`save_calibration`, checking it.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+
+    Returns
+    -------
+    dict
+
+    Raises
+    ------
+    FileNotFoundError
+        No such file.
+    ValueError
+        Not a calibration of this version (invalid JSON, an older version, or a fit
+        coefficient that is not a finite number).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from fringekit.analysis import load_calibration
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     with open(f"{d}/old.json", "w") as fh:
+    ...         _ = fh.write('{"version": 1}')
+    ...     load_calibration(f"{d}/old.json")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: ...old.json: a calibration of an earlier fringekit (version 1, ...
+    """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"calibration file {str(path)!r} does not exist")

@@ -16,11 +16,24 @@ __all__ = ["Profile", "line_profile", "Comparison", "compare_maps"]
 class Profile:
     """Values along a straight line (the seed paper's a-b and c-d lines).
 
-    Attributes
+    Made by :func:`line_profile`.
+
+    Parameters
     ----------
-    distance : (k,) from the start, px (or m when a pixel size was given)
-    values : (k,) bilinear samples; NaN where the line crosses masked (NaN) pixels
-    start, end : (row, col) pixel coordinates
+    distance : (k,) float array
+        Distance from the start, px (or m when a pixel size was given).
+    values : (k,) float array
+        Bilinear samples; NaN where the line crosses masked (NaN) pixels.
+    start, end : (row, col)
+        Pixel coordinates of the line's ends.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.analysis import line_profile
+    >>> p = line_profile(np.arange(16.0).reshape(4, 4), (0, 0), (0, 3))
+    >>> p.distance.tolist(), p.values.tolist(), p.end
+    ([0.0, 1.0, 2.0, 3.0], [0.0, 1.0, 2.0, 3.0], (0.0, 3.0))
     """
 
     distance: np.ndarray
@@ -34,6 +47,38 @@ def line_profile(image, start, end, *, pixel_size: float | None = None, n=None) 
 
     NaN pixels (masks) stay NaN in the profile instead of being blended with their
     neighbours.
+
+    Parameters
+    ----------
+    image : (rows, cols) float array
+        A map (fringe order, stress), NaN where unknown.
+    start, end : (row, col)
+        Line ends (px), inside the image.
+    pixel_size : float, optional
+        Pixel pitch (m); distances are then in m, else in px.
+    n : int, optional
+        Samples (default one per pixel of length, at least 2).
+
+    Returns
+    -------
+    Profile
+
+    Raises
+    ------
+    ValueError
+        A map that is not 2-D, or an end outside the image.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.analysis import line_profile
+    >>> order = np.tile(np.linspace(0.0, 2.0, 9), (3, 1))
+    >>> order[1, 4] = np.nan  # a masked pixel
+    >>> p = line_profile(order, (1, 0), (1, 8), pixel_size=0.1e-3)
+    >>> p.values.tolist()
+    [0.0, 0.25, 0.5, 0.75, nan, 1.25, 1.5, 1.75, 2.0]
+    >>> round(float(p.distance[-1]) * 1e3, 3)  # mm
+    0.8
     """
     img = np.asarray(image, float)
     if img.ndim != 2:
@@ -51,22 +96,40 @@ def line_profile(image, start, end, *, pixel_size: float | None = None, n=None) 
     near_nan = map_coordinates(nan.astype(float), rc, order=1) > 0
     vals[near_nan] = np.nan
     dist = s * length * (pixel_size if pixel_size else 1.0)
-    return Profile(dist, vals, tuple(p0), tuple(p1))
+    return Profile(dist, vals, (float(p0[0]), float(p0[1])), (float(p1[0]), float(p1[1])))
 
 
 @dataclass(frozen=True)
 class Comparison:
-    """A predicted fringe-order map registered onto a measured one.
+    """A predicted fringe-order map registered onto a measured one (by :func:`compare_maps`).
 
-    Attributes
+    Parameters
     ----------
-    predicted : (rows, cols) the prediction resampled on the measured grid
-    measured : (rows, cols)
-    residual : measured - predicted (NaN where either is missing or outside the mask)
-    rms, p95 : RMS and 95th percentile of |residual| (fringe orders)
-    centre_measured : (row, col) where the prediction's centre landed
-    scale : measured pixel size / predicted pixel size
-    rotation_deg : rotation applied to the prediction
+    predicted : (rows, cols) float array
+        The prediction resampled on the measured grid.
+    measured : (rows, cols) float array
+    residual : (rows, cols) float array
+        measured - predicted (NaN where either is missing or outside the mask).
+    rms, p95 : float
+        RMS and 95th percentile of |residual| (fringe orders).
+    centre_measured : (row, col)
+        Where the prediction's centre landed (px).
+    scale : float
+        Measured pixel size / predicted pixel size.
+    rotation_deg : float
+        Rotation applied to the prediction (degrees).
+    info : dict
+        ``pixels`` compared, and the registration's RMS when the centre was fitted.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.analysis import compare_maps
+    >>> r = np.hypot(*np.mgrid[-20:21, -20:21])
+    >>> pred = 2.0 * np.exp(-((r / 8) ** 2))
+    >>> c = compare_maps(pred, pred + 0.01, predicted_pixel_size=1e-4, measured_pixel_size=1e-4)
+    >>> round(c.rms, 4), round(c.p95, 4), c.centre_measured, c.info["pixels"]
+    (0.01, 0.01, (20.0, 20.0), 1681)
     """
 
     predicted: np.ndarray
@@ -136,15 +199,46 @@ def compare_maps(
 
     Parameters
     ----------
-    predicted, measured : (rows, cols) fringe-order maps, NaN where unknown
-    predicted_pixel_size, measured_pixel_size : float (m)
-    centre_predicted : (row, col), optional — the indenter centre in the prediction
-        (default: the image centre)
-    centre_measured : (row, col), optional — the indenter centre in the measurement;
-        when omitted it is fitted (masked cross-correlation, then least squares to a
-        fraction of a pixel) after scaling and rotating the prediction
-    rotation_deg : float — rotation of the prediction about its centre
-    mask : (rows, cols) bool, optional — pixels of the measurement to compare
+    predicted, measured : (rows, cols) float arrays
+        Fringe-order maps, NaN where unknown.
+    predicted_pixel_size, measured_pixel_size : float
+        Pixel pitches (m).
+    centre_predicted : (row, col), optional
+        The indenter centre in the prediction (default: the image centre).
+    centre_measured : (row, col), optional
+        The indenter centre in the measurement; when omitted it is fitted (masked
+        cross-correlation, then least squares to a fraction of a pixel) after scaling and
+        rotating the prediction.
+    rotation_deg : float
+        Rotation of the prediction about its centre (degrees).
+    mask : (rows, cols) bool array, optional
+        Pixels of the measurement to compare.
+
+    Returns
+    -------
+    Comparison
+
+    Raises
+    ------
+    ValueError
+        Maps that are not 2-D, pixel sizes that are not > 0, a mask of another shape, or
+        no pixel in common.
+
+    Examples
+    --------
+    A measurement at twice the resolution whose indenter sits 3 px right of the centre:
+
+    >>> import numpy as np
+    >>> from fringekit.analysis import compare_maps
+    >>> def indent(shape, centre, px_mm):
+    ...     r, c = np.mgrid[: shape[0], : shape[1]]
+    ...     r_mm = np.hypot(r - centre[0], c - centre[1]) * px_mm
+    ...     return 2.0 * np.exp(-((r_mm / 1.5) ** 2))
+    >>> pred = indent((41, 41), (20, 20), 0.1)
+    >>> meas = indent((81, 81), (40, 43), 0.05)
+    >>> c = compare_maps(pred, meas, predicted_pixel_size=1e-4, measured_pixel_size=5e-5)
+    >>> [round(v, 1) for v in c.centre_measured], c.scale, c.rms < 0.01
+    ([40.0, 43.0], 0.5, True)
     """
     pred = np.asarray(predicted, float)
     meas = np.asarray(measured, float)

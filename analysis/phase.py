@@ -47,29 +47,66 @@ TWO_PI = 2.0 * np.pi
 
 
 def wrap(phase):
-    """Wrap to [-pi, pi)."""
+    """Wrap angles to [-pi, pi).
+
+    Parameters
+    ----------
+    phase : float or array
+        Angles (rad).
+
+    Returns
+    -------
+    float or array
+        ``phase`` + 2 pi k in [-pi, pi).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.analysis import wrap
+    >>> wrap(np.array([3.5, -3.5, 7.0])).round(4).tolist()
+    [-2.7832, 2.7832, 0.7168]
+    """
     return (np.asarray(phase) + np.pi) % TWO_PI - np.pi
 
 
 @dataclass(frozen=True)
 class SixStep:
-    """Per-pixel results of the six-step formulas (all (rows, cols)).
+    """Per-pixel results of the six-step formulas (all (rows, cols); made by :func:`six_step`).
 
-    Attributes
+    Parameters
     ----------
-    isoclinic : rad in [-pi/2, pi/2), 1/2 atan2(i5 - i3, i4 - i6): exact where sin d > 0,
+    isoclinic : (rows, cols) float array
+        rad in [-pi/2, pi/2), 1/2 atan2(i5 - i3, i4 - i6): exact where sin d > 0,
         pi/2 off where sin d < 0.
-    isoclinic_eq2 : rad in (-pi/4, pi/4], the seed paper's eq. 2 with a plain arctan.
-    delta_eq3 : rad in [0, 2 pi), the seed paper's eq. 3 evaluated with ``isoclinic_eq2``
+    isoclinic_eq2 : (rows, cols) float array
+        rad in (-pi/4, pi/4], the seed paper's eq. 2 with a plain arctan.
+    delta_eq3 : (rows, cols) float array
+        rad in [0, 2 pi), the seed paper's eq. 3 evaluated with ``isoclinic_eq2``
         (numerator (i5 - i3) sin 2t + (i4 - i6) cos 2t = (i4 - i6)/cos 2t, free of the
         singularity at t = pi/4). Shows the reversed zones of the paper.
-    delta_axis_insensitive : rad in [0, pi], atan2(sqrt((i5-i3)^2 + (i4-i6)^2), i1 - i2)
-        (the paper's second eq. 4): the isochromatic phase folded to [0, pi].
-    modulation : sqrt((i5-i3)^2 + (i4-i6)^2 + (i1-i2)^2) / (i1 + i2), in [0, 1]; 1 for
-        ideal optics with no background light.
-    consistency : (|(i1+i2) - (i3+i5)| + |(i1+i2) - (i4+i6)|) / (i1 + i2); 0 for ideal
-        optics. Element misalignment and quarter-wave errors raise it.
-    valid : bool — inside the mask, no saturated step, modulation >= the threshold.
+    delta_axis_insensitive : (rows, cols) float array
+        rad in [0, pi], atan2(sqrt((i5-i3)^2 + (i4-i6)^2), i1 - i2) (the paper's second
+        eq. 4): the isochromatic phase folded to [0, pi].
+    modulation : (rows, cols) float array
+        sqrt((i5-i3)^2 + (i4-i6)^2 + (i1-i2)^2) / (i1 + i2), in [0, 1]; 1 for ideal optics
+        with no background light.
+    consistency : (rows, cols) float array
+        (|(i1+i2) - (i3+i5)| + |(i1+i2) - (i4+i6)|) / (i1 + i2); 0 for ideal optics.
+        Element misalignment and quarter-wave errors raise it.
+    valid : (rows, cols) bool array
+        Inside the mask, no saturated step, modulation >= the threshold.
+
+    Examples
+    --------
+    >>> from fringekit.analysis import six_step
+    >>> from fringekit.optics import indent_field, intensity, six_step_arrangements
+    >>> order, q, mask = indent_field(48, 48)  # a known order: 0.3 at the border, 2.9 inside
+    >>> images = [intensity(q, a) for a in six_step_arrangements()]
+    >>> result = six_step(images, mask=mask)
+    >>> result.isoclinic.shape, bool(result.valid.sum() == mask.sum())
+    ((48, 48), True)
+    >>> round(float(result.modulation[mask].min()), 6), round(float(result.consistency.max()), 6)
+    (1.0, 0.0)
     """
 
     isoclinic: np.ndarray
@@ -105,15 +142,38 @@ def _stack(images) -> tuple[np.ndarray, np.ndarray]:
 
 
 def six_step(images, *, mask=None, min_modulation: float = 0.1) -> SixStep:
-    """Apply the six-step formulas to images in :data:`analysis.images.SIX_STEP_ORDER`.
+    """Apply the six-step formulas to images in :data:`SIX_STEP_ORDER`.
 
     Parameters
     ----------
-    images : six (rows, cols) arrays or :class:`~analysis.images.Frame` (colour is averaged)
-    mask : (rows, cols) bool, optional — region of interest
+    images : sequence of six (rows, cols) arrays or :class:`Frame`
+        The six phase-stepped images (colour is averaged), any common intensity scale.
+    mask : (rows, cols) bool array, optional
+        Region of interest (default: all pixels).
     min_modulation : float in [0, 1)
         Pixels whose modulation ratio falls below it are not valid (too little signal to
         give a phase).
+
+    Returns
+    -------
+    SixStep
+
+    Raises
+    ------
+    ValueError
+        Not six images, images of different sizes, or ``min_modulation`` outside [0, 1).
+
+    Examples
+    --------
+    >>> from fringekit.analysis import six_step
+    >>> from fringekit.optics import indent_field, intensity, six_step_arrangements
+    >>> order, q, mask = indent_field(48, 48)  # a known order: 0.3 at the border, 2.9 inside
+    >>> images = [intensity(q, a) for a in six_step_arrangements()]
+    >>> result = six_step(images, mask=mask)
+    >>> import numpy as np
+    >>> folded = np.arccos(np.cos(2 * np.pi * order))  # the order's phase folded to [0, pi]
+    >>> float(np.abs(result.delta_axis_insensitive - folded)[mask].max()) < 1e-9
+    True
     """
     if not 0.0 <= min_modulation < 1.0:
         raise ValueError(f"min_modulation = {min_modulation!r} is not allowed; use [0, 1)")
@@ -138,17 +198,35 @@ def six_step(images, *, mask=None, min_modulation: float = 0.1) -> SixStep:
 
 @dataclass(frozen=True)
 class Resolution:
-    """The isoclinic ambiguity resolved (all maps (rows, cols)).
+    """The isoclinic ambiguity resolved (all maps (rows, cols); by :func:`resolve_ambiguity`).
 
-    Attributes
+    Parameters
     ----------
-    sign : int8 — +1 / -1: the sign of sin d relative to the pixel's group; 0 = not valid
-    group : int — connected group of valid pixels (-1 = none); each group has its own
-        global sign, fixed in :func:`analysis.unwrap_fringe_order`
-    phase : rad in [-pi, pi) — signed wrapped isochromatic phase sign * d_folded
-    isoclinic : rad in [-pi/2, pi/2) — the principal direction consistent with ``phase``
-    conflicts : int — neighbour pairs whose measured relation contradicts the signs
-    reliable : bool — valid pixels on no contradicted pair
+    sign : (rows, cols) int8 array
+        +1 / -1: the sign of sin d relative to the pixel's group; 0 = not valid.
+    group : (rows, cols) int array
+        Connected group of valid pixels (-1 = none); each group has its own global sign,
+        fixed in :func:`unwrap_fringe_order`.
+    phase : (rows, cols) float array
+        Signed wrapped isochromatic phase sign * d_folded (rad, [-pi, pi)).
+    isoclinic : (rows, cols) float array
+        The principal direction consistent with ``phase`` (rad, [-pi/2, pi/2)).
+    conflicts : int
+        Neighbour pairs whose measured relation contradicts the signs.
+    reliable : (rows, cols) bool array
+        Valid pixels on no contradicted pair.
+
+    Examples
+    --------
+    >>> from fringekit.analysis import six_step
+    >>> from fringekit.optics import indent_field, intensity, six_step_arrangements
+    >>> order, q, mask = indent_field(48, 48)  # a known order: 0.3 at the border, 2.9 inside
+    >>> images = [intensity(q, a) for a in six_step_arrangements()]
+    >>> result = six_step(images, mask=mask)
+    >>> from fringekit.analysis import resolve_ambiguity
+    >>> res = resolve_ambiguity(result)
+    >>> res.conflicts, bool((res.reliable == result.valid).all()), int(res.group.max())
+    (0, True, 0)
     """
 
     sign: np.ndarray
@@ -206,6 +284,23 @@ def resolve_ambiguity(result: SixStep, *, conflict_weight: float = 0.05) -> Reso
     conflict_weight : float
         A non-tree pair contradicting the signs counts as a conflict when its reliability
         |v_p . v_q| exceeds this value (vectors of length ~1 give ~1).
+
+    Returns
+    -------
+    Resolution
+
+    Examples
+    --------
+    >>> from fringekit.analysis import six_step
+    >>> from fringekit.optics import indent_field, intensity, six_step_arrangements
+    >>> order, q, mask = indent_field(48, 48)  # a known order: 0.3 at the border, 2.9 inside
+    >>> images = [intensity(q, a) for a in six_step_arrangements()]
+    >>> result = six_step(images, mask=mask)
+    >>> import numpy as np
+    >>> from fringekit.analysis import resolve_ambiguity
+    >>> res = resolve_ambiguity(result)
+    >>> sorted(np.unique(res.sign[mask]).tolist())  # sin d changes sign across each fringe
+    [-1, 1]
     """
     valid = result.valid
     shape = valid.shape
@@ -258,10 +353,37 @@ def resolve_ambiguity(result: SixStep, *, conflict_weight: float = 0.05) -> Reso
 
 
 def principal_stress_difference(order, f_sigma: float, thickness: float, *, reflection=True):
-    """sigma1 - sigma2 (Pa) = N f_sigma / L, L = 2 t in reflection, t in transmission.
+    """sigma1 - sigma2 from the fringe order: N f_sigma / L.
 
-    Seed paper eq. 4 (``docs/theory.md``, "The stress-optic law"). ``f_sigma`` in N/m
-    (Pa m) per fringe, ``thickness`` in m.
+    L = 2 t in reflection, t in transmission (seed paper eq. 4; ``docs/theory.md``, "The
+    stress-optic law").
+
+    Parameters
+    ----------
+    order : float or array
+        Fringe order.
+    f_sigma : float
+        Material fringe value (N/m per fringe, i.e. Pa m).
+    thickness : float
+        Sheet thickness t (m).
+    reflection : bool
+        The light crosses the sheet twice.
+
+    Returns
+    -------
+    float array
+        Principal stress difference (Pa), the shape of ``order``.
+
+    Raises
+    ------
+    ValueError
+        ``f_sigma`` or ``thickness`` not > 0.
+
+    Examples
+    --------
+    >>> from fringekit.analysis import principal_stress_difference
+    >>> round(float(principal_stress_difference(1.0, f_sigma=386.0, thickness=3e-3)))  # Pa
+    64333
     """
     if not f_sigma > 0:
         raise ValueError(f"f_sigma = {f_sigma!r} N/m is not allowed; must be > 0")
@@ -272,13 +394,13 @@ def principal_stress_difference(order, f_sigma: float, thickness: float, *, refl
 
 
 def subtract_reference(result: SixStep, reference: SixStep) -> SixStep:
-    """The six-step result of the specimen alone: a zero-load reference's retardation
-    (residual birefringence of the sheet, the optics) removed vectorially.
+    """The six-step result of the specimen alone: a zero-load reference's retardation removed.
 
-    On the Poincare sphere a linear retarder of retardation d and axis t turns the light
-    by d about the equatorial axis a(t) = (cos 2t, sin 2t, 0) (Theocaris and Gdoutos,
-    *Matrix Theory of Photoelasticity*, Springer 1979, ch. 4); the six steps measure where
-    the circularly polarised input ends up, s = R z (its fold d <-> 2 pi - d is the same
+    The residual birefringence of the sheet and the optics is removed vectorially. On the
+    Poincare sphere a linear retarder of retardation d and axis t turns the light by d
+    about the equatorial axis a(t) = (cos 2t, sin 2t, 0) (Theocaris and Gdoutos, *Matrix
+    Theory of Photoelasticity*, Springer 1979, ch. 4); the six steps measure where the
+    circularly polarised input ends up, s = R z (its fold d <-> 2 pi - d is the same
     point). The reference, a linear retarder, gives its own R_r exactly, so the residual
     acting first turns z to p = R_r z, and the specimen's retarder R_s then takes p to
     the measured m. A rotation about an equatorial axis that takes p to m has its axis
@@ -286,6 +408,42 @@ def subtract_reference(result: SixStep, reference: SixStep) -> SixStep:
     R_s z is what the specimen alone would have given. Validity needs both; the
     modulation is the smaller of the two. Exact for a residual retarder in series with a
     linear specimen retarder.
+
+    Parameters
+    ----------
+    result : SixStep
+        The loaded specimen.
+    reference : SixStep
+        The same sensor at zero load, same optics and size.
+
+    Returns
+    -------
+    SixStep
+
+    Raises
+    ------
+    ValueError
+        The two results differ in size.
+
+    Examples
+    --------
+    A residual retarder of 0.3 rad at 20 degrees in front of a specimen of 1 rad at
+    50 degrees:
+
+    >>> import numpy as np
+    >>> from fringekit.analysis import six_step, subtract_reference
+    >>> from fringekit.optics import intensity, retarder, six_step_arrangements
+    >>> from fringekit.optics.jones import qmul
+    >>> residual = retarder(np.full((4, 4), 0.3), np.radians(20))
+    >>> loaded = qmul(retarder(np.full((4, 4), 1.0), np.radians(50)), residual)
+    >>> steps = six_step_arrangements()
+    >>> ref = six_step([intensity(residual, a) for a in steps])
+    >>> both = six_step([intensity(loaded, a) for a in steps])
+    >>> alone = subtract_reference(both, ref)
+    >>> round(float(alone.delta_axis_insensitive[0, 0]), 6)  # rad
+    1.0
+    >>> round(float(np.degrees(alone.isoclinic[0, 0])), 4)  # degrees
+    50.0
     """
     if result.valid.shape != reference.valid.shape:
         raise ValueError(

@@ -48,14 +48,34 @@ MAX_COLOUR_ERROR = 0.1
 
 @dataclass(frozen=True)
 class CalibrationTable:
-    """Colour against fringe order.
+    """Colour against fringe order: the table of the RGB method.
 
-    Attributes
+    Parameters
     ----------
-    orders : (n,) fringe orders, strictly increasing
-    rgb : (n, 3) colours in the units of the images they are compared with (the float
-        [0, 1] scale of :func:`analysis.images.normalise`)
-    source : str — where the table came from (for reports)
+    orders : (n,) float array
+        Fringe orders, strictly increasing, n >= 2.
+    rgb : (n, 3) float array
+        Colours in the units of the images they are compared with (the float [0, 1]
+        scale of :func:`normalise`).
+    source : str
+        Where the table came from (for reports).
+
+    Raises
+    ------
+    ValueError
+        Shapes that do not match, non-finite values or orders not increasing.
+
+    Examples
+    --------
+    From a synthetic colour chart, a photograph of a calibration line
+    (:meth:`from_line`) or a CSV file (:meth:`from_csv`, :meth:`to_csv`):
+
+    >>> from fringekit.analysis import CalibrationTable
+    >>> from fringekit.optics import PSM4_ASSUMED, Camera, colour_chart, light_source
+    >>> chart = colour_chart(PSM4_ASSUMED, light_source("LED"), Camera(), max_order=4.0, n=401)
+    >>> table = CalibrationTable.from_chart(*chart)
+    >>> len(table), round(table.step, 3), len(table.resampled(11))
+    (401, 0.01, 11)
     """
 
     orders: np.ndarray
@@ -181,15 +201,35 @@ class CalibrationTable:
 
 @dataclass(frozen=True)
 class RGBResult:
-    """Fringe order from colour.
+    """Fringe order from colour (made by :func:`search` and :func:`search_refined`).
 
-    Attributes
+    Parameters
     ----------
-    order : (rows, cols) — NaN outside the mask
-    error : (rows, cols) — colour distance sqrt(e) to the chosen row (same scale as the
-        image); large values flag colours the table does not hold
-    reliable : (rows, cols) bool — pixels searched and given an order whose colour
-        distance is below the search's ``max_error``
+    order : (rows, cols) float array
+        Fringe order; NaN outside the mask (and, refined, where no seed reaches).
+    error : (rows, cols) float array
+        Colour distance sqrt(e) to the chosen row (same scale as the image); large
+        values flag colours the table does not hold.
+    reliable : (rows, cols) bool array
+        Pixels searched and given an order whose colour distance is below the search's
+        ``max_error``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.analysis import CalibrationTable
+    >>> from fringekit.optics import PSM4_ASSUMED, Camera, colour_chart, indent_field
+    >>> from fringekit.optics import light_source, retarder, white_light_image
+    >>> led = light_source("LED")
+    >>> table = CalibrationTable.from_chart(*colour_chart(PSM4_ASSUMED, led, Camera(), max_order=4))
+    >>> order, _, mask = indent_field(48, 48)  # a known order: 0.3 at the border, 2.9 inside
+    >>> k = PSM4_ASSUMED.relative_retardation(led.wavelengths)
+    >>> q = retarder(2 * np.pi * order[..., None] * k, np.pi / 8)
+    >>> image = np.clip(white_light_image(q, led, Camera(), linear=True), 0, 1)
+    >>> from fringekit.analysis import search
+    >>> res = search(image, table, mask=mask)
+    >>> bool((res.reliable == mask).all()), round(float(np.nanmax(res.error)), 3)
+    (True, 0.023)
     """
 
     order: np.ndarray
@@ -198,12 +238,46 @@ class RGBResult:
 
 
 def colour_spread(image, mask=None) -> float:
-    """How three-dimensional an image's colours are: the smallest over the largest
-    eigenvalue of the covariance of its RGB values (over ``mask``).
+    """How three-dimensional an image's colours are.
 
-    White-light isochromatics trace a curve that turns through all three colour
-    dimensions; an image in single-colour light (or grey) has its colours on a line, up
-    to noise, so the ratio is near 0 and colour cannot tell the orders apart.
+    The smallest over the largest eigenvalue of the covariance of its RGB values. White-
+    light isochromatics trace a curve that turns through all three colour dimensions; an
+    image in single-colour light (or grey) has its colours on a line, up to noise, so the
+    ratio is near 0 and colour cannot tell the orders apart (:data:`MIN_COLOUR_SPREAD`).
+
+    Parameters
+    ----------
+    image : (rows, cols, 3) float array
+    mask : (rows, cols) bool array, optional
+        Pixels used.
+
+    Returns
+    -------
+    float
+        In [0, 1]; 0 for fewer than 3 pixels.
+
+    Raises
+    ------
+    ValueError
+        A grey image.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.analysis import CalibrationTable
+    >>> from fringekit.optics import PSM4_ASSUMED, Camera, colour_chart, indent_field
+    >>> from fringekit.optics import light_source, retarder, white_light_image
+    >>> led = light_source("LED")
+    >>> table = CalibrationTable.from_chart(*colour_chart(PSM4_ASSUMED, led, Camera(), max_order=4))
+    >>> order, _, mask = indent_field(48, 48)  # a known order: 0.3 at the border, 2.9 inside
+    >>> k = PSM4_ASSUMED.relative_retardation(led.wavelengths)
+    >>> q = retarder(2 * np.pi * order[..., None] * k, np.pi / 8)
+    >>> image = np.clip(white_light_image(q, led, Camera(), linear=True), 0, 1)
+    >>> from fringekit.analysis import MIN_COLOUR_SPREAD, colour_spread
+    >>> round(colour_spread(image, mask), 2), colour_spread(image, mask) > MIN_COLOUR_SPREAD
+    (0.24, True)
+    >>> colour_spread(np.repeat(image[..., 1:2], 3, axis=-1))  # grey
+    0.0
     """
     img, m = _pixels(image, mask)
     px = img[m]
@@ -230,7 +304,46 @@ def _pixels(image, mask) -> tuple[np.ndarray, np.ndarray]:
 def search(
     image, table: CalibrationTable, *, mask=None, max_error: float = MAX_COLOUR_ERROR
 ) -> RGBResult:
-    """Plain least-squares search of every pixel over the whole table (seed eq. 1)."""
+    """Plain least-squares search of every pixel over the whole table (seed eq. 1).
+
+    Reliable to about N = 3, where white-light colours start to repeat.
+
+    Parameters
+    ----------
+    image : (rows, cols, 3) float array
+        Colours on the table's scale.
+    table : CalibrationTable
+    mask : (rows, cols) bool array, optional
+        Pixels to search (default all).
+    max_error : float
+        Largest colour distance of a reliable pixel (:data:`MAX_COLOUR_ERROR`).
+
+    Returns
+    -------
+    RGBResult
+
+    Raises
+    ------
+    ValueError
+        A grey image, a mask of another shape, or ``max_error`` not > 0.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.analysis import CalibrationTable
+    >>> from fringekit.optics import PSM4_ASSUMED, Camera, colour_chart, indent_field
+    >>> from fringekit.optics import light_source, retarder, white_light_image
+    >>> led = light_source("LED")
+    >>> table = CalibrationTable.from_chart(*colour_chart(PSM4_ASSUMED, led, Camera(), max_order=4))
+    >>> order, _, mask = indent_field(48, 48)  # a known order: 0.3 at the border, 2.9 inside
+    >>> k = PSM4_ASSUMED.relative_retardation(led.wavelengths)
+    >>> q = retarder(2 * np.pi * order[..., None] * k, np.pi / 8)
+    >>> image = np.clip(white_light_image(q, led, Camera(), linear=True), 0, 1)
+    >>> from fringekit.analysis import search
+    >>> res = search(image, table, mask=mask)
+    >>> round(float(np.abs(res.order - order)[res.reliable].max()), 3)  # fringe
+    0.005
+    """
     img, m = _pixels(image, mask)
     dist, idx = cKDTree(table.rgb).query(img[m], k=1)
     order = np.full(m.shape, np.nan)
@@ -276,22 +389,53 @@ def search_refined(
 ) -> RGBResult:
     """Search restricted to +-``window`` fringe around the neighbours' orders.
 
+    Pixels of the mask not connected to any seed stay NaN. The search grows from the
+    seeds best colour match first (quality-guided, as in phase unwrapping), so an
+    ambiguous pixel is solved last, from its clearest neighbours.
+
     Parameters
     ----------
-    image : (rows, cols, 3) float
-    table : CalibrationTable (resampled to uniform spacing internally)
+    image : (rows, cols, 3) float array
+        Colours on the table's scale.
+    table : CalibrationTable
+        Resampled to uniform spacing internally.
     seeds : sequence of ((row, col), order)
         Pixels of known fringe order (e.g. the far field at 0, or a point on a
         calibrated fringe). Every pixel connected to a seed inside ``mask`` is solved.
-    mask : (rows, cols) bool, optional
+    mask : (rows, cols) bool array, optional
     window : float
         Half-width of the order window (fringes). Must exceed the largest order change
         between neighbouring pixels plus the colour noise in orders; 0.25 follows
         ~0.2 fringe/pixel (0.15 already lost the diametral disc at 0.25 mm/px).
+    max_error : float
+        Largest colour distance of a reliable pixel (:data:`MAX_COLOUR_ERROR`).
 
-    Pixels of the mask not connected to any seed stay NaN. The search grows from the
-    seeds best colour match first (quality-guided, as in phase unwrapping), so an
-    ambiguous pixel is solved last, from its clearest neighbours.
+    Returns
+    -------
+    RGBResult
+
+    Raises
+    ------
+    ValueError
+        No seed, a seed outside the image, the mask or the table's range, a window that
+        is not > 0, or ``max_error`` not > 0.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.analysis import CalibrationTable
+    >>> from fringekit.optics import PSM4_ASSUMED, Camera, colour_chart, indent_field
+    >>> from fringekit.optics import light_source, retarder, white_light_image
+    >>> led = light_source("LED")
+    >>> table = CalibrationTable.from_chart(*colour_chart(PSM4_ASSUMED, led, Camera(), max_order=4))
+    >>> order, _, mask = indent_field(48, 48)  # a known order: 0.3 at the border, 2.9 inside
+    >>> k = PSM4_ASSUMED.relative_retardation(led.wavelengths)
+    >>> q = retarder(2 * np.pi * order[..., None] * k, np.pi / 8)
+    >>> image = np.clip(white_light_image(q, led, Camera(), linear=True), 0, 1)
+    >>> from fringekit.analysis import search_refined
+    >>> res = search_refined(image, table, [((0, 0), 0.3)], mask=mask)  # the corner is at 0.3
+    >>> int(res.reliable.sum()), round(float(np.abs(res.order - order)[res.reliable].max()), 3)
+    (2280, 0.013)
     """
     img, m = _pixels(image, mask)
     if not window > 0:

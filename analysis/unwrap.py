@@ -27,16 +27,36 @@ __all__ = ["FringeOrderMap", "count_fringe_order", "unwrap_fringe_order"]
 class FringeOrderMap:
     """Total isochromatic fringe order from phase shifting.
 
-    Attributes
+    Made by :func:`unwrap_fringe_order` and :func:`count_fringe_order`.
+
+    Parameters
     ----------
-    order : (rows, cols) — NaN where not valid
-    reliable : (rows, cols) bool — valid, resolved, and no phase step above pi/2 between
-        neighbouring pixels (fringes resolved by the pixel pitch)
-    isoclinic : (rows, cols) rad — principal direction consistent with ``order``
-    offset : int — integer added to the unwrapped phase / 2 pi to meet the anchor, in the
-        largest connected region (each region has its own)
-    flipped_groups : int — groups of bands whose global sign was reversed
-    info : dict — counts for reports
+    order : (rows, cols) float array
+        Total fringe order; NaN where not valid.
+    reliable : (rows, cols) bool array
+        Valid, resolved, and no phase step above pi/2 between neighbouring pixels
+        (fringes resolved by the pixel pitch).
+    isoclinic : (rows, cols) float array
+        Principal direction consistent with ``order`` (rad).
+    offset : int
+        Integer added to the unwrapped phase / 2 pi to meet the anchor, in the largest
+        connected region (each region has its own).
+    flipped_groups : int
+        Groups of bands whose global sign was reversed.
+    info : dict
+        Counts for reports.
+
+    Examples
+    --------
+    >>> from fringekit.analysis import six_step
+    >>> from fringekit.optics import indent_field, intensity, six_step_arrangements
+    >>> order, q, mask = indent_field(48, 48)  # a known order: 0.3 at the border, 2.9 inside
+    >>> images = [intensity(q, a) for a in six_step_arrangements()]
+    >>> result = six_step(images, mask=mask)
+    >>> from fringekit.analysis import unwrap_fringe_order
+    >>> fo = unwrap_fringe_order(result)
+    >>> fo.order.shape, bool(fo.reliable.sum() == mask.sum()), fo.info["regions"]
+    ((48, 48), True, 1)
     """
 
     order: np.ndarray
@@ -106,18 +126,46 @@ def unwrap_fringe_order(
 ) -> FringeOrderMap:
     """Unwrap the resolved isochromatic phase into a total fringe order map.
 
+    Each connected region of valid pixels gets its sign (the order is a magnitude, above
+    its anchor) and its integer offset from its own anchor pixels (module docstring).
+
     Parameters
     ----------
     result : SixStep
-    resolution : Resolution, optional — computed with defaults when omitted
-    anchor_mask : (rows, cols) bool, optional
+    resolution : Resolution, optional
+        Computed with defaults (:func:`resolve_ambiguity`) when omitted.
+    anchor_mask : (rows, cols) bool array, optional
         Pixels of known order ``anchor_order`` (default: the valid pixels within 5 % of
-        the image border, the far field, at order 0).
+        the image border, the far field, at order 0; :func:`border_anchor`).
     anchor_order : float
-    reference_order : (rows, cols), optional
+        Order of the anchor pixels.
+    reference_order : (rows, cols) float array, optional
         A fringe-order map (e.g. from RGB calibration); when given, the integer offset is
         the median of (reference - unwrapped) rounded, over pixels where both are finite,
         and ``anchor_mask`` is not used.
+
+    Returns
+    -------
+    FringeOrderMap
+
+    Raises
+    ------
+    ValueError
+        An anchor mask with no valid pixel, or a reference of another shape or NaN on
+        every valid pixel.
+
+    Examples
+    --------
+    >>> from fringekit.analysis import six_step
+    >>> from fringekit.optics import indent_field, intensity, six_step_arrangements
+    >>> order, q, mask = indent_field(48, 48)  # a known order: 0.3 at the border, 2.9 inside
+    >>> images = [intensity(q, a) for a in six_step_arrangements()]
+    >>> result = six_step(images, mask=mask)
+    >>> import numpy as np
+    >>> from fringekit.analysis import unwrap_fringe_order
+    >>> fo = unwrap_fringe_order(result)  # anchored in the far field, order 0.3 there
+    >>> float(np.abs(fo.order - order)[fo.reliable].max()) < 1e-9
+    True
     """
     res = resolution or resolve_ambiguity(result)
     valid = result.valid
@@ -172,17 +220,42 @@ def unwrap_fringe_order(
 def count_fringe_order(
     result: SixStep, *, anchor_mask=None, anchor_order: float = 0.0
 ) -> FringeOrderMap:
-    """Total fringe order from the six-step data by counting fringes instead of following
-    the isoclinic.
+    """Total fringe order from the six-step data by counting fringes, not following the isoclinic.
 
     The axis-insensitive phase d in [0, pi] folds the order: cos d = cos 2 pi N, which is
     the normalised intensity u = sin^2(d / 2) of one dark-field image without its noise
-    and illumination. :func:`analysis.mono_order` counts its bands from the anchor and
-    resolves each pixel's side of its fringe centre; the isoclinic then takes the branch
-    that agrees with the sign of sin 2 pi N. Unlike :func:`unwrap_fringe_order` this does
-    not hinge on the sign relations across fringe contours (sin d ~ 0), which become
-    bands many pixels wide, and noise-driven, where the order changes slowly per pixel
-    (far fields at camera resolution); it assumes the order rises away from the anchor.
+    and illumination. :func:`mono_order` counts its bands from the anchor and resolves
+    each pixel's side of its fringe centre; the isoclinic then takes the branch that
+    agrees with the sign of sin 2 pi N. Unlike :func:`unwrap_fringe_order` this does not
+    hinge on the sign relations across fringe contours (sin d ~ 0), which become bands
+    many pixels wide, and noise-driven, where the order changes slowly per pixel (far
+    fields at camera resolution); it assumes the order rises away from the anchor.
+
+    Parameters
+    ----------
+    result : SixStep
+    anchor_mask : (rows, cols) bool array, optional
+        Pixels of known order ``anchor_order``; default the border ring
+        (:func:`border_anchor`).
+    anchor_order : float
+        Order of the anchor pixels.
+
+    Returns
+    -------
+    FringeOrderMap
+
+    Examples
+    --------
+    >>> from fringekit.analysis import six_step
+    >>> from fringekit.optics import indent_field, intensity, six_step_arrangements
+    >>> order, q, mask = indent_field(48, 48)  # a known order: 0.3 at the border, 2.9 inside
+    >>> images = [intensity(q, a) for a in six_step_arrangements()]
+    >>> result = six_step(images, mask=mask)
+    >>> import numpy as np
+    >>> from fringekit.analysis import count_fringe_order
+    >>> fo = count_fringe_order(result)
+    >>> round(float(np.abs(fo.order - order)[fo.reliable].max()), 2), fo.info["fold"]
+    (0.05, 'count')
     """
     valid = result.valid
     u = np.where(valid, np.sin(0.5 * result.delta_axis_insensitive) ** 2, 0.0)

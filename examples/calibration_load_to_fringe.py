@@ -1,8 +1,12 @@
-"""Load-to-fringe calibration of the reference indenter, 1-10 N: the fringe order along
-the radius at every load from one continuation run, and the fitted relations
-F = a v^b for the order at fixed radii and the radii of the first fringes
-(``fringekit calibrate``). The fit is checked by estimating a load that was not
+"""Load-to-fringe calibration of the reference indenter, 1-10 N
+============================================================
+
+The fringe order along the radius at every load from one continuation run, and the
+fitted relations F = a v^b for the order at fixed radii and the radii of the first
+fringes (``fringekit calibrate``). The fit is checked by estimating a load that was not
 calibrated (5 N, solved separately) from its predicted fringe map.
+
+.. code-block:: bash
 
     python examples/calibration_load_to_fringe.py [--coarse] [--out DIR]
 

@@ -1,8 +1,13 @@
-"""Seed paper Figs. 10-11: a foot-like complex load. Several indenters of different sizes
-and loads (a heel, two metatarsal heads, three toes) on a larger sheet; the six-step
-phasemap (eq. 4), and the fractional and complete fringe order along a line through
-them, against the prediction. The paper found such images hard to unwrap by hand;
-fringekit unwraps them automatically and reports where the result is unreliable.
+"""Seed paper Figs. 10-11: a foot-like complex load
+================================================
+
+Several indenters of different sizes and loads (a heel, two metatarsal heads, three toes)
+on a larger sheet; the six-step phasemap (eq. 4), and the fractional and complete fringe
+order along a line through them, against the prediction. The paper found such images
+hard to unwrap by hand; fringekit unwraps them automatically and reports where the
+result is unreliable.
+
+.. code-block:: bash
 
     python examples/fig10_11_foot.py [--coarse] [--polycarbonate] [--out DIR]
 

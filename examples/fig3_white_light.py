@@ -1,6 +1,11 @@
-"""Seed paper Fig. 3: white-light fringes under the 3.5 mm indenter, (a) 8 N vertical and
-(b) 8 N vertical + 8 N shear with stick, side by side on the same camera settings; the
-shift of the pattern in the shear direction is measured and reported.
+"""Seed paper Fig. 3: white-light fringes under vertical and shear load
+====================================================================
+
+White-light fringes under the 3.5 mm indenter, (a) 8 N vertical and (b) 8 N vertical +
+8 N shear with stick, side by side on the same camera settings; the shift of the pattern
+in the shear direction is measured and reported.
+
+.. code-block:: bash
 
     python examples/fig3_white_light.py [--coarse] [--out DIR]
 

@@ -1,4 +1,5 @@
-"""Seed paper Fig. 6: RGB calibration on the 8 N vertical case.
+"""Seed paper Fig. 6: RGB calibration on the 8 N vertical case
+===========================================================
 
 The calibration specimen is a diametral disc of the sheet material (40 mm, 3 mm thick, in
 transmission, loaded to 4.5 fringes at its centre; Frocht's closed form) imaged with the
@@ -7,6 +8,8 @@ where the order falls monotonically from the centre to the edge. The sensor's wh
 image is searched with the plain least-squares search (seed eq. 1, what the paper did) and
 the refined search propagated from far-field seeds (the four image corners); the centre
 is masked as in the paper.
+
+.. code-block:: bash
 
     python examples/fig6_rgb_calibration.py [--coarse] [--out DIR]
 

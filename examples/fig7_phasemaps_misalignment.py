@@ -1,6 +1,9 @@
-"""Seed paper Fig. 7: six-step phasemaps under monochromatic light, isoclinic (eq. 2) and
-isochromatic (eq. 3), with a small output quarter-wave plate misalignment (3 deg) and a
-quarter-wave retardance error (4 deg), next to the same with perfect optics.
+"""Seed paper Fig. 7: six-step phasemaps with misaligned optics
+============================================================
+
+Six-step phasemaps under monochromatic light, isoclinic (eq. 2) and isochromatic
+(eq. 3), with a small output quarter-wave plate misalignment (3 deg) and a quarter-wave
+retardance error (4 deg), next to the same with perfect optics.
 
 The paper saw an oval phasemap and zones where it was reversed. Reversed zones (delta
 read as 2 pi - delta where sin delta < 0, with the isoclinic pi/2 off) come from eq. 2's
@@ -10,7 +13,11 @@ indenter. Both are measured: the reversed fraction of each, and the phase the op
 errors add (misaligned minus perfect, same solution): its RMS and its second azimuthal
 harmonic on the annulus 2-4 mm, the ellipticity of the contours (in fringes).
 
+.. code-block:: bash
+
     python examples/fig7_phasemaps_misalignment.py [--coarse] [--out DIR]
+
+Writes ``fig7_phasemaps.png`` and ``fig7.json``.
 """
 
 from __future__ import annotations

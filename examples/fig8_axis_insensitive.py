@@ -1,6 +1,11 @@
-"""Seed paper Fig. 8: the axis-insensitive isochromatic (its second eq. 4) under
-monochromatic light - the phasemap, and the fractional fringe order along a-b, which
-eq. 4 folds into [0, 0.5] (the paper: "fringe order can only range between 0 to 0.5").
+"""Seed paper Fig. 8: the axis-insensitive isochromatic
+====================================================
+
+The axis-insensitive isochromatic (the seed paper's second eq. 4) under monochromatic
+light: the phasemap, and the fractional fringe order along a-b, which eq. 4 folds into
+[0, 0.5] (the paper: "fringe order can only range between 0 to 0.5").
+
+.. code-block:: bash
 
     python examples/fig8_axis_insensitive.py [--coarse] [--out DIR]
 

@@ -1,8 +1,13 @@
-"""Seed paper Fig. 9: the unwrapped phasemap and the complete fringe order along c-d,
-against the prediction. The paper could not unwrap near the centre ("fractional fringe
-order ... unreliable and erroneous in this zone"); fringekit resolves the isoclinic
-ambiguity, unwraps, anchors the far field, and reports where the result is unreliable
-(fringes closer than the pixel pitch resolves, contradicted neighbour relations).
+"""Seed paper Fig. 9: the unwrapped phasemap and the complete fringe order
+=======================================================================
+
+The unwrapped phasemap and the complete fringe order along c-d, against the prediction.
+The paper could not unwrap near the centre ("fractional fringe order ... unreliable and
+erroneous in this zone"); fringekit resolves the isoclinic ambiguity, unwraps, anchors
+the far field, and reports where the result is unreliable (fringes closer than the pixel
+pitch resolves, contradicted neighbour relations).
+
+.. code-block:: bash
 
     python examples/fig9_unwrapped.py [--coarse] [--out DIR]
 

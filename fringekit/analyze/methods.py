@@ -119,7 +119,7 @@ def analyse_rgb(paths, dark, mask_args, *, calibration=None, chart=None, seeds=(
         rr = search_refined(frame.data, table, seed_list, mask=mask, window=window)
     else:
         rr = search(frame.data, table, mask=mask)
-    reliable = np.isfinite(rr.order) & (rr.error < 0.1)
+    reliable = rr.reliable  # an order within MAX_COLOUR_ERROR of a table colour
     spread = colour_spread(frame.data, mask)
     part = {
         "rgb": {

@@ -445,6 +445,15 @@ def test_claim_output_swaps_in_marks_and_keeps_an_earlier_run_on_error(tmp_path)
             (claim.dest / "mine.txt").write_text("mine")
     assert (tmp_path / "o-failed" / "mine.txt").read_text() == "mine"
     assert _snapshot(out) == before
+    # a file put into the folder while the run works is kept: the run goes beside it
+    claim = claim_output(out, command="x", say=lambda line: said.append(line))
+    said = []
+    with claim as work:
+        (work / "c.txt").write_text("4")
+        (out / "thesis.txt").write_text("mine")
+    assert claim.dest == tmp_path / "o-2" and (claim.dest / "c.txt").is_file()
+    assert _snapshot(out) == {**before, "thesis.txt": b"mine"}
+    assert "changed during the run" in said[0] and "thesis.txt" in said[0]
 
 
 def test_atomic_write_writes_whole_or_not_at_all(tmp_path):

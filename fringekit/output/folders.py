@@ -131,9 +131,8 @@ class OutputClaim:
         why = self._problem(folder)
         if why:
             raise InputError(
-                f"{self.option} {self.given} {why}; give an empty or new "
-                f"folder, or a folder of an earlier `fringekit {self.command}` "
-                "run"
+                f"{self.option} {self.given} {why}; give an empty or new folder, or a folder "
+                f"of an earlier `fringekit {self.command}` run"
             )
 
     def _problem(self, folder: Path) -> str | None:
@@ -210,7 +209,12 @@ class OutputClaim:
 
     # -- the swap -----------------------------------------------------------------------
     def _swap_in(self) -> None:
-        dest = self.dest if self.dest == self.out else self._free(self.dest)
+        dest = self._free(self.dest)  # checked again: what was added meanwhile is kept
+        if dest != self.dest == self.out:
+            self.say(
+                f"fringekit: {self.option} {self.given} changed during the run "
+                f"({self._problem(self.out)}); this run is in {dest}"
+            )
         if dest.is_dir() and any(dest.iterdir()):  # an earlier run (checked): aside, delete
             old = dest.with_name(f".{dest.name}.{_tag()}.old")
             os.replace(dest, old)

@@ -24,6 +24,7 @@ from .stats import SolveStats
 __all__ = [
     "evaluate",
     "is_cycling",
+    "line_search",
     "newton",
     "solve_increment",
 ]
@@ -212,7 +213,7 @@ def solve_increment(run: Run, st: State, s_new: float, iter_log: list, final=Tru
     return False, "the contact zone kept growing beyond the candidate facets"
 
 
-def _line_search(run: Run, st: State, f_ind, dx, energy: float, rnorm: float):
+def line_search(run: Run, st: State, f_ind, dx, energy: float, rnorm: float):
     """Backtracking on energy or residual; never an inverted element.
 
     Returns (accepted evaluation or None, step length alpha). Trials evaluate energy and
@@ -358,7 +359,7 @@ def newton(run: Run, st: State, f_ind, fscale: float, iter_log: list, penalty_on
         enorm = abs(float(dx @ r))
         e0 = enorm if e0 is None else max(e0, enorm)
         e_last = enorm
-        accepted, alpha = _line_search(run, st, f_ind, dx, energy, rnorm)
+        accepted, alpha = line_search(run, st, f_ind, dx, energy, rnorm)
         row = {"iteration": it, "residual_N": rnorm, "energy_norm_J": enorm, "alpha": alpha}
         iter_log.append(row)
         log.debug("fea: %s", row)

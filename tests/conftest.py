@@ -19,6 +19,18 @@ SMALL_SIZING = Sizing(
 
 CENTRE = (IndenterSite(),)
 
+#: Fixtures that take many seconds to set up: every test that needs one is in the slow
+#: tier (``pytest -m "not slow"`` leaves it out) whether or not it is marked itself. The
+#: coarse test library (below, ~20 s); the README's first command, ``fringekit predict``
+#: of the reference case (tests/test_readme.py, ~16 s, then its blocks ~30 s).
+SLOW_FIXTURES = {"test_library", "after_first_command"}
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if SLOW_FIXTURES & set(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.slow)
+
 
 def small_spec(symmetry="full", indenters=CENTRE, **kw) -> MeshSpec:
     return MeshSpec(
@@ -51,5 +63,20 @@ def test_library(cache_dir, tmp_path_factory):
 
     out = tmp_path_factory.mktemp("library") / "lib"
     build_library(sensor_config(), out, loads=LOADS, ratios=RATIOS,
+                  cache_dir=cache_dir, progress=False)  # fmt: skip
+    return load_library(out)
+
+
+@pytest.fixture(scope="session")
+def tiny_library(cache_dir, tmp_path_factory):
+    """The tiny library of tests/library_fixtures.py (2 loads x 2 ratios, coarse mesh):
+    the fast tier's library, built in a few seconds."""
+    from library_fixtures import TINY, TINY_LOADS, TINY_RATIOS, sensor_config
+
+    from fringekit.library.build import build_library
+    from fringekit.library.store import load_library
+
+    out = tmp_path_factory.mktemp("tiny-library") / "lib"
+    build_library(sensor_config(**TINY), out, loads=TINY_LOADS, ratios=TINY_RATIOS,
                   cache_dir=cache_dir, progress=False)  # fmt: skip
     return load_library(out)

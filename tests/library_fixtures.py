@@ -2,7 +2,8 @@
 
 The sensor of examples/coarse_sensor.toml (a 20 x 20 mm, 3 mm sheet on 4 mm PC with the
 small block's coarse mesh sizes); a library of 3 normal loads (2, 2.8, 4 N) x 3 tangential
-ratios (0, 0.4, 0.8), built once per session in the test process (about 30 s).
+ratios (0, 0.4, 0.8), built once per session in the test process (about 30 s); and a
+tiny library of the same sensor on a coarser mesh for the fast tier.
 """
 
 from __future__ import annotations
@@ -20,6 +21,12 @@ from fringekit.predict.render import mono_map
 SENSOR = Path(__file__).resolve().parents[1] / "examples" / "coarse_sensor.toml"
 LOADS = (2.0, 2.8, 4.0)
 RATIOS = (0.0, 0.4, 0.8)
+#: The tiny library of the fast tier: the same sensor on a mesh of 1 mm under the
+#: indenter (three elements through the sheet), 48 x 48 px, 2 loads x 2 ratios (about 2 s).
+TINY = {"mesh.h_contact_mm": 1.0, "mesh.h_sheet_mm": 3.0, "mesh.h_far_mm": 6.0,
+        "optics.pixels": 48}  # fmt: skip
+TINY_LOADS = (2.0, 4.0)
+TINY_RATIOS = (0.0, 0.4)
 
 
 def sensor_config(**extra) -> dict:

@@ -171,6 +171,7 @@ def test_analyze_reads_back_the_prediction_and_matches_the_command(tiny, tmp_pat
         fringekit.analyze(steps, options=fringekit.MonoOptions())
 
 
+@pytest.mark.slow
 def test_invert_gives_the_command_s_loads_as_a_table(test_library, tmp_path):
     cfg = sensor_config()
     opt = optics_setup(cfg)

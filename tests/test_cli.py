@@ -350,6 +350,7 @@ def test_analyze_and_compare_bad_input(tiny_images, capsys):
     assert "no maps.npz" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_calibrate_and_estimate_end_to_end(tiny_images, cache_dir, capsys):
     """One continuation run 2..8 N calibrates; the 8 N prediction and its six-step
     analysis give 8 N back."""
@@ -394,6 +395,33 @@ def test_calibrate_and_estimate_end_to_end(tiny_images, cache_dir, capsys):
     assert main(["estimate", str(an), "--calibration", str(root / "none.json")]) == 2
 
 
+def test_a_small_sweep_tabulates_its_cases_and_skips_finished_ones(tmp_path, cache_dir):
+    """The fast tier's sweep: two loads of the tiny case in this process (no cluster), one
+    row each in results.csv, more fringes under more load, and a re-run that runs nothing."""
+    import csv
+
+    from fringekit.sweep.run import load_sweep, run_sweep
+
+    (tmp_path / "tiny.toml").write_text(TINY)
+    (tmp_path / "sweep.toml").write_text(
+        'base = "tiny.toml"\n[set]\n"mesh.h_contact_mm" = 1.0\n"optics.pixels" = 16\n'
+        '"optics.samples_per_ray" = 8\n"optics.white_light_wavelengths" = 4\n'
+        '[grid]\n"indenter.load_N" = [[2.0], [4.0]]\n'
+    )
+    sweep = load_sweep(tmp_path / "sweep.toml")
+    out = tmp_path / "sweep"
+    first = run_sweep(sweep, out, workers=0, cache_dir=cache_dir, progress=False)
+    assert (first["cases"], first["run"], first["failed"]) == (2, 2, 0)
+    with (out / "results.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert [r["indenter.load_N"] for r in rows] == ["[2.0]", "[4.0]"]
+    assert {r["status"] for r in rows} == {"ok"}
+    assert float(rows[1]["max_fringe_order"]) > float(rows[0]["max_fringe_order"])
+    again = run_sweep(sweep, out, workers=0, cache_dir=cache_dir, progress=False)
+    assert (again["run"], again["skipped"]) == (0, 2)
+
+
+@pytest.mark.slow
 def test_sweep_killed_then_resumed_matches_an_uninterrupted_run(tiny_run, cache_dir, capsys):
     import csv
     import os
@@ -423,8 +451,11 @@ def test_sweep_killed_then_resumed_matches_an_uninterrupted_run(tiny_run, cache_
     finally:
         os.killpg(proc.pid, signal.SIGKILL)
         proc.wait()
-    finished = [p for p in (out / "cases").iterdir() if not p.name.endswith(".part")
-                and not p.name.startswith(".")]  # a killed case's run folder and lock
+    finished = [
+        p
+        for p in (out / "cases").iterdir()
+        if not p.name.endswith(".part") and not p.name.startswith(".")
+    ]  # a killed case's run folder and lock
     assert 1 <= len(finished) < 4
     for p in finished:  # a finished case is whole: its summary and result are readable
         assert json.loads((p / "result.json").read_text())["status"] == "ok"

@@ -71,6 +71,7 @@ def test_one_photograph_gives_f_sigma_within_3_percent(field):
     assert fit.geometry.radius_px == pytest.approx(R_PX, abs=0.5)
 
 
+@pytest.mark.slow
 def test_load_series_with_a_residual_order_gives_f_sigma_within_1_5_percent():
     """Five loads, a residual order of 0.5 fringe in every photo: the slope of order with
     load is the fringe value, the offset is fitted, not absorbed (measured: f_sigma within
@@ -87,6 +88,7 @@ def test_load_series_with_a_residual_order_gives_f_sigma_within_1_5_percent():
     assert 0 < fit.f_sigma_sd < 0.015 * F_SIGMA
 
 
+@pytest.mark.slow
 def test_a_residual_order_is_fitted_not_absorbed():
     """One photo with a residual order of 0.3 fringe: the uniform offset is told apart
     from Frocht's order (measured: f_sigma within 0.13 %, offset 0.302); fixed at zero
@@ -109,6 +111,7 @@ def test_a_residual_order_is_fitted_not_absorbed():
     assert fit.offset_order == pytest.approx(0.3, abs=0.02)
 
 
+@pytest.mark.slow
 def test_calibrate_disc_from_photographs_writes_the_results(tmp_path, capsys):
     """The command: disc found without --centre, disc_calibration.json with exactly the
     agreed keys, summary.json and disc_fit.png; a photograph that is not a disc is refused

@@ -24,6 +24,7 @@ def _run(name: str, tmp_path, cache_dir) -> dict:
         sys.path.remove(str(EXAMPLES))
 
 
+@pytest.mark.slow
 def test_fig3_shear_shifts_the_pattern(tmp_path, cache_dir):
     res = _run("fig3_white_light", tmp_path, cache_dir)
     assert abs(res["vertical"]["centroid_mm"][0]) < 0.05
@@ -35,6 +36,7 @@ def test_fig3_shear_shifts_the_pattern(tmp_path, cache_dir):
     )
 
 
+@pytest.mark.slow
 def test_fig6_rgb_tracks_the_prediction_to_some_order(tmp_path, cache_dir):
     res = _run("fig6_rgb_calibration", tmp_path, cache_dir)
     assert res["plain"]["order_within_0.1"] >= 1.0
@@ -46,6 +48,7 @@ def test_fig6_rgb_tracks_the_prediction_to_some_order(tmp_path, cache_dir):
     assert (tmp_path / "fig6_rgb.png").is_file()
 
 
+@pytest.mark.slow
 def test_fig7_optics_errors_distort_the_phasemap(tmp_path, cache_dir):
     res = _run("fig7_phasemaps_misalignment", tmp_path, cache_dir)
     # eq. 2's plain arctan reverses zones with perfect optics too (the paper's ambiguity)
@@ -79,6 +82,7 @@ def test_fig9_unwrapping_matches_the_prediction_where_reliable(tmp_path, cache_d
     assert res["info"]["regions_without_anchor"] == 0
 
 
+@pytest.mark.slow
 def test_fig10_11_foot_like_load(tmp_path, cache_dir):
     res = _run("fig10_11_foot", tmp_path, cache_dir)
     assert len(res["indenters"]) == 2 and res["symmetry"] == "half"
@@ -91,6 +95,7 @@ def test_fig10_11_foot_like_load(tmp_path, cache_dir):
     assert res["rms_fringe_reliable"] < 0.05 and res["reliable_fraction"] > 0.9
 
 
+@pytest.mark.slow
 def test_calibration_estimates_an_uncalibrated_load(tmp_path, cache_dir):
     res = _run("calibration_load_to_fringe", tmp_path, cache_dir)
     assert res["check"]["estimate_N"] == pytest.approx(5.0, rel=0.03)

@@ -57,6 +57,7 @@ def test_curvature_cap_keeps_the_contact_tangent_definite_and_the_force_exact():
     np.testing.assert_array_equal(mild.K, mild_capped.K)
 
 
+@pytest.mark.slow
 def test_first_contact_on_the_reference_mesh_takes_whole_newton_steps(tmp_path):
     """1 N on the reference quarter model: full steps only (27 iterations with steps down
     to 1/32 before the cap; 8 with it)."""

@@ -15,10 +15,10 @@ from library_fixtures import sensor_config
 from fringekit.cli.main import main
 from fringekit.config.files import to_toml
 from fringekit.config.inputs import optics_setup
+from fringekit.invert import LOAD_COLUMNS
 from fringekit.invert.detect import detect, noise_sd
 from fringekit.invert.fit import invert_image
 from fringekit.invert.model import ImageModel
-from fringekit.invert.run import LOAD_COLUMNS
 from fringekit.library.store import LoadedIndenter
 from fringekit.optics import Camera, write_image
 from fringekit.predict.render import no_data_fill
@@ -27,9 +27,9 @@ TWO = [LoadedIndenter(-2.0e-3, 0.8e-3, 3.5e-3, 0.5, -0.4, 3.3),
        LoadedIndenter(2.5e-3, -1.2e-3, 3.5e-3, -0.3, 0.6, 2.3)]  # fmt: skip
 
 
-def _model(lib, method, inds, grid=None):
+def _model(lib, method, inds, grid=None, cfg=None):
     """A noise-free library image of ``inds`` (gain 0.8, offset 0.02) as an ImageModel."""
-    cfg = sensor_config()
+    cfg = cfg or sensor_config()
     opt = optics_setup(cfg)
     grid = grid or opt.grid
     n = grid.n_pixels
@@ -43,6 +43,19 @@ def _truth(inds):
     return np.array([[i.x * 1e3, i.y * 1e3, i.fz, i.fx, i.fy] for i in inds])
 
 
+@pytest.mark.parametrize("method", ["mono", "phase"])
+def test_a_tiny_library_image_gives_back_its_parameters(tiny_library, method):
+    """The fast tier's inversion: one sheared indenter on the tiny library's own image."""
+    from library_fixtures import TINY
+
+    ind = LoadedIndenter(-1.0e-3, 0.5e-3, 3.5e-3, 0.5, -0.4, 3.0)
+    res = invert_image(_model(tiny_library, method, [ind], cfg=sensor_config(**TINY)))
+    assert len(res.params) == 1
+    scale = np.array([1, 1, 3.0, 3.0, 3.0])
+    assert np.all(np.abs(res.params[0] - _truth([ind])[0]) <= 1e-3 * scale), res.params
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("method, n", [("mono", 2), ("phase", 2), ("rgb", 1)])
 def test_a_library_image_gives_back_its_parameters(test_library, method, n):
     inds = TWO[:n]
@@ -54,6 +67,7 @@ def test_a_library_image_gives_back_its_parameters(test_library, method, n):
     assert np.all(np.abs(got - want) <= 1e-3 * scale), (got, want)
 
 
+@pytest.mark.slow
 def test_no_load_gives_no_indenter_and_close_ones_are_two(test_library):
     cfg = sensor_config()
     opt = optics_setup(cfg)
@@ -120,6 +134,7 @@ def _loads(path) -> np.ndarray:
     return np.array(rows[1:], float)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["mono", "phase", "rgb"])
 def test_a_noisy_fem_image_within_coarse_targets(test_library, noisy_fem, tmp_path, method):
     images = {
@@ -164,6 +179,7 @@ def _one_line_exit_2(args, capsys, words):
     return err
 
 
+@pytest.mark.slow
 def test_bad_inputs_are_one_line_and_write_nothing(test_library, tmp_path, capsys):
     lib = test_library.folder
     cam = Camera(sensitivities="mono")
@@ -201,6 +217,7 @@ def test_bad_inputs_are_one_line_and_write_nothing(test_library, tmp_path, capsy
     assert not list(tmp_path.glob(".out*"))  # no half-written run folder left behind
 
 
+@pytest.mark.slow
 def test_predict_from_a_library(test_library, tmp_path):
     cfg = sensor_config(**{"contact.friction": "stick"})
     cfg["indenter"] = [dict(cfg["indenter"][0], x_mm=-2.0, load_N=[3.0], shear_N=[[0.4, 0.2]]),
@@ -220,6 +237,7 @@ def test_predict_from_a_library(test_library, tmp_path):
     assert (out / "state_01" / "maps.npz").is_file()  # the earlier run is kept
 
 
+@pytest.mark.slow
 def test_the_basin_search_turns_a_wrong_tangential_load_back(test_library):
     """fringekit.invert_hop: a start with one head's tangential load turned 150 deg, its
     normal load 15 % low and its axis 0.28 mm off is brought back to the true basin (the
@@ -269,6 +287,7 @@ def test_the_range_penalty_and_its_jacobian():
         assert np.allclose(J[:, j], fd, atol=1e-6)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["rgb", "phase"])
 def test_the_scan_table_matches_the_polariscope(test_library, method):
     """The scan's intensity table (fringekit.invert_hop.retarder_lookup) against the model's own
@@ -297,33 +316,34 @@ def test_the_scan_table_matches_the_polariscope(test_library, method):
         small.lookup(tot)
 
 
+@pytest.mark.slow
 def test_a_dropped_weak_candidate_is_not_fitted_again(test_library, monkeypatch):
     """A contact below the library's range (0.6 N; indenters under half its first load
     are dropped) is detected, fitted and dropped once; its residual peak is not detected
     again round after round, and the strong indenter comes back (within 0.1 mm and 3 %:
     the weak contact's fringes stay unexplained and pull it 0.06 mm)."""
-    import fringekit.invert.fit as inv
+    # not "import fringekit.invert.fit": fringekit.invert is also the function
+    from fringekit.invert import fit as inv
 
     weak = LoadedIndenter(3.0e-3, -2.5e-3, 3.5e-3, 0.0, 0.0, 0.6)
     model = _model(test_library, "mono", [TWO[0], weak])
     calls = []
-    fit_all = inv._fit_all
-    monkeypatch.setattr(
-        inv, "_fit_all", lambda *a, **k: calls.append(len(a[3])) or fit_all(*a, **k)
-    )
+    fit_all = inv.fit_all
+    monkeypatch.setattr(inv, "fit_all", lambda *a, **k: calls.append(len(a[3])) or fit_all(*a, **k))
     res = invert_image(model)
     assert len(res.params) == 1
     assert np.allclose(res.params[0, :3], _truth(TWO[:1])[0, :3], atol=[0.1, 0.1, 0.03 * 3.3])
     assert len(calls) == 1, calls
 
 
+@pytest.mark.slow
 def test_a_start_fit_held_at_its_box_edge_is_freed(test_library, monkeypatch):
-    """fringekit.invert._fit_all: when detection puts a sheared head's axis 0.6 mm along
+    """fringekit.invert.fit.fit_all: when detection puts a sheared head's axis 0.6 mm along
     its tangential load (the reference bench's four-head image: 0.50 mm), both start fits
     stop at their boxes' edges (0.15 mm per coordinate each); the free fit that follows
     brings back the truth to 1e-3. Without it (the basin search alone, scanning at the
     held axis and at the detected one, moves nothing) the head stays 0.18 mm off."""
-    import fringekit.invert.fit as inv
+    from fringekit.invert import fit as inv
 
     model = _model(test_library, "phase", TWO)
     truth = _truth(TWO)
@@ -333,14 +353,15 @@ def test_a_start_fit_held_at_its_box_edge_is_freed(test_library, monkeypatch):
     diam = [3.5e-3, 3.5e-3]
     coarse, fine = inv.subsample(model, 4), inv.subsample(model, 2)
     anchors = inv._axes(start.ravel()).copy()
-    got, _, _ = inv._fit_all(coarse, fine, start.ravel(), diam, 1e-3, 0, anchors)
+    got, _, _ = inv.fit_all(coarse, fine, start.ravel(), diam, 1e-3, 0, anchors)
     q = got.reshape(-1, 5)
     assert np.all(np.abs(q - truth) <= 1e-3 * np.array([1, 1, 3.3, 3.3, 3.3])), q
-    monkeypatch.setattr(inv, "_pinned", lambda p, start: False)
-    held, _, _ = inv._fit_all(coarse, fine, start.ravel(), diam, 1e-3, 0, anchors)
+    monkeypatch.setattr(inv, "at_box_edge", lambda p, start: False)
+    held, _, _ = inv.fit_all(coarse, fine, start.ravel(), diam, 1e-3, 0, anchors)
     assert np.hypot(*(held.reshape(-1, 5)[0, :2] - truth[0, :2])) > 0.1
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["mono", "phase"])
 def test_the_start_scans_the_tangential_load(test_library, method):
     """fringekit.invert_start: each candidate's start is the library state (normal load,
@@ -349,7 +370,7 @@ def test_the_start_scans_the_tangential_load(test_library, method):
     27 deg measured) of each tangential load, with a ratio within 0.2 and Fz within 25 %
     (16-17 % low: the far field only). The earlier start had no tangential load (39 and
     117 deg off) and put sheared heads at the library's largest load on grey images."""
-    import fringekit.invert.fit as inv
+    from fringekit.invert import fit as inv
 
     model = _model(test_library, method, TWO)
     coarse = inv.subsample(model, 4)
@@ -387,15 +408,16 @@ def test_the_start_cost_is_a_straight_line_fit_with_a_positive_gain():
         assert np.argmin(cost) == 2
 
 
+@pytest.mark.slow
 def test_a_flagged_answer_is_fitted_again_from_unsheared_starts(test_library, monkeypatch):
     """fringekit.invert.invert_image: when the fit from scanned starts leaves an indenter
     flagged (here forced: one head's Fz 30 % low), the fit is repeated from starts without
     tangential load and the answer with fewer flagged indenters is kept; an answer with
     nothing flagged is not fitted again."""
-    import fringekit.invert.fit as inv
+    from fringekit.invert import fit as inv
 
     model = _model(test_library, "phase", TWO)
-    real = inv._select
+    real = inv.select_indenters
     calls = []
 
     def select(model, coarse, fine, pos, noise, sheared, max_rounds):
@@ -406,7 +428,7 @@ def test_a_flagged_answer_is_fitted_again_from_unsheared_starts(test_library, mo
             p[2] *= 0.7
         return p, diam, res, its
 
-    monkeypatch.setattr(inv, "_select", select)
+    monkeypatch.setattr(inv, "select_indenters", select)
     bad = True
     got = invert_image(model)
     assert calls == [True, False]

@@ -11,6 +11,7 @@ import json
 import shutil
 
 import numpy as np
+import pytest
 from library_fixtures import fem_config, fem_order, outside, sensor_config
 
 from fringekit.config.inputs import optics_setup
@@ -39,25 +40,26 @@ def _errors(a, b, keep):
     return float(np.sqrt(np.mean(e**2))), float(np.max(np.abs(e)))
 
 
-def test_manifest_resume_and_checksums(test_library, capsys):
-    from library_fixtures import LOADS, RATIOS
+def test_manifest_resume_and_checksums(tiny_library, capsys):
+    """On the fast tier's tiny library (2 loads x 2 ratios)."""
+    from library_fixtures import TINY, TINY_LOADS, TINY_RATIOS
 
     from fringekit.library.build import build_library
 
-    m = test_library.manifest
-    assert m["grid"]["load_N"] == list(LOADS) and m["grid"]["shear_ratio"] == list(RATIOS)
+    m = tiny_library.manifest
+    assert m["grid"]["load_N"] == list(TINY_LOADS)
+    assert m["grid"]["shear_ratio"] == list(TINY_RATIOS)
     assert m["sensor"]["sheet"]["thickness_mm"] == 3.0
     assert set(m["versions"]) and m["lattice"]["n_slabs"] == 16
     # a second build of the same folder solves nothing and gives the same fields
     before = {n: f["sha256"] for n, f in m["files"].items()}
     msgs = []
-    m2 = build_library(sensor_config(), test_library.folder, loads=LOADS, ratios=RATIOS,
-                       workers=0, echo=msgs.append)  # fmt: skip
-    assert "3 already solved" in msgs[0]
+    m2 = build_library(sensor_config(**TINY), tiny_library.folder, loads=TINY_LOADS,
+                       ratios=TINY_RATIOS, workers=0, echo=msgs.append)  # fmt: skip
+    assert "2 already solved" in msgs[0]
     assert {n: f["sha256"] for n, f in m2.manifest["files"].items()} == before
-    assert json.loads((test_library.folder / "manifest.json").read_text())["files"] == (
-        m2.manifest["files"]
-    )
+    written = json.loads((tiny_library.folder / "manifest.json").read_text())
+    assert written["files"] == m2.manifest["files"]
 
 
 def test_the_chain_of_a_build_and_of_a_resumed_one():
@@ -79,6 +81,7 @@ def test_the_chain_of_a_build_and_of_a_resumed_one():
     assert parents == [0, 1, 2] and states == [(0, 0), (1, 0), (1, 1)]
 
 
+@pytest.mark.slow
 def test_a_resumed_build_follows_the_same_path(test_library, cache_dir, tmp_path):
     """With the middle branch lost, a re-build (here on a one-worker Dask cluster) solves
     the normal load below it again as the way there, then that branch alone: the fields
@@ -117,6 +120,7 @@ def _single(lib, cache_dir, fz, fx, fy, turned=0.0):
     return order, lo, omap.grid, sol.indenters[0].contact_radius * 1e3
 
 
+@pytest.mark.slow
 def test_off_grid_load_matches_a_direct_solve(test_library, cache_dir):
     # 3.4 N (between the 2.8 and 4 N branches) with 0.2 of it along x (between 0 and 0.4);
     # measured: r > 3a rms 0.019, max 0.083; r > 1.5a rms 0.020
@@ -128,6 +132,7 @@ def test_off_grid_load_matches_a_direct_solve(test_library, cache_dir):
     assert rms_near < 0.03
 
 
+@pytest.mark.slow
 def test_turned_shear_matches_a_direct_solve_at_35_deg(test_library, cache_dir):
     # on a grid point (2.8 N, ratio 0.4), so only the rotation is tested; a full model.
     # Measured: r > 3a rms 0.027, max 0.12; r > 1.5a rms 0.051. The library turned to
@@ -145,6 +150,7 @@ def test_turned_shear_matches_a_direct_solve_at_35_deg(test_library, cache_dir):
     assert _errors(wrong, order, far)[0] > 4 * rms_far
 
 
+@pytest.mark.slow
 def test_superposition_matches_fem_for_two_indenters_6_mm_apart(test_library, cache_dir):
     inds = [{"x_mm": x, "y_mm": 0.0, "load_N": [2.8]} for x in (-3.0, 3.0)]
     cfg = fem_config(inds)

@@ -274,6 +274,7 @@ def test_symmetric_sets_accepted():
     assert SMALL_SIZING.h_contact < SMALL_SIZING.h_sheet
 
 
+@pytest.mark.slow
 def test_meshing_leaves_the_working_directory_clean(tmp_path, monkeypatch):
     """fTetWild writes a debug STL into the cwd; the tetwild mesher must keep it out of there.
 
@@ -316,6 +317,7 @@ print(h.hexdigest())
 """
 
 
+@pytest.mark.slow
 def test_same_spec_gives_the_same_mesh_in_fresh_processes(tmp_path):
     """The layered mesher is deterministic: two processes with empty caches make the
     reference quarter model and a two-indenter full model node for node identical."""

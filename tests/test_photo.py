@@ -96,6 +96,7 @@ def test_six_step_fold_by_fringe_count_holds_at_camera_size():
     assert np.percentile(np.abs(np.degrees(d[good])), 95) < 3.0
 
 
+@pytest.mark.slow
 def test_zero_load_reference_removes_residual_birefringence(tmp_path):
     """Residual birefringence of 0.3 rad RMS (smooth, random axes) in every photograph:
     the specimen's retardation comes back by removing the reference's vectorially.

@@ -147,6 +147,7 @@ def test_an_earlier_factor_solves_a_nearby_matrix_exactly(change, reused):
     lin.release()
 
 
+@pytest.mark.slow
 def test_increments_on_the_way_skip_multiplier_updates_when_frictionless(small_meshes, monkeypatch):
     """Frictionless contact is path-independent: an increment on the way to a load state
     needs equilibrium, not the penetration tolerance. 8 N in one state (several increments)

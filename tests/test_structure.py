@@ -101,3 +101,43 @@ def test_markdown_links_resolve_inside_the_repository(doc):
     outside = [x for x in local if ROOT not in (path.parent / x).resolve().parents
                and (path.parent / x).resolve() != ROOT]  # fmt: skip
     assert not missing and not outside, (missing, outside)
+
+
+def _patched_names(tree: ast.AST) -> list[str]:
+    """Dotted names a test module patches: ``monkeypatch.setattr(obj, "name", value)`` (the
+    object's dotted source and the name), ``monkeypatch.setattr("pkg.mod.name", value)``,
+    ``monkeypatch.delattr`` likewise, and ``mock.patch("pkg.mod.name")`` /
+    ``patch.object(obj, "name")``."""
+    found = []
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.Call):
+            continue
+        func, args = node.func, node.args
+        attr = func.attr if isinstance(func, ast.Attribute) else None
+        if isinstance(func, ast.Name) and func.id == "patch":
+            attr = "patch"
+        if attr in ("setattr", "delattr", "object") and args:
+            if isinstance(args[0], ast.Constant) and isinstance(args[0].value, str):
+                found.append(args[0].value)  # the "pkg.mod.name" form
+            elif len(args) > 1 and isinstance(args[1], ast.Constant):
+                found.append(f"{ast.unparse(args[0])}.{args[1].value}")
+        elif attr == "patch" and args and isinstance(args[0], ast.Constant):
+            found.append(str(args[0].value))
+    return found
+
+
+def test_no_test_patches_a_private_name():
+    """Tests drive the code through public seams: a patched private function ties the
+    test to an implementation detail that a refactoring may rename or inline, and the
+    test then patches nothing and still passes. Patch a public name, or give the code an
+    input that produces the behaviour."""
+    sample = ast.parse('mp.setattr(fit, "_pick", f); mp.setattr("a._b.c", 1); patch("x.y")')
+    assert _patched_names(sample) == ["fit._pick", "a._b.c", "x.y"]
+    found = []
+    for p in TESTS:
+        for name in _patched_names(ast.parse(p.read_text())):
+            private = [part for part in name.split(".")
+                       if part.startswith("_") and not part.startswith("__")]  # fmt: skip
+            if private:
+                found.append((_rel(p), name))
+    assert not found, found

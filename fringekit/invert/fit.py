@@ -44,8 +44,11 @@ from fringekit.optics import PixelGrid
 
 __all__ = [
     "InvertResult",
+    "at_box_edge",
+    "fit_all",
     "fit_indenters",
     "invert_image",
+    "select_indenters",
     "subsample",
 ]
 
@@ -210,13 +213,13 @@ def _prune(p: np.ndarray, sd: np.ndarray, diam: list, lib) -> tuple[np.ndarray, 
     return q[kept].ravel(), [diam[i] for i in kept], kept
 
 
-def _fit_all(model, fine, p, diam, noise, its, anchors=None):
+def fit_all(model, fine, p, diam, noise, its, anchors=None):
     """Fit the far field on ``model`` (every 4th pixel), then every pixel of ``fine``
     (every 2nd), both with the axes held near their start, then search each indenter's
     tangential basin (:func:`hop`) and fit again, free, while one moves (HOP_ROUNDS at
     most), or once when the start fit stopped at FIT_NFEV before converging (the result
     is then a converged fit, not a cut-short one). A start fit that holds an axis at its
-    box's edge (:func:`_pinned`) is followed at once by a free fit, so that the search
+    box's edge (:func:`at_box_edge`) is followed at once by a free fit, so that the search
     scans about the axes the image puts there. Returns (p, result, iterations)."""
     if not diam:
         return p, None, its
@@ -224,7 +227,7 @@ def _fit_all(model, fine, p, diam, noise, its, anchors=None):
     exact = _exact(fine)
     for m, ftol in ((_far(model), FAR_FTOL), (exact, FIT_FTOL)):
         res = fit_indenters(m, p, diam, noise, box=START_BOX_MM, ftol=ftol)
-        pinned = _pinned(res.x, p)
+        pinned = at_box_edge(res.x, p)
         p, its = res.x, its + res.nfev
     if pinned:  # an axis held at the box's edge: the minimum lies beyond it
         p, res, its = _refit(exact, p, diam, noise, its)
@@ -239,7 +242,7 @@ def _fit_all(model, fine, p, diam, noise, its, anchors=None):
     return p, res, its
 
 
-def _pinned(p: np.ndarray, start: np.ndarray) -> bool:
+def at_box_edge(p: np.ndarray, start: np.ndarray) -> bool:
     """Whether an axis of ``p`` sits at the edge of the START_BOX_MM box about ``start``
     (within 1 % of the box): a fit held there has not converged to the cost's minimum. On the
     reference bench's four-head image detection put a strongly sheared head 0.50 mm
@@ -283,10 +286,10 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
     coarse, fine = subsample(model, 4), subsample(model, 2)
     pos = detect(fine, noise)
     t_detect = time.perf_counter() - t0
-    p, diam, res, its = _select(model, coarse, fine, pos, noise, True, max_rounds)
+    p, diam, res, its = select_indenters(model, coarse, fine, pos, noise, True, max_rounds)
     verdict = _verdict(fine, p, diam) if diam else None
     if verdict is not None and np.any(verdict[0] > WARN_RESIDUAL):
-        alt = _select(model, coarse, fine, pos, noise, False, max_rounds)
+        alt = select_indenters(model, coarse, fine, pos, noise, False, max_rounds)
         its += alt[3]
         other = _verdict(fine, alt[0], alt[1]) if alt[1] else None
         if other is not None and (np.sum(other[0] > WARN_RESIDUAL), other[1]) < (
@@ -304,7 +307,7 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
     return _finish(model, p, diam, res, verdict, noise, its, t0, t_detect)
 
 
-def _select(model, coarse, fine, pos, noise, sheared: bool, max_rounds: int):
+def select_indenters(model, coarse, fine, pos, noise, sheared: bool, max_rounds: int):
     """Start, fit and model selection (module docstring, steps 2-4) from detected
     positions ``pos`` (mm): (p, diameters, the last fit's result, evaluations)."""
     p, diam = _start(coarse, pos, sheared)
@@ -312,7 +315,7 @@ def _select(model, coarse, fine, pos, noise, sheared: bool, max_rounds: int):
     its, res = 0, None
     dropped = np.zeros((0, 2))  # where candidates were fitted and dropped (mm)
     for round_ in range(max_rounds + 1):  # model selection rounds (at most a few)
-        p, res, its = _fit_all(coarse, fine, p, diam, noise, its, anchors)
+        p, res, its = fit_all(coarse, fine, p, diam, noise, its, anchors)
         if res is None or round_ == max_rounds:
             break
         sd = parameter_sd(res, int(np.count_nonzero(res.fun)))

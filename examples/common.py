@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from fringekit.config.files import apply_overrides, load_config
-from fringekit.predict.pipeline import run_predict
+from fringekit.prediction.pipeline import run_predict
 
 #: Overrides that turn the reference case into the coarse test block.
 COARSE = {

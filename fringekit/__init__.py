@@ -56,14 +56,6 @@ try:
 except PackageNotFoundError:  # pragma: no cover (a checkout that was never installed)
     __version__ = "0+unknown"
 
-from fringekit.analyze import (  # noqa: E402
-    Analysis,
-    MonoOptions,
-    PhaseOptions,
-    Region,
-    RGBOptions,
-    analyze,
-)
 from fringekit.calibrate import DiscCalibration, calibrate_disc  # noqa: E402
 from fringekit.config import Config  # noqa: E402
 from fringekit.errors import (  # noqa: E402
@@ -75,9 +67,17 @@ from fringekit.errors import (  # noqa: E402
     LibraryError,
     RefusedError,
 )
-from fringekit.invert import Inversion, InvertError, invert  # noqa: E402
+from fringekit.inversion import Inversion, InvertError, invert  # noqa: E402
 from fringekit.library import Library, build_library  # noqa: E402
-from fringekit.predict import PredictError, Prediction, predict  # noqa: E402
+from fringekit.measurement import (  # noqa: E402
+    Analysis,
+    MonoOptions,
+    PhaseOptions,
+    Region,
+    RGBOptions,
+    analyze,
+)
+from fringekit.prediction import PredictError, Prediction, predict  # noqa: E402
 
 __all__ = [
     "Analysis",

@@ -15,7 +15,7 @@ import numpy as np
 
 from fringekit.config.files import apply_overrides, load_config
 from fringekit.config.inputs import optics_setup
-from fringekit.predict.render import mono_map
+from fringekit.prediction.render import mono_map
 
 #: The coarse sensor of examples/coarse_sensor.toml (also bench/invert.py's coarse preset).
 SENSOR = Path(__file__).resolve().parents[1] / "examples" / "coarse_sensor.toml"
@@ -48,7 +48,7 @@ def fem_config(indenters: list[dict], **extra) -> dict:
 
 def fem_order(cfg: dict, cache_dir):
     """(fringe order map, OpticalMap, the last solution) of a config solved by FEM."""
-    from fringekit.predict.pipeline import solve_config
+    from fringekit.prediction.pipeline import solve_config
 
     _, sols, _, failure = solve_config(cfg, cache_dir=cache_dir, progress=False)
     assert failure is None, failure

@@ -29,12 +29,12 @@ from fringekit.errors import (
     RefusedError,
 )
 from fringekit.fea import SolveInterrupted, SolverError
-from fringekit.invert import LOAD_COLUMNS
+from fringekit.inversion import LOAD_COLUMNS
 from fringekit.library import LoadedIndenter
 from fringekit.library.synth import synthesise
 from fringekit.meshes import MeshQualityError
 from fringekit.optics import Camera, dark_field_circular, monochrome_image, write_image
-from fringekit.predict.render import no_data_fill
+from fringekit.prediction.render import no_data_fill
 
 ROOT = Path(__file__).resolve().parents[1]
 

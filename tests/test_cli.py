@@ -19,7 +19,7 @@ from fringekit.config.files import (
     to_toml,
 )
 from fringekit.config.inputs import build_inputs, choose_symmetry
-from fringekit.predict.pipeline import used_config
+from fringekit.prediction.pipeline import used_config
 
 # The small block of conftest.py (12 x 12 mm, 3 mm sheet on 4 mm PC, coarse sizes), a
 # 32 x 32 image and few samples: the whole pipeline in well under a minute.

@@ -18,8 +18,8 @@ pytest.importorskip("hypothesis")
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
-from fringekit.cli.commands import overrides  # noqa: E402
 from fringekit.cli.main import main  # noqa: E402
+from fringekit.cli.options import overrides  # noqa: E402
 from fringekit.config.schema import INDENTER_SCHEMA, SCHEMA, ConfigError, Key  # noqa: E402
 
 FUZZ = settings(

@@ -15,13 +15,13 @@ from library_fixtures import sensor_config
 from fringekit.cli.main import main
 from fringekit.config.files import to_toml
 from fringekit.config.inputs import optics_setup
-from fringekit.invert import LOAD_COLUMNS
-from fringekit.invert.detect import detect, noise_sd
-from fringekit.invert.fit import invert_image
-from fringekit.invert.model import ImageModel
+from fringekit.inversion import LOAD_COLUMNS
+from fringekit.inversion.detect import detect, noise_sd
+from fringekit.inversion.fit import invert_image
+from fringekit.inversion.model import ImageModel
 from fringekit.library.store import LoadedIndenter
 from fringekit.optics import Camera, write_image
-from fringekit.predict.render import no_data_fill
+from fringekit.prediction.render import no_data_fill
 
 TWO = [LoadedIndenter(-2.0e-3, 0.8e-3, 3.5e-3, 0.5, -0.4, 3.3),
        LoadedIndenter(2.5e-3, -1.2e-3, 3.5e-3, -0.3, 0.6, 2.3)]  # fmt: skip
@@ -162,7 +162,7 @@ def test_a_noisy_fem_image_within_coarse_targets(test_library, noisy_fem, tmp_pa
 
 
 def test_an_indenter_with_a_large_residual_near_it_is_flagged():
-    from fringekit.invert.verdict import WARN_RESIDUAL, residual_warnings
+    from fringekit.inversion.verdict import WARN_RESIDUAL, residual_warnings
 
     params = np.array([[1.0, 2.0, 3.0, 0.0, 0.0], [-1.5, 0.5, 2.0, 0.3, 0.0]])
     assert residual_warnings(params, np.array([0.1, WARN_RESIDUAL])) == []
@@ -246,8 +246,8 @@ def test_the_basin_search_turns_a_wrong_tangential_load_back(test_library):
     nothing moves. With scipy's default difference step the local fits' Jacobian was
     below the float32 fields' rounding, and the direction came back 1-24 deg off as the
     last bits of the interpolation changed."""
-    from fringekit.invert.fit import EXACT_MM, fit_indenters, subsample
-    from fringekit.invert.hop import hop
+    from fringekit.inversion.fit import EXACT_MM, fit_indenters, subsample
+    from fringekit.inversion.hop import hop
 
     def direction(v):
         return np.degrees(np.arctan2(v[4], v[3]))
@@ -274,7 +274,7 @@ def test_the_basin_search_turns_a_wrong_tangential_load_back(test_library):
 
 
 def test_the_range_penalty_and_its_jacobian():
-    from fringekit.invert.model import range_penalty
+    from fringekit.inversion.model import range_penalty
 
     p = np.array([0.0, 0.0, 2.0, 1.0, 1.5, 1.0, 1.0, 3.0, 0.5, -0.2])  # ratio 0.90, 0.18
     r, J = range_penalty(p, 0.8, 0.01)
@@ -294,7 +294,7 @@ def test_the_scan_table_matches_the_polariscope(test_library, method):
     intensities of equivalent retarders: within 1 % of the fringe amplitude, from a table
     built for these rays and from one reused with headroom; a table too small for the
     rays is rebuilt, and looking rays up beyond its range directly is an error."""
-    from fringekit.invert.hop import RetarderTable, retarder_lookup
+    from fringekit.inversion.hop import RetarderTable, retarder_lookup
 
     model = replace(_model(test_library, method, TWO[:1]), exact=False)
     sub = model.restrict(np.arange(400))
@@ -322,8 +322,7 @@ def test_a_dropped_weak_candidate_is_not_fitted_again(test_library, monkeypatch)
     are dropped) is detected, fitted and dropped once; its residual peak is not detected
     again round after round, and the strong indenter comes back (within 0.1 mm and 3 %:
     the weak contact's fringes stay unexplained and pull it 0.06 mm)."""
-    # not "import fringekit.invert.fit": fringekit.invert is also the function
-    from fringekit.invert import fit as inv
+    import fringekit.inversion.fit as inv
 
     weak = LoadedIndenter(3.0e-3, -2.5e-3, 3.5e-3, 0.0, 0.0, 0.6)
     model = _model(test_library, "mono", [TWO[0], weak])
@@ -338,12 +337,12 @@ def test_a_dropped_weak_candidate_is_not_fitted_again(test_library, monkeypatch)
 
 @pytest.mark.slow
 def test_a_start_fit_held_at_its_box_edge_is_freed(test_library, monkeypatch):
-    """fringekit.invert.fit.fit_all: when detection puts a sheared head's axis 0.6 mm along
+    """fringekit.inversion.fit.fit_all: when detection puts a sheared head's axis 0.6 mm along
     its tangential load (the reference bench's four-head image: 0.50 mm), both start fits
     stop at their boxes' edges (0.15 mm per coordinate each); the free fit that follows
     brings back the truth to 1e-3. Without it (the basin search alone, scanning at the
     held axis and at the detected one, moves nothing) the head stays 0.18 mm off."""
-    from fringekit.invert import fit as inv
+    import fringekit.inversion.fit as inv
 
     model = _model(test_library, "phase", TWO)
     truth = _truth(TWO)
@@ -370,7 +369,7 @@ def test_the_start_scans_the_tangential_load(test_library, method):
     27 deg measured) of each tangential load, with a ratio within 0.2 and Fz within 25 %
     (16-17 % low: the far field only). The earlier start had no tangential load (39 and
     117 deg off) and put sheared heads at the library's largest load on grey images."""
-    from fringekit.invert import fit as inv
+    import fringekit.inversion.fit as inv
 
     model = _model(test_library, method, TWO)
     coarse = inv.subsample(model, 4)
@@ -387,7 +386,7 @@ def test_the_start_cost_is_a_straight_line_fit_with_a_positive_gain():
     """fringekit.invert_start.projected_cost against numpy's least squares per image and
     channel group, where its gain is positive; an image the data fit only with a
     negative gain costs the data's variance about its mean (gain 0)."""
-    from fringekit.invert.start import projected_cost
+    from fringekit.inversion.start import projected_cost
 
     rng = np.random.default_rng(3)
     lin = rng.random((5, 40, 3))
@@ -410,11 +409,11 @@ def test_the_start_cost_is_a_straight_line_fit_with_a_positive_gain():
 
 @pytest.mark.slow
 def test_a_flagged_answer_is_fitted_again_from_unsheared_starts(test_library, monkeypatch):
-    """fringekit.invert.invert_image: when the fit from scanned starts leaves an indenter
+    """fringekit.inversion.invert_image: when the fit from scanned starts leaves an indenter
     flagged (here forced: one head's Fz 30 % low), the fit is repeated from starts without
     tangential load and the answer with fewer flagged indenters is kept; an answer with
     nothing flagged is not fitted again."""
-    from fringekit.invert import fit as inv
+    import fringekit.inversion.fit as inv
 
     model = _model(test_library, "phase", TWO)
     real = inv.select_indenters

@@ -14,8 +14,8 @@ import json
 import numpy as np
 
 from fringekit.analysis import estimate_load, fringe_features, load_calibration
-from fringekit.analyze.compare import read_order_map
 from fringekit.calibrate.disc_map import disc_outline, fringe_value_from_disc
+from fringekit.measurement.compare import read_order_map
 from fringekit.output.folders import claim_output
 
 __all__ = ["run_estimate", "run_disc"]

@@ -28,8 +28,8 @@ from fringekit.config.files import ConfigError, effective_config, normal_path, t
 from fringekit.config.inputs import optics_setup
 from fringekit.output.figures import calibration_figure
 from fringekit.output.folders import claim_output
-from fringekit.predict.pipeline import PredictError, solve_config
-from fringekit.predict.render import fringe_order_map
+from fringekit.prediction.pipeline import PredictError, solve_config
+from fringekit.prediction.render import fringe_order_map
 
 __all__ = ["default_calibration_config", "run_calibrate"]
 

@@ -1,4 +1,5 @@
-"""Command-line value types that check ranges at the edge, and a one-line-error parser.
+"""What the subcommands share: value types that check ranges at the edge, a one-line-error
+parser, the options of the commands that solve, and a config with ``--set`` overrides.
 
 Each type turns the text of one option into a number or raises
 :class:`argparse.ArgumentTypeError` with the value and what is allowed; argparse adds the
@@ -12,15 +13,22 @@ import argparse
 import math
 import sys
 
+from fringekit.config.files import apply_overrides, load_config, tomllib
+from fringekit.errors import ConfigError
+from fringekit.output.versions import package_version
+
 __all__ = [
     "Parser",
     "at_least_one",
     "at_least_zero",
     "finite",
     "fraction",
+    "fringekit_version",
     "nonnegative",
+    "overrides",
     "pixel",
     "positive",
+    "run_options",
 ]
 
 
@@ -97,3 +105,37 @@ def at_least_one(text: str) -> int:
 def at_least_zero(text: str) -> int:
     """A whole number >= 0."""
     return _whole(text, 0)
+
+
+def run_options(p: argparse.ArgumentParser) -> None:
+    """Options of the commands that mesh and solve a config (predict, calibrate)."""
+    p.add_argument("--out", default=None, help="output folder (default fringekit-out/<case>)")
+    p.add_argument(
+        "--set",
+        action="append",
+        metavar="TABLE.KEY=VALUE",
+        help="override one config value, e.g. --set optics.pixels=128 (repeatable)",
+    )
+    p.add_argument("--cache-dir", default=None, help="mesh and solution cache root")
+    p.add_argument("--no-cache", action="store_true", help="re-mesh and re-solve")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+
+
+def overrides(cfg_source, sets: list[str], base: dict | None = None) -> dict:
+    """Effective config from CONFIG (or ``base``) plus ``--set table.key=value`` overrides."""
+    base = load_config(cfg_source) if base is None or cfg_source is not None else base
+    values = {}
+    for item in sets:
+        key, sep, text = item.partition("=")
+        if not sep or not key.strip():
+            raise ConfigError(f"--set {item!r} is not allowed; use --set table.key=value")
+        try:
+            values[key.strip()] = tomllib.loads(f"v = {text.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            values[key.strip()] = text.strip()  # a bare word is a string
+    return apply_overrides(base, values) if values else base
+
+
+def fringekit_version() -> str:
+    """The installed fringekit version (``0+unknown`` when run from a source tree)."""
+    return package_version("fringekit", missing="0+unknown")

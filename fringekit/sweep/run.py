@@ -107,7 +107,7 @@ def expand_cases(base: dict, overrides: list[dict]) -> list[dict]:
 
 def _run_case(case: dict, out_root: str, cache_dir: str | None) -> dict:
     """Run one case into ``cases/<id>.part`` and rename it when done (runs on a worker)."""
-    from fringekit.predict.pipeline import PredictError, run_predict
+    from fringekit.prediction.pipeline import PredictError, run_predict
 
     final = Path(out_root) / "cases" / case["id"]
     part = final.with_name(final.name + ".part")

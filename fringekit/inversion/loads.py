@@ -29,11 +29,11 @@ import numpy as np
 from fringekit.config.files import load_config
 from fringekit.config.inputs import optics_setup
 from fringekit.errors import ConfigError
-from fringekit.invert.figure import fit_figure
-from fringekit.invert.fit import InvertResult, invert_image
-from fringekit.invert.model import ImageModel
-from fringekit.invert.read import pixel_grid, read_measurement, sensor_config
-from fringekit.invert.verdict import WARN_RESIDUAL, residual_warnings
+from fringekit.inversion.figure import fit_figure
+from fringekit.inversion.fit import InvertResult, invert_image
+from fringekit.inversion.model import ImageModel
+from fringekit.inversion.read import pixel_grid, read_measurement, sensor_config
+from fringekit.inversion.verdict import WARN_RESIDUAL, residual_warnings
 from fringekit.library.store import Library, check_sensor, load_library
 
 __all__ = ["LOAD_COLUMNS", "Inversion", "invert"]

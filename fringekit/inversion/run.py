@@ -1,6 +1,6 @@
-"""``fringekit invert``: :func:`~fringekit.invert.inversion.invert`, then its folder.
+"""``fringekit invert``: :func:`~fringekit.inversion.loads.invert`, then its folder.
 
-The folder's files are those of :meth:`~fringekit.invert.inversion.Inversion.write`; it is
+The folder's files are those of :meth:`~fringekit.inversion.loads.Inversion.write`; it is
 written beside ``--out`` and swapped in when the run ends, so a failed run leaves an
 earlier result intact.
 """
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import os
 
-from fringekit.invert.inversion import invert
+from fringekit.inversion.loads import invert
 from fringekit.output.folders import claim_output
 
 __all__ = ["run_invert"]

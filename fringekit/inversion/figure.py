@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fringekit.invert.model import unpack
+from fringekit.inversion.model import unpack
 from fringekit.output.figures import sensor_extent
 
 __all__ = ["fit_figure"]

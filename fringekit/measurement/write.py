@@ -1,4 +1,4 @@
-"""What ``fringekit analyze`` writes for an :class:`~fringekit.analyze.order.Analysis`:
+"""What ``fringekit analyze`` writes for an :class:`~fringekit.measurement.order.Analysis`:
 
 - ``maps.npz`` - ``fringe_order`` (NaN where unknown), ``reliable`` (bool), and for the
   phase method ``isoclinic_rad``, ``delta_eq3_rad``, ``delta_axis_insensitive_rad``,
@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from fringekit.analysis import line_profile
-from fringekit.analyze.mono import read_points, write_points
+from fringekit.measurement.mono import read_points, write_points
 from fringekit.output.figures import map_figure, profile_figure, sensor_extent
 
 __all__ = ["write_analysis"]
@@ -131,7 +131,7 @@ def _profile_line(line, exclude, roi: np.ndarray) -> tuple[float, float, float, 
 
 
 def write_analysis(an, out: Path, *, line=None, points=None) -> Path:
-    """Write an :class:`~fringekit.analyze.order.Analysis` into ``out``: ``maps.npz``, the
+    """Write an :class:`~fringekit.measurement.order.Analysis` into ``out``: ``maps.npz``, the
     figures, the profile along ``line`` (r0, c0, r1, c1 px; default across the region),
     ``points.csv`` for a CSV of points, and ``summary.json``."""
     pixel_size = an.pixel_mm * 1e-3

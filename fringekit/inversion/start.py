@@ -3,7 +3,7 @@ images.
 
 For a candidate at (x, y) every library state of START_LOADS normal loads x tangential
 ratios every START_RATIO_STEP x START_DIRECTIONS directions (and every diameter) is
-synthesised on the candidate's own far-field pixels (:func:`fringekit.invert._start`
+synthesised on the candidate's own far-field pixels (:func:`fringekit.inversion._start`
 chooses them) with one equivalent retarder per ray, whose intensities come from the
 polariscope's table (:class:`fringekit.invert_hop.RetarderTable`). Each image gets its
 own gain and offset in closed form, a positive gain (a negative one would turn the
@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from fringekit.invert.hop import retarder_lookup
-from fringekit.invert.model import ImageModel, line_fit
+from fringekit.inversion.hop import retarder_lookup
+from fringekit.inversion.model import ImageModel, line_fit
 from fringekit.library.lattice import interpolate_turned
 
 __all__ = ["START_DIRECTIONS", "START_RATIO_STEP", "projected_cost", "scan_start"]

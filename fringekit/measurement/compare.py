@@ -4,7 +4,7 @@
 (``compare``, ``estimate`` and ``calibrate --disc`` use it). ``run_compare`` registers a
 predicted fringe-order map onto a measured one and writes ``comparison.png``,
 ``residual.npz`` and ``summary.json`` (RMS and 95th percentile of the residual in fringe
-orders). Kept apart from :mod:`fringekit.analyze` so that these commands do not import
+orders). Kept apart from :mod:`fringekit.measurement.order` so that these commands do not import
 the optics and colour-science at start-up.
 """
 

@@ -24,7 +24,7 @@ from fringekit.optics import (
     OpticalMap,
 )
 from fringekit.output.folders import claim_output
-from fringekit.predict.render import (
+from fringekit.prediction.render import (
     grid_figure,
     monochrome_images,
     white_light,

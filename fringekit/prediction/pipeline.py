@@ -41,7 +41,7 @@ from fringekit.meshes import build_mesh, quality_report
 from fringekit.output.folders import atomic_write, claim_output
 from fringekit.output.numbers import significant
 from fringekit.output.versions import run_versions
-from fringekit.predict.render import render_state, write_state
+from fringekit.prediction.render import render_state, write_state
 
 __all__ = [
     "Prediction",

@@ -2,7 +2,7 @@
 photograph -> a fringe-order map with the pixels the method stands behind; comparison
 with a prediction."""
 
-from fringekit.analyze.order import (
+from fringekit.measurement.order import (
     Analysis,
     MonoOptions,
     PhaseOptions,

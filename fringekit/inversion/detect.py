@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fringekit.invert.model import ImageModel
+from fringekit.inversion.model import ImageModel
 
 __all__ = ["DETECT_DIP", "DETECT_REL", "DETECT_SNR", "MIN_SEPARATION_MM", "detect", "noise_sd"]
 

@@ -23,7 +23,7 @@ __all__ = [
 ]
 
 MAX_RESIDUAL = 0.2
-#: An indenter whose residual near it (within fringekit.invert.WINDOW_MM) is above this
+#: An indenter whose residual near it (within fringekit.inversion.fit.WINDOW_MM) is above this
 #: fraction of the fringe amplitude is flagged as not reliable. Measured on the coarse
 #: bench: accepted fits within 3 % of their loads left 0.04-0.19 (20 indenters, three
 #: methods); a fit that explained a neighbour's fringes with one indenter's tangential

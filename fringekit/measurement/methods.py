@@ -20,7 +20,7 @@ from fringekit.analysis import (
     subtract_reference,
     unwrap_fringe_order,
 )
-from fringekit.analyze.regions import order_anchors, region_mask
+from fringekit.measurement.regions import order_anchors, region_mask
 from fringekit.optics import PSM4_ASSUMED, Camera, colour_chart, light_source
 
 __all__ = ["MAX_FOLD_DISAGREEMENT", "analyse_phase", "analyse_rgb"]

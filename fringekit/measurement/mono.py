@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from fringekit.analysis import grey_channel, load_image, mono_order
-from fringekit.analyze.regions import order_anchors, region_mask
+from fringekit.measurement.regions import order_anchors, region_mask
 
 __all__ = ["POINTS_COLUMNS", "analyse_mono", "read_points", "write_points"]
 

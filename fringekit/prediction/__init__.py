@@ -1,5 +1,5 @@
 """Predict: config -> mesh -> contact solution -> fringe maps and camera images."""
 
-from fringekit.predict.pipeline import Prediction, PredictError, PredictInterrupted, predict
+from fringekit.prediction.pipeline import PredictError, PredictInterrupted, Prediction, predict
 
 __all__ = ["PredictError", "PredictInterrupted", "Prediction", "predict"]

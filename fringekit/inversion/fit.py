@@ -35,11 +35,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from fringekit.invert.detect import detect, noise_sd
-from fringekit.invert.hop import hop
-from fringekit.invert.model import N_PARAMS, ImageModel, range_penalty, unpack
-from fringekit.invert.start import scan_start
-from fringekit.invert.verdict import AT_LARGEST, WARN_RESIDUAL, InvertError, parameter_sd, refuse
+from fringekit.inversion.detect import detect, noise_sd
+from fringekit.inversion.hop import hop
+from fringekit.inversion.model import N_PARAMS, ImageModel, range_penalty, unpack
+from fringekit.inversion.start import scan_start
+from fringekit.inversion.verdict import AT_LARGEST, WARN_RESIDUAL, InvertError, parameter_sd, refuse
 from fringekit.optics import PixelGrid
 
 __all__ = [

@@ -16,11 +16,11 @@ from pathlib import Path
 import numpy as np
 
 from fringekit.analysis import load_image, principal_stress_difference
-from fringekit.analyze.methods import analyse_phase, analyse_rgb
-from fringekit.analyze.mono import analyse_mono
-from fringekit.analyze.regions import disc_region
-from fringekit.analyze.write import write_analysis
 from fringekit.errors import InputError
+from fringekit.measurement.methods import analyse_phase, analyse_rgb
+from fringekit.measurement.mono import analyse_mono
+from fringekit.measurement.regions import disc_region
+from fringekit.measurement.write import write_analysis
 
 __all__ = [
     "Analysis",

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fringekit.invert.model import N_PARAMS, ImageModel, range_penalty, unpack
+from fringekit.inversion.model import N_PARAMS, ImageModel, range_penalty, unpack
 from fringekit.library.lattice import interpolate_turned
 
 __all__ = ["hop", "retarder_lookup", "robust_cost", "RetarderTable"]

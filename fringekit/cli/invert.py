@@ -1,0 +1,67 @@
+"""``fringekit invert``: every indenter's position and load vector from an image
+(:func:`fringekit.invert`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from fringekit.cli.options import (
+    finite,
+    positive,
+)
+from fringekit.inversion.run import run_invert
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub) -> None:
+    iv = sub.add_parser("invert", help="every indenter's position and load from an image")
+    iv.add_argument("images", nargs="+", help="one colour or grey image, or six phase steps")
+    iv.add_argument("--library", required=True, help="library folder (fringekit library build)")
+    iv.add_argument("--out", required=True, help="output folder")
+    iv.add_argument(
+        "--method",
+        choices=("rgb", "mono", "phase"),
+        default=None,
+        help="default: rgb for a colour image, mono for grey, phase for six",
+    )
+    iv.add_argument(
+        "--pixel-mm", type=positive, default=None, help="pixel pitch on the sheet (mm), required"
+    )
+    iv.add_argument(
+        "--origin-px",
+        nargs=2,
+        type=finite,
+        metavar=("ROW", "COL"),
+        default=None,
+        help="image pixel of the sensor origin (default: the image centre)",
+    )
+    iv.add_argument(
+        "--sensor",
+        default=None,
+        help="the image's sensor: a config file or a predict output folder "
+        "(default: config.toml of the predict folder holding the image)",
+    )
+    iv.add_argument("--quiet", action="store_true")
+    iv.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    s = run_invert(
+        args.images,
+        args.library,
+        Path(args.out),
+        method=args.method,
+        pixel_mm=args.pixel_mm,
+        origin_px=args.origin_px,
+        sensor=args.sensor,
+        progress=not args.quiet,
+    )
+    for w in s["warnings"]:
+        print(f"fringekit invert: warning: {w}", file=sys.stderr)
+    if not args.quiet:
+        print(f"fringekit invert: {s['n_indenters']} indenter(s) -> {args.out}/loads.csv")
+    return 0

@@ -1,0 +1,69 @@
+"""``fringekit predict``: a config -> mesh, contact solution, fringe maps and images in a
+folder (or, with ``--library``, synthesised from a response library).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from fringekit.cli.options import (
+    fringekit_version,
+    overrides,
+    run_options,
+)
+from fringekit.prediction.from_library import run_library_predict
+from fringekit.prediction.pipeline import run_predict
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub) -> None:
+    pr = sub.add_parser(
+        "predict",
+        help="mesh, solve and render fringes for a config (default: the reference case)",
+    )
+    pr.add_argument(
+        "config",
+        nargs="?",
+        default=None,
+        help="TOML config file or built-in case (reference, shear); default reference",
+    )
+    run_options(pr)
+    pr.add_argument(
+        "--library",
+        default=None,
+        help="synthesise from a response library instead of solving (seconds; "
+        "final load state only)",
+    )
+    pr.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    cfg = overrides(args.config, args.set or [])
+    out = Path(args.out) if args.out else Path("fringekit-out") / cfg["case"]
+    t0 = time.perf_counter()
+    if args.library:
+        run_library_predict(cfg, args.library, out, progress=not args.quiet, inputs=[args.config])
+        return 0
+    summary = run_predict(
+        cfg,
+        out,
+        cache_dir=args.cache_dir,
+        use_cache=not args.no_cache,
+        progress=not args.quiet,
+        inputs=[args.config],
+    )
+    if not args.quiet:
+        took = time.perf_counter() - t0
+        print(f"fringekit {fringekit_version()} - {cfg['case']}: done in {took:.1f} s")
+        for j, ind in enumerate(summary["indenters"]):
+            f = ", ".join(f"{v:.3g}" for v in ind["force_N"])
+            print(
+                f"  indenter {j}: force [{f}] N, depth {ind['depth_mm']:.4f} mm, "
+                f"contact radius {ind['contact_radius_mm']:.3f} mm"
+            )
+        print(f"  max fringe order {summary['max_fringe_order']:.2f} (contact zone masked)")
+        print(f"  results in {out}/ (summary.json, state_*/solution.vtu, images, figures)")
+    return 0

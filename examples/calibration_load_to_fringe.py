@@ -36,9 +36,13 @@ def main(argv=None) -> dict:
     with np.load(state / "maps.npz") as z:
         order, px, rc = z["fringe_order"], float(z["pixel_size_m"]), tuple(z["indenter_rc"][0])
     est = estimate_load(cal, fringe_features(order, px, rc))
-    check = {"true_N": 5.0, "estimate_N": est["normal_N"], "sigma_N": est["normal_sigma_N"],
-             "spread_N": est["spread_N"],
-             "per_feature_N": {k: v["load_N"] for k, v in est["per_feature"].items()}}  # fmt: skip
+    check = {
+        "true_N": 5.0,
+        "estimate_N": est["normal_N"],
+        "sigma_N": est["normal_sigma_N"],
+        "spread_N": est["spread_N"],
+        "per_feature_N": {k: v["load_N"] for k, v in est["per_feature"].items()},
+    }
     write_json(out / "check.json", check)
     if not args.quiet:
         fit = cal["normal_fits"].get("order_at_3mm") or next(iter(cal["normal_fits"].values()))

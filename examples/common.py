@@ -108,8 +108,12 @@ def centre_rc(m: dict) -> tuple[float, float]:
 
 def extent_mm(m: dict) -> tuple[float, float, float, float]:
     """imshow extent (left, right, bottom, top) in mm of a predict ``maps.npz``."""
-    return (m["x_m"][0, 0] * 1e3, m["x_m"][0, -1] * 1e3, m["y_m"][-1, 0] * 1e3,
-            m["y_m"][0, 0] * 1e3)  # fmt: skip
+    return (
+        m["x_m"][0, 0] * 1e3,
+        m["x_m"][0, -1] * 1e3,
+        m["y_m"][-1, 0] * 1e3,
+        m["y_m"][0, 0] * 1e3,
+    )
 
 
 def contact_mask(summary: dict, m: dict, margin_px: float = 2.0) -> np.ndarray:

@@ -87,16 +87,24 @@ def foot_config(coarse: bool, polycarbonate: bool = False) -> dict:
             for k, v in coarse_overrides(edge=True).items()
             if k.startswith("mesh.")
         }
-        given["optics"] = {"field_of_view_mm": 18.0, "pixels": 144, "samples_per_ray": 24,
-                           "white_light_wavelengths": 16}  # fmt: skip
+        given["optics"] = {
+            "field_of_view_mm": 18.0,
+            "pixels": 144,
+            "samples_per_ray": 24,
+            "white_light_wavelengths": 16,
+        }
     else:
         given["sheet"] = {"width_mm": 60.0, "length_mm": 40.0}
         # on the rigid base 0.8 mm under the heads gives 82-96k DOF and 2-3 minutes (with
         # the polycarbonate it gave 256k, so that model used 1.2 mm: 132k DOF, 9 minutes);
         # 1.2 mm on the rigid base: 56k DOF, 78 s, but the 3.5 mm toes' contact edge falls
         # inside one element and their profiles come out lopsided
-        given["mesh"] = {"h_contact_mm": 1.2 if polycarbonate else 0.8,
-                         "refine_radius_mm": 2.5, "h_sheet_mm": 2.5, "h_far_mm": 10.0}  # fmt: skip
+        given["mesh"] = {
+            "h_contact_mm": 1.2 if polycarbonate else 0.8,
+            "refine_radius_mm": 2.5,
+            "h_sheet_mm": 2.5,
+            "h_far_mm": 10.0,
+        }
         given["optics"] = {"field_of_view_mm": 56.0, "pixels": 448}
     return effective_config(given)
 
@@ -104,9 +112,10 @@ def foot_config(coarse: bool, polycarbonate: bool = False) -> dict:
 def main(argv=None) -> dict:
     def extra(p):
         p.add_argument(
-            "--polycarbonate", action="store_true",
+            "--polycarbonate",
+            action="store_true",
             help="keep the polycarbonate plate under the sheet (slow: 132k DOF)",
-        )  # fmt: skip
+        )
 
     args = parse_args(__doc__.splitlines()[0], argv, extra)
     out = out_dir(args, "fig10_11")
@@ -133,8 +142,10 @@ def main(argv=None) -> dict:
     rmid = (rows - 1) / 2  # the line y = 0 through the heel, the middle head and toe
     ab = ((rmid, 0.0), (rmid, cols - 1.0))
     x = m["x_m"][0] * 1e3
-    prof = {k: line_profile(v, *ab, n=cols).values for k, v in
-            (("pred", pred), ("frac", frac), ("complete", fo.order))}  # fmt: skip
+    prof = {
+        k: line_profile(v, *ab, n=cols).values
+        for k, v in (("pred", pred), ("frac", frac), ("complete", fo.order))
+    }
     err = fo.order - pred
     res = {
         "indenters": summary["indenters"],

@@ -68,13 +68,16 @@ def main(argv=None) -> dict:
         a.plot([0], [0], "w+", ms=12, label="undeformed axis")
         a.plot([cx], [cy], "wx", ms=10, label="pattern centroid")
         f = res[name]["force_N"]
-        a.set_title(f"({'ab'[list(images).index(name)]}) {name}: F = "
-                    f"[{f[0]:.0f}, {f[1]:.0f}, {-f[2]:.0f}] N")  # fmt: skip
+        a.set_title(
+            f"({'ab'[list(images).index(name)]}) {name}: F = "
+            f"[{f[0]:.0f}, {f[1]:.0f}, {-f[2]:.0f}] N"
+        )
         a.set_xlabel("x (mm)")
         a.set_ylabel("y (mm)")
     ax[1].legend(loc="lower left", fontsize=8)
-    fig.suptitle(f"white light, dark-field circular; pattern shift in x "
-                 f"{res['pattern_shift_x_mm']:.2f} mm")  # fmt: skip
+    fig.suptitle(
+        f"white light, dark-field circular; pattern shift in x {res['pattern_shift_x_mm']:.2f} mm"
+    )
     fig.tight_layout()
     fig.savefig(out / "fig3_white_light.png")
     plt.close(fig)

@@ -68,9 +68,11 @@ def disc_table(cfg: dict, n: int = 241) -> CalibrationTable:
     lam = law.wavenumber_grid(o["white_light_wavelengths"])
     m = optical_map(disc, grid, law, lam, n_samples=2, reflection=False)
     cam = Camera(
-        sensitivities=o["camera"], exposure=o["exposure"], full_well=o["full_well_e"],
+        sensitivities=o["camera"],
+        exposure=o["exposure"],
+        full_well=o["full_well_e"],
         read_noise=o["read_noise_e"],
-    )  # fmt: skip
+    )
     q = np.nan_to_num(m.q)
     img = normalise(
         white_light_image(q, light_source(o["light"], lam), cam, seed=o["seed"] + 1)
@@ -187,15 +189,36 @@ def figure(path, res: dict, noisy: dict) -> None:
     ax[0].set_title("(a) white light, centre masked")
     ax[0].set_xlabel("x (mm)")
     ax[1].plot(x, prof["pred"], "k-", lw=2, label="prediction")
-    ax[1].plot(x, prof["plain"], ".", ms=4, label=f"RGB plain (within 0.1 up to N = "
-               f"{res['plain']['order_within_0.1']:.2f})")  # fmt: skip
-    ax[1].plot(x, prof["refined"], "-", lw=1, label=f"RGB refined (within 0.1 up to N = "
-               f"{res['refined']['order_within_0.1']:.2f})")  # fmt: skip
+    ax[1].plot(
+        x,
+        prof["plain"],
+        ".",
+        ms=4,
+        label=f"RGB plain (within 0.1 up to N = {res['plain']['order_within_0.1']:.2f})",
+    )
+    ax[1].plot(
+        x,
+        prof["refined"],
+        "-",
+        lw=1,
+        label=f"RGB refined (within 0.1 up to N = {res['refined']['order_within_0.1']:.2f})",
+    )
     nprof = noisy["_plot"]["prof"]
-    ax[1].plot(x, nprof["plain"], "x", ms=3, alpha=0.6, label=f"plain, camera noise (up to "
-               f"N = {noisy['plain']['order_within_0.1']:.2f})")  # fmt: skip
-    ax[1].plot(x, nprof["refined"], "--", lw=1, label=f"refined, camera noise (up to "
-               f"N = {noisy['refined']['order_within_0.1']:.2f})")  # fmt: skip
+    ax[1].plot(
+        x,
+        nprof["plain"],
+        "x",
+        ms=3,
+        alpha=0.6,
+        label=f"plain, camera noise (up to N = {noisy['plain']['order_within_0.1']:.2f})",
+    )
+    ax[1].plot(
+        x,
+        nprof["refined"],
+        "--",
+        lw=1,
+        label=f"refined, camera noise (up to N = {noisy['refined']['order_within_0.1']:.2f})",
+    )
     ax[1].set_xlabel("position along a-b (mm)")
     ax[1].set_ylabel("fringe order")
     ax[1].set_title("(b) fringe order along a-b")

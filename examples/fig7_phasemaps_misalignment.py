@@ -93,8 +93,11 @@ def main(argv=None) -> dict:
         ax[0, j].set_title(f"isoclinic, eq. 2 ({name})")
         ax[1, j].imshow(d3, cmap="gray", extent=ext, vmin=0, vmax=2 * np.pi)
         s = res[name]
-        extra = (f", oval {res['optics_error']['oval_amplitude_fringe']:.3f} fringe"
-                 if name == "misaligned" else "")  # fmt: skip
+        extra = (
+            f", oval {res['optics_error']['oval_amplitude_fringe']:.3f} fringe"
+            if name == "misaligned"
+            else ""
+        )
         ax[1, j].set_title(
             f"isochromatic, eq. 3 ({name})\nreversed {100 * s['reversed_fraction']:.0f} %{extra}"
         )

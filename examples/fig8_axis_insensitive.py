@@ -85,8 +85,10 @@ def main(argv=None) -> dict:
     plt.close(fig)
     write_json(out / "fig8.json", res)
     if not args.quiet:
-        print(f"fig8: eq. 4 fractional order in [{res['range'][0]:.3f}, {res['range'][1]:.3f}], "
-              f"RMS vs folded prediction {res['rms_fringe']:.4f} fringe")  # fmt: skip
+        print(
+            f"fig8: eq. 4 fractional order in [{res['range'][0]:.3f}, {res['range'][1]:.3f}], "
+            f"RMS vs folded prediction {res['rms_fringe']:.4f} fringe"
+        )
     return res
 
 

@@ -56,8 +56,9 @@ def main(argv=None) -> dict:
     a_mm = summary["indenters"][0]["contact_radius_mm"]
     r6 = six_step_of(state, contact_mask(summary, m))
     pred = m["fringe_order"]
-    border = np.concatenate([pred[:3].ravel(), pred[-3:].ravel(), pred[:, :3].ravel(),
-                             pred[:, -3:].ravel()])  # fmt: skip
+    border = np.concatenate(
+        [pred[:3].ravel(), pred[-3:].ravel(), pred[:, :3].ravel(), pred[:, -3:].ravel()]
+    )
     anchor = float(np.nanmedian(border))  # the far field's order, as a calibration gives it
     fo = unwrap_fringe_order(r6, anchor_order=anchor)
     r = np.hypot(m["x_m"], m["y_m"]) * 1e3
@@ -94,8 +95,14 @@ def main(argv=None) -> dict:
     ext = extent_mm(m)
     im = ax[0].imshow(fo.order, cmap="viridis", extent=ext)
     fig.colorbar(im, ax=ax[0], label="fringe order")
-    ax[0].contour(np.where(fo.reliable, 0.0, 1.0), levels=[0.5], colors="r", linewidths=0.8,
-                  extent=(ext[0], ext[1], ext[3], ext[2]), origin="upper")  # fmt: skip
+    ax[0].contour(
+        np.where(fo.reliable, 0.0, 1.0),
+        levels=[0.5],
+        colors="r",
+        linewidths=0.8,
+        extent=(ext[0], ext[1], ext[3], ext[2]),
+        origin="upper",
+    )
     ax[0].plot([0, 0], [y[0], y[-1]], "w--", lw=1)
     ax[0].set_title("(a) unwrapped phasemap (red: unreliable)")
     ax[0].set_xlabel("x (mm)")
@@ -111,8 +118,9 @@ def main(argv=None) -> dict:
     # where they differ: mostly mirror images k +- delta about a whole or half order, the
     # characteristic order's two branches where the axes turn through the thickness
     zoom = 3.0 * a_mm
-    im = ax[2].imshow(np.where(r6.valid, err, np.nan), cmap="RdBu_r", vmin=-0.3, vmax=0.3,
-                      extent=ext)  # fmt: skip
+    im = ax[2].imshow(
+        np.where(r6.valid, err, np.nan), cmap="RdBu_r", vmin=-0.3, vmax=0.3, extent=ext
+    )
     fig.colorbar(im, ax=ax[2], label="six-step - prediction (fringe)")
     ax[2].set_xlim(-zoom, zoom)
     ax[2].set_ylim(-zoom, zoom)

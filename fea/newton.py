@@ -350,9 +350,12 @@ def newton(run: Run, st: State, f_ind, fscale: float, iter_log: list, penalty_on
             prev = evaluate(model, st, f_ind, tangent=True, stats=stats, cache=run.cache)
             energy, r, K, results, body, _ = prev
         dx = lin.solve(
-            K, -r, symmetric=model.symmetric, pattern_id=model.pattern_id,
+            K,
+            -r,
+            symmetric=model.symmetric,
+            pattern_id=model.pattern_id,
             reuse=rnorm < REUSE_BELOW * scale,
-        )  # fmt: skip
+        )
         stats.newton_iterations += 1
         if not np.all(np.isfinite(dx)):
             return False, "the linear solve returned non-finite values", None

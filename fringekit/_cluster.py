@@ -11,6 +11,8 @@ import logging
 import os
 from collections.abc import Callable, Sequence
 
+from tqdm.auto import tqdm
+
 __all__ = ["run_tasks"]
 
 
@@ -31,7 +33,6 @@ def run_tasks(
     ``workers=0`` runs the tasks one after the other in this process (no cluster).
     """
     from dask.distributed import Client, LocalCluster, as_completed
-    from tqdm.auto import tqdm
 
     # importing distributed sets its logger to INFO (Dask's config): the cluster's
     # chatter (scheduler, nanny, connections) is not the run's progress

@@ -62,8 +62,9 @@ def test_library(cache_dir, tmp_path_factory):
     from fringekit.library.store import load_library
 
     out = tmp_path_factory.mktemp("library") / "lib"
-    build_library(sensor_config(), out, loads=LOADS, ratios=RATIOS,
-                  cache_dir=cache_dir, progress=False)  # fmt: skip
+    build_library(
+        sensor_config(), out, loads=LOADS, ratios=RATIOS, cache_dir=cache_dir, progress=False
+    )
     return load_library(out)
 
 
@@ -77,6 +78,12 @@ def tiny_library(cache_dir, tmp_path_factory):
     from fringekit.library.store import load_library
 
     out = tmp_path_factory.mktemp("tiny-library") / "lib"
-    build_library(sensor_config(**TINY), out, loads=TINY_LOADS, ratios=TINY_RATIOS,
-                  cache_dir=cache_dir, progress=False)  # fmt: skip
+    build_library(
+        sensor_config(**TINY),
+        out,
+        loads=TINY_LOADS,
+        ratios=TINY_RATIOS,
+        cache_dir=cache_dir,
+        progress=False,
+    )
     return load_library(out)

@@ -23,8 +23,7 @@ LOADS = (2.0, 2.8, 4.0)
 RATIOS = (0.0, 0.4, 0.8)
 #: The tiny library of the fast tier: the same sensor on a mesh of 1 mm under the
 #: indenter (three elements through the sheet), 48 x 48 px, 2 loads x 2 ratios (about 2 s).
-TINY = {"mesh.h_contact_mm": 1.0, "mesh.h_sheet_mm": 3.0, "mesh.h_far_mm": 6.0,
-        "optics.pixels": 48}  # fmt: skip
+TINY = {"mesh.h_contact_mm": 1.0, "mesh.h_sheet_mm": 3.0, "mesh.h_far_mm": 6.0, "optics.pixels": 48}
 TINY_LOADS = (2.0, 4.0)
 TINY_RATIOS = (0.0, 0.4)
 

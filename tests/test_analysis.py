@@ -39,9 +39,13 @@ def _disc(n=161, centre_order=3.0, wavelengths=None):
     D = 0.04
     P = centre_order * np.pi * D * LAW.f_sigma / 8
     m = optical_map(
-        DiametralDisc(P=P, D=D, t=5e-3), PixelGrid((n, n), D / n), LAW, wavelengths,
-        n_samples=3, reflection=False,
-    )  # fmt: skip
+        DiametralDisc(P=P, D=D, t=5e-3),
+        PixelGrid((n, n), D / n),
+        LAW,
+        wavelengths,
+        n_samples=3,
+        reflection=False,
+    )
     mask = m.mask.copy()
     for row in (0, n - 1):
         mask = exclude_circle(mask, (row, n // 2), 0.16 * n)
@@ -51,8 +55,9 @@ def _disc(n=161, centre_order=3.0, wavelengths=None):
 def _indentation(n=160, F=3.0, wavelengths=None):
     """Boussinesq point load on the 3 mm sheet viewed in reflection, core r < 1.3 mm masked."""
     field = Boussinesq(F=F, nu=0.49, z_top=3e-3, thickness=3e-3, core=1.3e-3)
-    m = optical_map(field, PixelGrid.from_field_of_view(10e-3, (n, n)), LAW, wavelengths,
-                    n_samples=48)  # fmt: skip
+    m = optical_map(
+        field, PixelGrid.from_field_of_view(10e-3, (n, n)), LAW, wavelengths, n_samples=48
+    )
     return m, m.mask.copy()
 
 
@@ -138,9 +143,14 @@ def test_wrapped_phase_round_trip_on_masked_arrays():
     order = 6.0 * np.exp(-((rho / 35.0) ** 2))
     theta = np.arctan2(r, c)  # radial principal direction, winds by 2 pi around the centre
     d = 2 * np.pi * order
-    table = (1 + np.cos(d), 1 - np.cos(d), 1 - np.sin(2 * theta) * np.sin(d),
-             1 + np.cos(2 * theta) * np.sin(d), 1 + np.sin(2 * theta) * np.sin(d),
-             1 - np.cos(2 * theta) * np.sin(d))  # fmt: skip
+    table = (
+        1 + np.cos(d),
+        1 - np.cos(d),
+        1 - np.sin(2 * theta) * np.sin(d),
+        1 + np.cos(2 * theta) * np.sin(d),
+        1 + np.sin(2 * theta) * np.sin(d),
+        1 - np.cos(2 * theta) * np.sin(d),
+    )
     imgs = [0.02 + 0.45 * t for t in table]
     mask = (rho > 12) & (rho < 60)
     res = six_step(imgs, mask=mask)
@@ -195,8 +205,10 @@ def white():
     """Disc and indentation white-light images (16-bit sRGB) and a chart table."""
     spec, cam = light_source("LED", LAM), Camera(bit_depth=16)
     out = {}
-    for name, (m, mask) in (("disc", _disc(wavelengths=LAM)),
-                            ("dent", _indentation(wavelengths=LAM))):  # fmt: skip
+    for name, (m, mask) in (
+        ("disc", _disc(wavelengths=LAM)),
+        ("dent", _indentation(wavelengths=LAM)),
+    ):
         img = normalise(white_light_image(np.nan_to_num(m.q), spec, cam)).data
         out[name] = (m, mask, img)
     o, c = colour_chart(LAW, spec, cam, max_order=5.0, n=2000)
@@ -237,8 +249,9 @@ def test_calibration_table_from_disc_line_and_csv(white, tmp_path):
     m, mask, img = white["disc"]
     truth = m.simple_order
     n = img.shape[0]
-    tab = CalibrationTable.from_line(img, (n // 2, n // 2), (n // 2, n - 4),
-                                     truth[n // 2, n // 2 : n - 3], n_rows=800)  # fmt: skip
+    tab = CalibrationTable.from_line(
+        img, (n // 2, n // 2), (n // 2, n - 4), truth[n // 2, n // 2 : n - 3], n_rows=800
+    )
     assert tab.orders[-1] == pytest.approx(3.0, abs=0.02)
     tab.to_csv(tmp_path / "t.csv")
     back = CalibrationTable.from_csv(tmp_path / "t.csv")
@@ -342,9 +355,12 @@ def test_compare_registers_shift_and_scale(dent, tmp_path):
     coarse, _ = _indentation(n=80)
     meas = np.roll(coarse.fringe_order(), (3, -2), axis=(0, 1))
     comp = compare_maps(
-        pred, meas, predicted_pixel_size=10e-3 / 160, measured_pixel_size=10e-3 / 80,
+        pred,
+        meas,
+        predicted_pixel_size=10e-3 / 160,
+        measured_pixel_size=10e-3 / 80,
         centre_predicted=(79.5, 79.5),
-    )  # fmt: skip
+    )
     assert comp.centre_measured[0] == pytest.approx(39.5 + 3, abs=0.15)
     assert comp.centre_measured[1] == pytest.approx(39.5 - 2, abs=0.15)
     assert comp.rms < 0.03 and comp.p95 < 0.06
@@ -380,8 +396,9 @@ def test_a_uniform_dark_frame_is_a_valid_dark_frame(tmp_path):
     write_image(tmp_path / "dark.png", np.full((8, 8), 5, np.uint8))
     got = load_image(tmp_path / "img.png", dark=tmp_path / "dark.png")
     np.testing.assert_allclose(got.data, (img.astype(float) - 5) / 255)
-    frames = load_six_step([tmp_path / "img.png"] * 5 + [tmp_path / "img.png"],
-                           dark=str(tmp_path / "dark.png"))  # fmt: skip
+    frames = load_six_step(
+        [tmp_path / "img.png"] * 5 + [tmp_path / "img.png"], dark=str(tmp_path / "dark.png")
+    )
     assert len(frames) == 6
 
 

@@ -23,8 +23,7 @@ def files(tmp_path_factory):
     (d / "garbage.npz").write_bytes(b"\x00\x01 not a zip at all")
     (d / "empty.png").write_bytes(b"")
     (d / "text.png").write_text("this is not an image\n")
-    cal = {"version": 2, "normal_fits": {"order_at_2mm": {"a": "x", "b": 1.0,
-                                                           "sigma_logF": 0.1}}}  # fmt: skip
+    cal = {"version": 2, "normal_fits": {"order_at_2mm": {"a": "x", "b": 1.0, "sigma_logF": 0.1}}}
     (d / "cal.json").write_text(json.dumps(cal))
     (d / "nofits.json").write_text(json.dumps({"version": 2, "normal_fits": {}}))
     good = {"a": 1.0, "b": 1.5, "sigma_logF": 0.1, "n": 5, "range": [0.1, 5.0]}
@@ -40,25 +39,93 @@ CASES = [
     (["analyze", "{d}/text.png", "--pixel-mm", "nan", "--out", "{o}"], "argument --pixel-mm: nan"),
     (["analyze", "{d}/text.png", "--max-order", "-1", "--out", "{o}"], "argument --max-order"),
     (["analyze", "{d}/text.png", "--min-modulation", "2", "--out", "{o}"], "--min-modulation"),
-    (["compare", "{d}/maps.npz", "{d}/maps.npz", "--predicted-pixel-mm", "0", "--out", "{o}"],
-     "argument --predicted-pixel-mm: 0"),
+    (
+        ["compare", "{d}/maps.npz", "{d}/maps.npz", "--predicted-pixel-mm", "0", "--out", "{o}"],
+        "argument --predicted-pixel-mm: 0",
+    ),
     (["compare", "{d}/noorder.npz", "{d}/maps.npz", "--out", "{o}"], "holds no fringe_order"),
     (["compare", "{d}/garbage.npz", "{d}/maps.npz", "--out", "{o}"], "garbage.npz: not a maps"),
     (["compare", "{d}/pickled.npz", "{d}/maps.npz", "--out", "{o}"], "pickled.npz: not a maps"),
-    (["estimate", "{d}/noorder.npz", "--calibration", "{d}/good.json", "--out", "{o}"],
-     "holds no fringe_order"),
-    (["estimate", "{d}/maps.npz", "--calibration", "{d}/cal.json", "--centre", "31.5", "31.5",
-      "--out", "{o}"], "normal_fits.order_at_2mm.a = 'x'"),
-    (["estimate", "{d}/maps.npz", "--calibration", "{d}/nofits.json", "--centre", "31.5",
-      "31.5", "--out", "{o}"], "the calibration has no fit"),
-    (["estimate", "{d}/maps.npz", "--calibration", "{d}/good.json", "--centre", "-5", "-5",
-      "--out", "{o}"], "--centre -5 -5 is outside the map"),
-    (["calibrate", "--disc", "{d}/garbage.npz", "--load-N", "300", "--diameter-mm", "40",
-      "--thickness-mm", "5", "--out", "{o}"], "garbage.npz: not a maps"),
-    (["calibrate", "--disc", "{d}/maps.npz", "--load-N", "0", "--diameter-mm", "40",
-      "--thickness-mm", "5", "--out", "{o}"], "argument --load-N: 0"),
+    (
+        ["estimate", "{d}/noorder.npz", "--calibration", "{d}/good.json", "--out", "{o}"],
+        "holds no fringe_order",
+    ),
+    (
+        [
+            "estimate",
+            "{d}/maps.npz",
+            "--calibration",
+            "{d}/cal.json",
+            "--centre",
+            "31.5",
+            "31.5",
+            "--out",
+            "{o}",
+        ],
+        "normal_fits.order_at_2mm.a = 'x'",
+    ),
+    (
+        [
+            "estimate",
+            "{d}/maps.npz",
+            "--calibration",
+            "{d}/nofits.json",
+            "--centre",
+            "31.5",
+            "31.5",
+            "--out",
+            "{o}",
+        ],
+        "the calibration has no fit",
+    ),
+    (
+        [
+            "estimate",
+            "{d}/maps.npz",
+            "--calibration",
+            "{d}/good.json",
+            "--centre",
+            "-5",
+            "-5",
+            "--out",
+            "{o}",
+        ],
+        "--centre -5 -5 is outside the map",
+    ),
+    (
+        [
+            "calibrate",
+            "--disc",
+            "{d}/garbage.npz",
+            "--load-N",
+            "300",
+            "--diameter-mm",
+            "40",
+            "--thickness-mm",
+            "5",
+            "--out",
+            "{o}",
+        ],
+        "garbage.npz: not a maps",
+    ),
+    (
+        [
+            "calibrate",
+            "--disc",
+            "{d}/maps.npz",
+            "--load-N",
+            "0",
+            "--diameter-mm",
+            "40",
+            "--thickness-mm",
+            "5",
+            "--out",
+            "{o}",
+        ],
+        "argument --load-N: 0",
+    ),
     (["sweep", "{d}/none.toml", "--workers", "0"], "argument --workers: 0"),
-]  # fmt: skip
+]
 
 
 @pytest.mark.parametrize(("args", "message"), CASES, ids=[" ".join(c[0][:2]) for c in CASES])

@@ -39,10 +39,13 @@ def test_a_damaged_mesh_cache_entry_is_rebuilt(small_meshes, cache_dir, tmp_path
 
 def _solve(mesh, root):
     return solve_cached(
-        mesh, [Indenter(normal_force=(1.0,))],
-        materials={0: SHEET_DEFAULT, 1: POLYCARBONATE_DEFAULT}, contact=ContactSettings(),
-        settings=SolverSettings(), cache_dir=root,
-    )  # fmt: skip
+        mesh,
+        [Indenter(normal_force=(1.0,))],
+        materials={0: SHEET_DEFAULT, 1: POLYCARBONATE_DEFAULT},
+        contact=ContactSettings(),
+        settings=SolverSettings(),
+        cache_dir=root,
+    )
 
 
 @pytest.mark.parametrize("damage", sorted(DAMAGE))

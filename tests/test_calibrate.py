@@ -83,16 +83,27 @@ def test_fringe_value_from_the_disc(tmp_path, capsys):
     """Frocht's disc in transmission: the fit gives f_sigma back from the order map."""
     D, t, P, n = 0.04, 5e-3, 300.0, 121
     grid = PixelGrid((n, n), D / n)
-    m = optical_map(DiametralDisc(P=P, D=D, t=t), grid, PSM4_ASSUMED, n_samples=3,
-                    reflection=False)  # fmt: skip
+    m = optical_map(DiametralDisc(P=P, D=D, t=t), grid, PSM4_ASSUMED, n_samples=3, reflection=False)
     order = m.fringe_order()
-    res = fringe_value_from_disc(order, grid.pixel_size, ((n - 1) / 2, (n - 1) / 2),
-                                 load_N=P, diameter=D, thickness=t)  # fmt: skip
+    res = fringe_value_from_disc(
+        order, grid.pixel_size, ((n - 1) / 2, (n - 1) / 2), load_N=P, diameter=D, thickness=t
+    )
     assert res["f_sigma_N_per_m"] == pytest.approx(PSM4_ASSUMED.f_sigma, rel=1e-3)
     assert res["f_sigma_centre_N_per_m"] == pytest.approx(PSM4_ASSUMED.f_sigma, rel=1e-3)
     np.savez(tmp_path / "maps.npz", fringe_order=order, pixel_size_m=grid.pixel_size)
-    args = ["calibrate", "--disc", str(tmp_path / "maps.npz"), "--load-N", str(P),
-            "--diameter-mm", "40", "--thickness-mm", "5", "--out", str(tmp_path / "o")]  # fmt: skip
+    args = [
+        "calibrate",
+        "--disc",
+        str(tmp_path / "maps.npz"),
+        "--load-N",
+        str(P),
+        "--diameter-mm",
+        "40",
+        "--thickness-mm",
+        "5",
+        "--out",
+        str(tmp_path / "o"),
+    ]
     assert main(args) == 0
     got = json.loads((tmp_path / "o" / "fringe_value.json").read_text())
     assert got["f_sigma_N_per_m"] == pytest.approx(PSM4_ASSUMED.f_sigma, rel=1e-3)
@@ -128,17 +139,26 @@ def test_the_disc_fit_refuses_a_map_that_is_not_a_disc(tmp_path, capsys):
         fringe_value_from_disc(N, px, rc, load_N=300, diameter=0.015, thickness=5e-3)
     D, t, P, n = 0.04, 5e-3, 300.0, 121
     grid = PixelGrid((n, n), D / n)
-    m = optical_map(DiametralDisc(P=P, D=D, t=t), grid, PSM4_ASSUMED, n_samples=3,
-                    reflection=False)  # fmt: skip
+    m = optical_map(DiametralDisc(P=P, D=D, t=t), grid, PSM4_ASSUMED, n_samples=3, reflection=False)
     order = m.fringe_order()
     rng = np.random.default_rng(1)
     noisy = order * (1 + 0.15 * rng.standard_normal(order.shape))  # 15 % speckle
-    res = fringe_value_from_disc(noisy, grid.pixel_size, ((n - 1) / 2, (n - 1) / 2),
-                                 load_N=P, diameter=D, thickness=t)  # fmt: skip
+    res = fringe_value_from_disc(
+        noisy, grid.pixel_size, ((n - 1) / 2, (n - 1) / 2), load_N=P, diameter=D, thickness=t
+    )
     assert 0.05 < res["relative_residual"] < 0.25 and "warning" in res
     np.savez(tmp_path / "m.npz", fringe_order=noisy, pixel_size_m=grid.pixel_size)
-    args = ["calibrate", "--disc", str(tmp_path / "m.npz"), "--load-N", str(P),
-            "--diameter-mm", "40", "--thickness-mm", "5"]  # fmt: skip
+    args = [
+        "calibrate",
+        "--disc",
+        str(tmp_path / "m.npz"),
+        "--load-N",
+        str(P),
+        "--diameter-mm",
+        "40",
+        "--thickness-mm",
+        "5",
+    ]
     assert main(args) == 0
     assert "warning: Frocht's field leaves" in capsys.readouterr().err
 
@@ -149,8 +169,7 @@ def test_the_disc_centre_comes_from_the_map_outline_or_is_refused(tmp_path, caps
     analyze's unreliable pixels are left out of the fit."""
     D, t, P, n = 0.04, 5e-3, 300.0, 121
     grid = PixelGrid((n, n), D / n)
-    m = optical_map(DiametralDisc(P=P, D=D, t=t), grid, PSM4_ASSUMED, n_samples=3,
-                    reflection=False)  # fmt: skip
+    m = optical_map(DiametralDisc(P=P, D=D, t=t), grid, PSM4_ASSUMED, n_samples=3, reflection=False)
     order = m.fringe_order()
     # the disc off the image centre: pad 30 columns on the left and 12 rows below
     shifted = np.pad(order, ((0, 12), (30, 0)), constant_values=np.nan)
@@ -158,10 +177,22 @@ def test_the_disc_centre_comes_from_the_map_outline_or_is_refused(tmp_path, caps
     garbage = shifted.copy()
     garbage[70:80, 80:90] = 9.0  # wrong values the analysis flagged as unreliable
     reliable[70:80, 80:90] = False
-    np.savez(tmp_path / "m.npz", fringe_order=garbage, reliable=reliable,
-             pixel_size_m=grid.pixel_size)  # fmt: skip
-    args = ["calibrate", "--disc", str(tmp_path / "m.npz"), "--load-N", str(P),
-            "--diameter-mm", "40", "--thickness-mm", "5", "--out", str(tmp_path / "o")]  # fmt: skip
+    np.savez(
+        tmp_path / "m.npz", fringe_order=garbage, reliable=reliable, pixel_size_m=grid.pixel_size
+    )
+    args = [
+        "calibrate",
+        "--disc",
+        str(tmp_path / "m.npz"),
+        "--load-N",
+        str(P),
+        "--diameter-mm",
+        "40",
+        "--thickness-mm",
+        "5",
+        "--out",
+        str(tmp_path / "o"),
+    ]
     assert main(args) == 0
     got = json.loads((tmp_path / "o" / "fringe_value.json").read_text())
     assert got["f_sigma_N_per_m"] == pytest.approx(PSM4_ASSUMED.f_sigma, rel=2e-3)

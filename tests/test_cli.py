@@ -161,8 +161,11 @@ def tiny_predict(root, cache_dir) -> tuple:
     cfg = root / "tiny.toml"
     cfg.write_text(TINY)
     out = root / "out"
-    return cfg, out, ["predict", str(cfg), "--out", str(out), "--cache-dir", str(cache_dir),
-                      "--quiet"]  # fmt: skip
+    return (
+        cfg,
+        out,
+        ["predict", str(cfg), "--out", str(out), "--cache-dir", str(cache_dir), "--quiet"],
+    )
 
 
 @pytest.fixture(scope="module")
@@ -258,8 +261,10 @@ def test_predict_failure_keeps_converged_states(tmp_path, cache_dir, capsys):
     out, err, s = _predict_failing(
         TINY.replace("load_N = [8.0]", "load_N = [1.0, 400.0]")
         + "[solver]\nmax_iterations = 20\nmax_cutbacks = 2\n",
-        tmp_path, cache_dir, capsys,
-    )  # fmt: skip
+        tmp_path,
+        cache_dir,
+        capsys,
+    )
     assert "could not reach load state 2" in err
     assert s["status"] == "failed" and len(s["states"]) == 1
     assert s["indenters"][0]["force_N"][2] == pytest.approx(-1.0, rel=1e-9)
@@ -300,8 +305,22 @@ def test_analyze_phase_and_compare_recover_the_prediction(tiny_images):
     root, out96, d, geo, border = tiny_images
     steps = [str(d / "six_step" / f"step{k}.png") for k in range(1, 7)]
     an = root / "an_phase"
-    code = main(["analyze", *steps, "--out", str(an), "--anchor-order", str(border), *geo,
-                 "--f-sigma-N-per-m", "386", "--thickness-mm", "3", "--quiet"])  # fmt: skip
+    code = main(
+        [
+            "analyze",
+            *steps,
+            "--out",
+            str(an),
+            "--anchor-order",
+            str(border),
+            *geo,
+            "--f-sigma-N-per-m",
+            "386",
+            "--thickness-mm",
+            "3",
+            "--quiet",
+        ]
+    )
     assert code == 0
     s = json.loads((an / "summary.json").read_text())
     assert s["method"] == "phase" and s["phase"]["fold"] == "count"
@@ -382,11 +401,26 @@ def test_calibrate_and_estimate_end_to_end(tiny_images, cache_dir, capsys):
     assert est == pytest.approx(8.0, rel=0.03)
     an = root / "an_est"
     steps = [str(d / "six_step" / f"step{k}.png") for k in range(1, 7)]
-    assert main(["analyze", *steps, "--out", str(an), "--anchor-order", str(border), *geo,
-                 "--quiet"]) == 0  # fmt: skip
+    assert (
+        main(["analyze", *steps, "--out", str(an), "--anchor-order", str(border), *geo, "--quiet"])
+        == 0
+    )
     centre = geo[1:3]
-    assert main(["estimate", str(an), "--calibration", calf, "--centre", *centre,
-                 "--out", str(root / "est")]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "estimate",
+                str(an),
+                "--calibration",
+                calf,
+                "--centre",
+                *centre,
+                "--out",
+                str(root / "est"),
+            ]
+        )
+        == 0
+    )
     got = json.loads((root / "est" / "estimate.json").read_text())
     assert got["normal_N"] == pytest.approx(8.0, rel=0.03)
     capsys.readouterr()
@@ -437,11 +471,23 @@ def test_sweep_killed_then_resumed_matches_an_uninterrupted_run(tiny_run, cache_
         '"indenter.load_N" = [[4.0], [8.0]]\n"optics.wavelength_nm" = [575.0, 600.0]\n'
     )
     out = root / "sweep_a"
-    cmd = [sys.executable, "-m", "fringekit", "sweep", str(root / "sweep.toml"),
-           "--out", str(out), "--workers", "1", "--cache-dir", str(cache_dir),
-           "--quiet"]  # fmt: skip
-    proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL)  # fmt: skip
+    cmd = [
+        sys.executable,
+        "-m",
+        "fringekit",
+        "sweep",
+        str(root / "sweep.toml"),
+        "--out",
+        str(out),
+        "--workers",
+        "1",
+        "--cache-dir",
+        str(cache_dir),
+        "--quiet",
+    ]
+    proc = subprocess.Popen(
+        cmd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+    )
     t0 = time.time()
     try:
         while not list((out / "cases").glob("*/result.json")):
@@ -467,8 +513,10 @@ def test_sweep_killed_then_resumed_matches_an_uninterrupted_run(tiny_run, cache_
     assert f"{4 - n_done} run, {n_done} already finished, 0 failed" in said
     quiet = subprocess.run(
         [sys.executable, "-m", "fringekit", *base, "--out", str(root / "sweep_b"), "--quiet"],
-        capture_output=True, text=True, timeout=600,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert quiet.returncode == 0, quiet.stderr[-2000:]
     assert "distributed." not in quiet.stderr, quiet.stderr[:500]  # no cluster chatter
 
@@ -490,9 +538,25 @@ def test_sweep_killed_then_resumed_matches_an_uninterrupted_run(tiny_run, cache_
 
 
 def test_mesh_command(tmp_path, cache_dir, capsys):
-    args = ["mesh", "--width-mm", "12", "--substrate-mm", "4", "--h-contact-mm", "0.6",
-            "--refine-radius-mm", "1.5", "--h-sheet-mm", "1.5", "--h-far-mm", "3",
-            "--cache-dir", str(cache_dir), "--out", str(tmp_path / "m")]  # fmt: skip
+    args = [
+        "mesh",
+        "--width-mm",
+        "12",
+        "--substrate-mm",
+        "4",
+        "--h-contact-mm",
+        "0.6",
+        "--refine-radius-mm",
+        "1.5",
+        "--h-sheet-mm",
+        "1.5",
+        "--h-far-mm",
+        "3",
+        "--cache-dir",
+        str(cache_dir),
+        "--out",
+        str(tmp_path / "m"),
+    ]
     assert main(args) == 0
     s = json.loads((tmp_path / "m" / "mesh_summary.json").read_text())
     assert s["quality"]["n_cells"] > 0 and (tmp_path / "m" / "mesh.vtu").stat().st_size > 0
@@ -564,8 +628,14 @@ def test_every_figure_and_table_uses_the_sensor_frame(tiny_images, tmp_path):
     assert left + 8.5 * 0.1 == pytest.approx(0) and top - 4.5 * 0.1 == pytest.approx(0)
     assert top > bottom and right > left and right - left == pytest.approx(2.0)
     ext = (left, right, bottom, top)
-    fig = map_figure(tmp_path / "m.png", np.ones((10, 20)), "t", "l", extent=ext,
-                     axis_labels=("x (mm)", "y (mm)"))  # fmt: skip
+    fig = map_figure(
+        tmp_path / "m.png",
+        np.ones((10, 20)),
+        "t",
+        "l",
+        extent=ext,
+        axis_labels=("x (mm)", "y (mm)"),
+    )
     ax = fig.axes[0]
     assert (ax.get_xlabel(), ax.get_ylabel()) == ("x (mm)", "y (mm)")
     assert ax.get_ylim()[1] > ax.get_ylim()[0]  # y up
@@ -573,8 +643,27 @@ def test_every_figure_and_table_uses_the_sensor_frame(tiny_images, tmp_path):
     root, out96, d, geo, border = tiny_images
     steps = [str(d / "six_step" / f"step{k}.png") for k in range(1, 7)]
     an = tmp_path / "an"
-    assert main(["analyze", *steps, "--out", str(an), *geo, "--origin-px", "40", "50",
-                 "--line", "30", "0", "30", "95", "--quiet"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "analyze",
+                *steps,
+                "--out",
+                str(an),
+                *geo,
+                "--origin-px",
+                "40",
+                "50",
+                "--line",
+                "30",
+                "0",
+                "30",
+                "95",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     head = (an / "profile.csv").read_text().splitlines()[0]
     assert head == "distance_mm,x_mm,y_mm,fringe_order"
     prof = np.loadtxt(an / "profile.csv", delimiter=",", skiprows=1)
@@ -584,9 +673,13 @@ def test_every_figure_and_table_uses_the_sensor_frame(tiny_images, tmp_path):
     # compare: the maps in mm about the sensor origin, labelled
     maps = np.load(d / "maps.npz")
     order = maps["fringe_order"]
-    comp = compare_maps(order, order, predicted_pixel_size=float(maps["pixel_size_m"]),
-                        measured_pixel_size=float(maps["pixel_size_m"]),
-                        centre_predicted=tuple(maps["indenter_rc"][0]))  # fmt: skip
+    comp = compare_maps(
+        order,
+        order,
+        predicted_pixel_size=float(maps["pixel_size_m"]),
+        measured_pixel_size=float(maps["pixel_size_m"]),
+        centre_predicted=tuple(maps["indenter_rc"][0]),
+    )
     fig = comparison_figure(comp, tmp_path / "c.png", pixel_size=float(maps["pixel_size_m"]))
     maps_axes = [
         a for a in fig.axes if a.get_title().startswith(("measured", "predicted", "resid"))
@@ -639,8 +732,20 @@ def test_analyze_warns_when_most_of_the_map_is_a_guess(tiny_images, tmp_path, ca
     assert s["reliable_fraction_of_roi"] < 0.5 and "warning" in s
     assert main([*args, "--out", str(tmp_path / "b"), "--strict"]) == 1
     # the rendered white-light image passes
-    ok = ["analyze", str(d / "white_light.png"), "--method", "rgb", *geo, "--strict",
-          "--seed", "0", "0", f"{border:.3f}", "--out", str(tmp_path / "c")]  # fmt: skip
+    ok = [
+        "analyze",
+        str(d / "white_light.png"),
+        "--method",
+        "rgb",
+        *geo,
+        "--strict",
+        "--seed",
+        "0",
+        "0",
+        f"{border:.3f}",
+        "--out",
+        str(tmp_path / "c"),
+    ]
     assert main(ok) == 0
 
 
@@ -651,9 +756,26 @@ def test_analyze_rectangle_polygon_and_line_masks(tiny_images, tmp_path, capsys)
     root, out96, d, geo, border = tiny_images
     steps = [str(d / "six_step" / f"step{k}.png") for k in range(1, 7)]
     an = tmp_path / "an"
-    args = ["analyze", *steps, *geo, "--roi-rect", "3", "3", "92", "92",
-            "--exclude-polygon", "60,60", "60,80", "80,70",
-            "--exclude-polygon", "10,10", "10,80", "--out", str(an), "--quiet"]  # fmt: skip
+    args = [
+        "analyze",
+        *steps,
+        *geo,
+        "--roi-rect",
+        "3",
+        "3",
+        "92",
+        "92",
+        "--exclude-polygon",
+        "60,60",
+        "60,80",
+        "80,70",
+        "--exclude-polygon",
+        "10,10",
+        "10,80",
+        "--out",
+        str(an),
+        "--quiet",
+    ]
     assert main(args) == 0
     s = json.loads((an / "summary.json").read_text())
     order = np.load(an / "maps.npz")["fringe_order"]
@@ -663,8 +785,22 @@ def test_analyze_rectangle_polygon_and_line_masks(tiny_images, tmp_path, capsys)
     assert s["line_px"][1] >= 3 and s["line_px"][3] <= 92  # across the region
     bad = ["analyze", *steps, "--roi-polygon", "1,1", "5,5", "--out", str(tmp_path / "b")]
     assert main(bad) == 2 and "--roi-polygon has 2 vertices" in capsys.readouterr().err
-    empty = ["analyze", *steps, "--roi-rect", "5", "5", "20", "20", "--exclude-polygon",
-             "0,0", "0,30", "30,30", "30,0", "--out", str(tmp_path / "e")]  # fmt: skip
+    empty = [
+        "analyze",
+        *steps,
+        "--roi-rect",
+        "5",
+        "5",
+        "20",
+        "20",
+        "--exclude-polygon",
+        "0,0",
+        "0,30",
+        "30,30",
+        "30,0",
+        "--out",
+        str(tmp_path / "e"),
+    ]
     assert main(empty) == 2 and "holds no pixel" in capsys.readouterr().err
     assert main(["analyze", *steps, "--roi-polygon", "1;1", "--out", str(tmp_path / "x")]) == 2
     assert "--roi-polygon" in capsys.readouterr().err
@@ -675,8 +811,16 @@ def test_analyze_mono_reads_predicts_dark_field_image(tiny_images, tmp_path):
     mono orders it back to the predicted map."""
     root, out96, d, geo, border = tiny_images
     an = tmp_path / "mono"
-    args = ["analyze", str(d / "dark_field.png"), *geo, "--anchor-order", f"{border:.3f}",
-            "--out", str(an), "--quiet"]  # fmt: skip
+    args = [
+        "analyze",
+        str(d / "dark_field.png"),
+        *geo,
+        "--anchor-order",
+        f"{border:.3f}",
+        "--out",
+        str(an),
+        "--quiet",
+    ]
     assert main(args) == 0
     got = np.load(an / "maps.npz")
     truth = np.load(d / "maps.npz")["fringe_order"]

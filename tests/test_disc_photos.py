@@ -44,8 +44,9 @@ def disc_photo(P, offset=0.0, seed=1, field="dark"):
     order = T * np.hypot(sxx - syy, 2 * sxy) / F_SIGMA * (P > 0)
     theta = 0.5 * np.arctan2(2 * sxy, sxx - syy)
     q = retarder(2 * np.pi * np.where(inside, order + offset, 0.0), theta)
-    model = PhotoModel(residual_rms_rad=0.05, vignetting=0.3, glare=0.02, jpeg_quality=90,
-                       seed=seed)  # fmt: skip
+    model = PhotoModel(
+        residual_rms_rad=0.05, vignetting=0.3, glare=0.02, jpeg_quality=90, seed=seed
+    )
     arr = dark_field_circular() if field == "dark" else bright_field_circular()
     img = photograph(q, arr, CAMERA, model, seed=seed)
     return img, 8 * P / (np.pi * D * F_SIGMA)
@@ -62,8 +63,13 @@ def test_one_photograph_gives_f_sigma_within_3_percent(field):
     order within 0.005 fringe, the disc's centre and radius within 0.1 px (started 2 px
     off by the symmetry)."""
     img, n_c = disc_photo(250.0, field=field)
-    fit = fit_disc_photos([DiscImage(normalise(img).data, 250.0)], _geometry(img),
-                          diameter=D, thickness=T, field=field)  # fmt: skip
+    fit = fit_disc_photos(
+        [DiscImage(normalise(img).data, 250.0)],
+        _geometry(img),
+        diameter=D,
+        thickness=T,
+        field=field,
+    )
     assert fit.f_sigma == pytest.approx(F_SIGMA, rel=0.03)
     assert abs(fit.centre_orders[0] - n_c) < 0.05
     assert 0 < fit.f_sigma_sd < 0.01 * F_SIGMA and fit.residuals[0] < 0.05
@@ -124,13 +130,23 @@ def test_calibrate_disc_from_photographs_writes_the_results(tmp_path, capsys):
         write_image(files[-1], img)
     out = tmp_path / "cal"
     geo = ["--diameter-mm", "40", "--thickness-mm", "6", "--wavelength-nm", "546"]
-    args = ["calibrate", "--disc", *files, "--load-N", *map(str, loads), *geo,
-            "--out", str(out), "--quiet"]  # fmt: skip
+    args = [
+        "calibrate",
+        "--disc",
+        *files,
+        "--load-N",
+        *map(str, loads),
+        *geo,
+        "--out",
+        str(out),
+        "--quiet",
+    ]
     assert main(args) == 0
     res = json.loads((out / "disc_calibration.json").read_text())
     assert set(res) == {"f_sigma_N_per_m", "f_sigma_sd_N_per_m", "offset_order", "images"}
-    assert [set(i) for i in res["images"]] == [{"file", "load_N", "centre_order",
-                                                 "residual_rms"}] * 3  # fmt: skip
+    assert [set(i) for i in res["images"]] == [
+        {"file", "load_N", "centre_order", "residual_rms"}
+    ] * 3
     assert res["f_sigma_N_per_m"] == pytest.approx(F_SIGMA, rel=0.015)
     assert res["offset_order"] == pytest.approx(0.2, abs=0.05)
     s = json.loads((out / "summary.json").read_text())
@@ -144,9 +160,24 @@ def test_calibrate_disc_from_photographs_writes_the_results(tmp_path, capsys):
     assert "--load-N: 1 load(s) for 3 photograph(s)" in capsys.readouterr().err
     rng = np.random.default_rng(0)
     write_image(tmp_path / "noise.png", (rng.random((N_PX, N_PX)) * 255).astype(np.uint8))
-    no = ["calibrate", "--disc", str(tmp_path / "noise.png"), "--load-N", "100",
-          "--diameter-mm", "40", "--thickness-mm", "6", "--centre", "120", "120",
-          "--radius-px", "96", "--out", str(tmp_path / "y")]  # fmt: skip
+    no = [
+        "calibrate",
+        "--disc",
+        str(tmp_path / "noise.png"),
+        "--load-N",
+        "100",
+        "--diameter-mm",
+        "40",
+        "--thickness-mm",
+        "6",
+        "--centre",
+        "120",
+        "120",
+        "--radius-px",
+        "96",
+        "--out",
+        str(tmp_path / "y"),
+    ]
     assert main(no) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "not explained as a disc" in err
@@ -161,9 +192,16 @@ def test_disc_outlines_are_found_on_a_real_photograph():
 
     img = normalise(iio.imread(DATA / "discs_column_green_quarter.jpg")).data
     found = find_discs(img, count=8, radius_px=(22, 69))
-    expected = [(230.8, 163.8, 50.5), (55.0, 213.8, 50.5), (150.0, 214.0, 44.5),
-                (241.0, 69.3, 44.3), (152.3, 59.3, 44.3), (100.8, 137.8, 38.0),
-                (41.0, 101.8, 31.8), (77.0, 49.8, 32.0)]  # fmt: skip
+    expected = [
+        (230.8, 163.8, 50.5),
+        (55.0, 213.8, 50.5),
+        (150.0, 214.0, 44.5),
+        (241.0, 69.3, 44.3),
+        (152.3, 59.3, 44.3),
+        (100.8, 137.8, 38.0),
+        (41.0, 101.8, 31.8),
+        (77.0, 49.8, 32.0),
+    ]
     assert len(found) == 8
     for r, c, rad in expected:
         best = min(found, key=lambda f: np.hypot(f.row - r, f.col - c))
@@ -181,11 +219,32 @@ def test_analyze_mono_on_a_disc_photograph_with_roi_disc(tmp_path):
     write_image(tmp_path / "disc.png", img)
     row, left, right = CENTRE[0], CENTRE[1] - 0.93 * R_PX, CENTRE[1] + 0.93 * R_PX
     gap = 0.3 * R_PX
-    args = ["analyze", str(tmp_path / "disc.png"), "--roi-disc", "40",
-            "--order-at", f"{row}", f"{left}", "0.02", "--order-at", f"{row}", f"{right}", "0.02",
-            "--exclude-circle", f"{CENTRE[0] - R_PX}", f"{CENTRE[1]}", f"{gap}",
-            "--exclude-circle", f"{CENTRE[0] + R_PX}", f"{CENTRE[1]}", f"{gap}",
-            "--out", str(tmp_path / "a"), "--quiet", "--strict"]  # fmt: skip
+    args = [
+        "analyze",
+        str(tmp_path / "disc.png"),
+        "--roi-disc",
+        "40",
+        "--order-at",
+        f"{row}",
+        f"{left}",
+        "0.02",
+        "--order-at",
+        f"{row}",
+        f"{right}",
+        "0.02",
+        "--exclude-circle",
+        f"{CENTRE[0] - R_PX}",
+        f"{CENTRE[1]}",
+        f"{gap}",
+        "--exclude-circle",
+        f"{CENTRE[0] + R_PX}",
+        f"{CENTRE[1]}",
+        f"{gap}",
+        "--out",
+        str(tmp_path / "a"),
+        "--quiet",
+        "--strict",
+    ]
     assert main(args) == 0
     s = json.loads((tmp_path / "a" / "summary.json").read_text())
     assert s["pixel_size_mm"] == pytest.approx(20 / R_PX, rel=0.03)

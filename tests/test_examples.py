@@ -18,8 +18,9 @@ def _run(name: str, tmp_path, cache_dir) -> dict:
         spec = importlib.util.spec_from_file_location(name, EXAMPLES / f"{name}.py")
         mod = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(mod)
-        return mod.main(["--coarse", "--out", str(tmp_path), "--cache-dir", str(cache_dir),
-                         "--quiet"])  # fmt: skip
+        return mod.main(
+            ["--coarse", "--out", str(tmp_path), "--cache-dir", str(cache_dir), "--quiet"]
+        )
     finally:
         sys.path.remove(str(EXAMPLES))
 

@@ -231,9 +231,11 @@ def test_tiny_strains_keep_their_digits_in_stiff_materials(quarter, E):
     # and the same stress as the F-based formula at finite strain
     Hf = 0.2 * np.random.default_rng(3).standard_normal((5, 3, 3))
     np.testing.assert_allclose(
-        stiff.isochoric(np.eye(3) + Hf, H=Hf)[1], stiff.isochoric(np.eye(3) + Hf)[1],
-        rtol=1e-12, atol=1e-12 * E,
-    )  # fmt: skip
+        stiff.isochoric(np.eye(3) + Hf, H=Hf)[1],
+        stiff.isochoric(np.eye(3) + Hf)[1],
+        rtol=1e-12,
+        atol=1e-12 * E,
+    )
     assert det_minus_one(Hf) == pytest.approx(np.linalg.det(np.eye(3) + Hf) - 1.0, rel=1e-12)
 
 
@@ -274,8 +276,12 @@ def test_stress_recovery_and_vtu(quarter_run, tmp_path):
     path = write_solution_vtu(sol, tmp_path / "state.vtu", full=False)
     grid = pv.read(path)
     assert grid.n_points == sol.mesh.n_points
-    names = ("displacement_m", "cauchy_stress_Pa", "von_mises_stress_Pa",
-             "secondary_principal_stress_difference_Pa")  # fmt: skip
+    names = (
+        "displacement_m",
+        "cauchy_stress_Pa",
+        "von_mises_stress_Pa",
+        "secondary_principal_stress_difference_Pa",
+    )
     for name in names:
         assert name in grid.point_data
     assert "volume_ratio_Jbar" in grid.cell_data and "quarter model" in str(
@@ -302,8 +308,9 @@ def test_vtu_holds_the_full_sensor_unfolded_from_the_quarter(quarter_run, tmp_pa
     q = sol.mesh.points
     off = np.flatnonzero((q[:, 0] > 0) & (q[:, 1] > 0))
     for sx, sy in ((-1, 1), (1, -1), (-1, -1)):
-        img = np.array([key[tuple(np.round(q[i] * [sx, sy, 1] * 1e9).astype(np.int64))]
-                        for i in off])  # fmt: skip
+        img = np.array(
+            [key[tuple(np.round(q[i] * [sx, sy, 1] * 1e9).astype(np.int64))] for i in off]
+        )
         f = np.array([sx, sy, 1.0])
         np.testing.assert_allclose(u[img], sol.displacement[off] * f, rtol=0, atol=1e-15)
         np.testing.assert_allclose(s[img], sol.stress_nodes[off] * f[:, None] * f[None, :])
@@ -413,9 +420,11 @@ def test_small_loads_approach_hertz(cache_dir):
     slope, intercept = np.polyfit(a_h / h, depth / d_h, 1)
     # the incompressible bonded layer with Hertz's limit (16 E' / 9 = 4 E* / 3)
     d_layer = np.array([depth_guess(F, R, 0.75 * Es, h) for F in loads])
-    print(f"depth / Hertz {np.round(depth / d_h, 4)}, at chi = 0: {intercept:.4f}, slope "
-          f"{slope:.3f}; depth / layer {np.round(depth / d_layer, 4)}; contact radius / "
-          f"Hertz {np.round(radius / a_h, 4)}")  # fmt: skip
+    print(
+        f"depth / Hertz {np.round(depth / d_h, 4)}, at chi = 0: {intercept:.4f}, slope "
+        f"{slope:.3f}; depth / layer {np.round(depth / d_layer, 4)}; contact radius / "
+        f"Hertz {np.round(radius / a_h, 4)}"
+    )
     assert np.all(depth < d_h) and np.all(depth > d_layer)
     assert abs(intercept - 1) <= 0.015
     assert -0.755 < slope < 0
@@ -588,8 +597,13 @@ def test_indenter_out_of_contact_is_held_by_a_tangent_only_spring(cache_dir):
     b = Indenter(x=3e-3, radius=1.75e-3, normal_force=(0.0, 2.0))
 
     # both 0.05 mm above the sheet under their 2 N (half model: 1 N each)
-    model = Model(mesh, (a, b), {0: SHEET, 1: NeoHookean.from_E_nu(2.4e9, 0.37)},
-                   ContactSettings(), SolverSettings())  # fmt: skip
+    model = Model(
+        mesh,
+        (a, b),
+        {0: SHEET, 1: NeoHookean.from_E_nu(2.4e9, 0.37)},
+        ContactSettings(),
+        SolverSettings(),
+    )
     c = model.c0.copy()
     c[:, 2] += 5e-5
     st = State(np.zeros((model.n, 3)), c, [], [], [])
@@ -629,11 +643,13 @@ def test_branching_load_path_equals_the_straight_paths(coarse):
     Tree: 2 N, 2 N + 0.8 N shear (from 2 N), 4 N (from 2 N), 4 N + 1.6 N (from 4 N)."""
     mesh = coarse["half"]
     stick = ContactSettings(friction=math.inf)
-    tree = Indenter(normal_force=(2.0, 2.0, 4.0, 4.0),
-                    shear_force=((0, 0), (0.8, 0), (0, 0), (1.6, 0)))  # fmt: skip
+    tree = Indenter(
+        normal_force=(2.0, 2.0, 4.0, 4.0), shear_force=((0, 0), (0.8, 0), (0, 0), (1.6, 0))
+    )
     sols, _ = solve(mesh, [tree], contact=stick, parents=(0, 1, 1, 3))
-    low, _ = solve(mesh, [Indenter(normal_force=(2.0, 2.0), shear_force=((0, 0), (0.8, 0)))],
-                   contact=stick)  # fmt: skip
+    low, _ = solve(
+        mesh, [Indenter(normal_force=(2.0, 2.0), shear_force=((0, 0), (0.8, 0)))], contact=stick
+    )
     up = Indenter(normal_force=(2.0, 4.0, 4.0), shear_force=((0, 0), (0, 0), (1.6, 0)))
     high, _ = solve(mesh, [up], contact=stick)
     for got, want in zip(sols, [low[0], low[1], high[1], high[2]], strict=True):

@@ -115,12 +115,13 @@ def test_two_indenters_at_different_loads_on_a_thin_sheet(tmp_path):
     spec = MeshSpec(
         layers=Layers(2e-3, 0.0, 16e-3, 10e-3),
         indenters=(IndenterSite(-4e-3, 0.0), IndenterSite(4e-3, 2e-3)),
-        sizing=Sizing(h_contact=1e-3, refine_radius=1.5e-3, h_sheet=1.5e-3, h_far=4e-3,
-                      growth=0.5),
-    )  # fmt: skip
+        sizing=Sizing(h_contact=1e-3, refine_radius=1.5e-3, h_sheet=1.5e-3, h_far=4e-3, growth=0.5),
+    )
     mesh = build_mesh(spec, cache_dir=tmp_path)
-    inds = [Indenter(x=-4e-3, y=0.0, normal_force=(6.0,)),
-            Indenter(x=4e-3, y=2e-3, normal_force=(3.0,))]  # fmt: skip
+    inds = [
+        Indenter(x=-4e-3, y=0.0, normal_force=(6.0,)),
+        Indenter(x=4e-3, y=2e-3, normal_force=(3.0,)),
+    ]
     sols, stats = solve(mesh, inds)
     alphas = [row["alpha"] for row in sols[0].log if "alpha" in row]
     assert stats.cutbacks == 0 and sum(a < 1 for a in alphas) <= 3

@@ -49,11 +49,25 @@ def _out_of_range(k: Key) -> st.SearchStrategy:
     """Numbers outside [lo, hi] of a numeric key, and non-finite ones."""
     bad = [st.sampled_from([math.nan, math.inf, -math.inf])]
     if k.lo is not None:
-        bad.append(st.floats(max_value=k.lo, exclude_max=not k.lo_open, allow_nan=False,
-                             allow_infinity=False, min_value=-1e12))  # fmt: skip
+        bad.append(
+            st.floats(
+                max_value=k.lo,
+                exclude_max=not k.lo_open,
+                allow_nan=False,
+                allow_infinity=False,
+                min_value=-1e12,
+            )
+        )
     if k.hi is not None:
-        bad.append(st.floats(min_value=k.hi, exclude_min=True, max_value=1e15,
-                             allow_nan=False, allow_infinity=False))  # fmt: skip
+        bad.append(
+            st.floats(
+                min_value=k.hi,
+                exclude_min=True,
+                max_value=1e15,
+                allow_nan=False,
+                allow_infinity=False,
+            )
+        )
     return st.one_of(bad)
 
 
@@ -67,10 +81,13 @@ def _bad_value(k: Key) -> st.SearchStrategy:
             _out_of_range(k), _WORDS, st.lists(st.floats(0, 1), min_size=2, max_size=3)
         )
     if k.kind == "int":
-        whole = st.integers(-10**6, 10**9).filter(
-            lambda v: k.lo is not None and (v < k.lo or v > k.hi)
-            or (k.choices is not None and v not in k.choices)
-        )  # fmt: skip
+        whole = st.integers(-(10**6), 10**9).filter(
+            lambda v: (
+                k.lo is not None
+                and (v < k.lo or v > k.hi)
+                or (k.choices is not None and v not in k.choices)
+            )
+        )
         return st.one_of(whole, st.floats(0.1, 0.9).map(lambda f: 3 + f), _WORDS)
     if k.kind == "str" and k.choices:
         return st.one_of(_WORDS.filter(lambda w: w not in k.choices), st.integers(), st.just(""))
@@ -91,8 +108,12 @@ def _bad_value(k: Key) -> st.SearchStrategy:
 
 def _key_items() -> list[tuple[str, Key]]:
     items = [("case", SCHEMA["case"])]
-    items += [(f"{t}.{n}", k) for t, tab in SCHEMA.items() if isinstance(tab, dict)
-              for n, k in tab.items()]  # fmt: skip
+    items += [
+        (f"{t}.{n}", k)
+        for t, tab in SCHEMA.items()
+        if isinstance(tab, dict)
+        for n, k in tab.items()
+    ]
     items += [(f"indenter.{n}", k) for n, k in INDENTER_SCHEMA.items() if k.default is not None]
     return items
 
@@ -151,24 +172,33 @@ OPTIONS = [
     (["compare", "{maps}", "{maps}"], "--measured-pixel-mm", "positive"),
     (["compare", "{maps}", "{maps}"], "--rotation-deg", "finite"),
     (["estimate", "{maps}", "--calibration", "{cal}"], "--pixel-mm", "positive"),
-    (["calibrate", "--disc", "{maps}", "--diameter-mm", "40", "--thickness-mm", "5"],
-     "--load-N", "positive"),
-    (["calibrate", "--disc", "{maps}", "--load-N", "300", "--thickness-mm", "5"],
-     "--diameter-mm", "positive"),
+    (
+        ["calibrate", "--disc", "{maps}", "--diameter-mm", "40", "--thickness-mm", "5"],
+        "--load-N",
+        "positive",
+    ),
+    (
+        ["calibrate", "--disc", "{maps}", "--load-N", "300", "--thickness-mm", "5"],
+        "--diameter-mm",
+        "positive",
+    ),
     (["sweep", "{cfg}"], "--workers", "at_least_one"),
     (["mesh"], "--h-contact-mm", "finite"),
     (["analyze", "{img}"], "--roi-polygon", "pixel"),
     (["analyze", "{img}"], "--exclude-polygon", "pixel"),
-]  # fmt: skip
+]
 
 _BAD_OPTION = {
     "positive": st.one_of(st.floats(max_value=0, min_value=-1e9), st.just(math.nan), _WORDS),
-    "fraction": st.one_of(st.floats(min_value=1, exclude_min=True, max_value=1e9),
-                          st.floats(max_value=0, exclude_max=True, min_value=-1e9), _WORDS),
+    "fraction": st.one_of(
+        st.floats(min_value=1, exclude_min=True, max_value=1e9),
+        st.floats(max_value=0, exclude_max=True, min_value=-1e9),
+        _WORDS,
+    ),
     "finite": st.one_of(st.sampled_from([math.nan, math.inf, -math.inf]), _WORDS),
     "at_least_one": st.one_of(st.integers(-1000, 0), st.floats(0.1, 5.9), _WORDS),
     "pixel": st.one_of(_WORDS, st.sampled_from(["1;2", "nan,1", "1,inf", "1,2,3", ","])),
-}  # fmt: skip
+}
 
 
 @pytest.fixture(scope="module")
@@ -182,8 +212,12 @@ def inputs(tmp_path_factory):
     good = {"a": 1.0, "b": 1.5, "sigma_logF": 0.1, "n": 5, "range": [0.1, 5.0]}
     (d / "cal.json").write_text(json.dumps({"version": 2, "normal_fits": {"order_at_2mm": good}}))
     (d / "cfg.toml").write_text('case = "x"\n')
-    return {"img": d / "img.png", "maps": d / "maps.npz", "cal": d / "cal.json",
-            "cfg": d / "cfg.toml"}  # fmt: skip
+    return {
+        "img": d / "img.png",
+        "maps": d / "maps.npz",
+        "cal": d / "cal.json",
+        "cfg": d / "cfg.toml",
+    }
 
 
 def _text(v) -> str:
@@ -191,8 +225,11 @@ def _text(v) -> str:
 
 
 @FUZZ
-@given(case=st.sampled_from(OPTIONS).flatmap(
-    lambda c: _BAD_OPTION[c[2]].map(lambda v: (c[0], c[1], _text(v)))))  # fmt: skip
+@given(
+    case=st.sampled_from(OPTIONS).flatmap(
+        lambda c: _BAD_OPTION[c[2]].map(lambda v: (c[0], c[1], _text(v)))
+    )
+)
 def test_bad_option_values_are_refused(case, inputs, earlier, capsys):
     head, option, value = case
     argv = [a.format(**inputs) for a in head] + [f"{option}={value}", "--out", str(earlier)]
@@ -204,8 +241,11 @@ _EXT = st.sampled_from(["png", "tif", "npz", "json", "toml", "csv"])
 
 
 @FUZZ
-@given(data=st.binary(max_size=400), ext=_EXT, command=st.sampled_from(
-    ["analyze", "compare", "estimate", "calibrate", "predict", "sweep"]))  # fmt: skip
+@given(
+    data=st.binary(max_size=400),
+    ext=_EXT,
+    command=st.sampled_from(["analyze", "compare", "estimate", "calibrate", "predict", "sweep"]),
+)
 def test_garbage_files_are_refused(data, ext, command, inputs, earlier, tmp_path_factory, capsys):
     junk = tmp_path_factory.mktemp("junk") / f"junk.{ext}"
     # a NUL byte makes any config or sweep file invalid TOML: an empty file is a valid
@@ -215,10 +255,19 @@ def test_garbage_files_are_refused(data, ext, command, inputs, earlier, tmp_path
         "analyze": ["analyze", str(junk)],
         "compare": ["compare", str(junk), str(inputs["maps"])],
         "estimate": ["estimate", str(inputs["maps"]), "--calibration", str(junk)],
-        "calibrate": ["calibrate", "--disc", str(junk), "--load-N", "300", "--diameter-mm",
-                      "40", "--thickness-mm", "5"],
+        "calibrate": [
+            "calibrate",
+            "--disc",
+            str(junk),
+            "--load-N",
+            "300",
+            "--diameter-mm",
+            "40",
+            "--thickness-mm",
+            "5",
+        ],
         "predict": ["predict", str(junk), "--quiet"],
         "sweep": ["sweep", str(junk), "--quiet"],
-    }[command]  # fmt: skip
+    }[command]
     code = main([*argv, "--out", str(earlier)])
     _assert_refused(code, capsys, earlier, earlier.parent)

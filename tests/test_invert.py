@@ -23,8 +23,10 @@ from fringekit.library.store import LoadedIndenter
 from fringekit.optics import Camera, write_image
 from fringekit.prediction.render import no_data_fill
 
-TWO = [LoadedIndenter(-2.0e-3, 0.8e-3, 3.5e-3, 0.5, -0.4, 3.3),
-       LoadedIndenter(2.5e-3, -1.2e-3, 3.5e-3, -0.3, 0.6, 2.3)]  # fmt: skip
+TWO = [
+    LoadedIndenter(-2.0e-3, 0.8e-3, 3.5e-3, 0.5, -0.4, 3.3),
+    LoadedIndenter(2.5e-3, -1.2e-3, 3.5e-3, -0.3, 0.6, 2.3),
+]
 
 
 def _model(lib, method, inds, grid=None, cfg=None):
@@ -33,8 +35,9 @@ def _model(lib, method, inds, grid=None, cfg=None):
     opt = optics_setup(cfg)
     grid = grid or opt.grid
     n = grid.n_pixels
-    blank = ImageModel.build(lib, grid, method, np.zeros((n, 1)), np.ones(n, bool), opt,
-                             white_light_wavelengths=15)  # fmt: skip
+    blank = ImageModel.build(
+        lib, grid, method, np.zeros((n, 1)), np.ones(n, bool), opt, white_light_wavelengths=15
+    )
     img, outside = blank.linear(inds)
     return replace(blank, measured=0.8 * img + 0.02, usable=outside)
 
@@ -76,8 +79,10 @@ def test_no_load_gives_no_indenter_and_close_ones_are_two(test_library):
     flat = 0.02 + rng.normal(0, 0.004, (n, 1))
     empty = ImageModel.build(test_library, opt.grid, "mono", flat, np.ones(n, bool), opt)
     assert len(invert_image(empty).params) == 0
-    close = [LoadedIndenter(-2.0e-3, 0.0, 3.5e-3, 0.0, 0.0, 3.0),
-             LoadedIndenter(2.0e-3, 0.0, 3.5e-3, 0.0, 0.0, 2.4)]  # fmt: skip
+    close = [
+        LoadedIndenter(-2.0e-3, 0.0, 3.5e-3, 0.0, 0.0, 3.0),
+        LoadedIndenter(2.0e-3, 0.0, 3.5e-3, 0.0, 0.0, 2.4),
+    ]
     model = _model(test_library, "mono", close)
     assert len(detect(model, noise_sd(model))) == 2
     res = invert_image(model)
@@ -122,8 +127,20 @@ def noisy_fem(tmp_path_factory, cache_dir):
     """predict's images of two sheared indenters 6 mm apart, 8-bit with camera noise."""
     d = tmp_path_factory.mktemp("fem")
     (d / "two.toml").write_text(NOISY_FEM)
-    assert main(["predict", str(d / "two.toml"), "--out", str(d / "two"), "--cache-dir",
-                 str(cache_dir), "--quiet"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "predict",
+                str(d / "two.toml"),
+                "--out",
+                str(d / "two"),
+                "--cache-dir",
+                str(cache_dir),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     return d / "two" / "state_02"
 
 
@@ -143,8 +160,19 @@ def test_a_noisy_fem_image_within_coarse_targets(test_library, noisy_fem, tmp_pa
         "phase": [noisy_fem / "six_step" / f"step{k}.png" for k in range(1, 7)],
     }[method]
     out = tmp_path / "inv"
-    args = ["invert", *map(str, images), "--library", str(test_library.folder), "--out",
-            str(out), "--pixel-mm", "0.125", "--method", method, "--quiet"]  # fmt: skip
+    args = [
+        "invert",
+        *map(str, images),
+        "--library",
+        str(test_library.folder),
+        "--out",
+        str(out),
+        "--pixel-mm",
+        "0.125",
+        "--method",
+        method,
+        "--quiet",
+    ]
     assert main(args) == 0
     rows = _loads(out / "loads.csv")
     rows = rows[np.argsort(rows[:, 0])]
@@ -202,17 +230,44 @@ def test_bad_inputs_are_one_line_and_write_nothing(test_library, tmp_path, capsy
     _one_line_exit_2(base, capsys, ["--pixel-mm is required"])
     other = sensor_config(**{"sheet.thickness_mm": 2.0})
     (tmp_path / "other.toml").write_text(to_toml(other))
-    _one_line_exit_2(base + ["--pixel-mm", "0.125", "--sensor", str(tmp_path / "other.toml")],
-                     capsys, ["sheet.thickness_mm", "3.0", "2.0"])  # fmt: skip
+    _one_line_exit_2(
+        base + ["--pixel-mm", "0.125", "--sensor", str(tmp_path / "other.toml")],
+        capsys,
+        ["sheet.thickness_mm", "3.0", "2.0"],
+    )
     bad = tmp_path / "badlib"
     shutil.copytree(lib, bad)
     f = next(bad.glob("fields_*.npz"))
     f.write_bytes(f.read_bytes()[:-100])
-    _one_line_exit_2(["invert", str(tmp_path / "max.png"), "--library", str(bad), "--out",
-                      str(out), "--pixel-mm", "0.125"], capsys, ["checksum"])  # fmt: skip
+    _one_line_exit_2(
+        [
+            "invert",
+            str(tmp_path / "max.png"),
+            "--library",
+            str(bad),
+            "--out",
+            str(out),
+            "--pixel-mm",
+            "0.125",
+        ],
+        capsys,
+        ["checksum"],
+    )
     (bad / "manifest.json").write_text("{not json")
-    _one_line_exit_2(["invert", str(tmp_path / "max.png"), "--library", str(bad), "--out",
-                      str(out), "--pixel-mm", "0.125"], capsys, ["corrupt"])  # fmt: skip
+    _one_line_exit_2(
+        [
+            "invert",
+            str(tmp_path / "max.png"),
+            "--library",
+            str(bad),
+            "--out",
+            str(out),
+            "--pixel-mm",
+            "0.125",
+        ],
+        capsys,
+        ["corrupt"],
+    )
     assert (out / "loads.csv").read_text() == "earlier\n"  # the earlier result is intact
     assert not list(tmp_path.glob(".out*"))  # no half-written run folder left behind
 
@@ -220,20 +275,46 @@ def test_bad_inputs_are_one_line_and_write_nothing(test_library, tmp_path, capsy
 @pytest.mark.slow
 def test_predict_from_a_library(test_library, tmp_path):
     cfg = sensor_config(**{"contact.friction": "stick"})
-    cfg["indenter"] = [dict(cfg["indenter"][0], x_mm=-2.0, load_N=[3.0], shear_N=[[0.4, 0.2]]),
-                       dict(cfg["indenter"][0], x_mm=3.0, load_N=[2.2])]  # fmt: skip
+    cfg["indenter"] = [
+        dict(cfg["indenter"][0], x_mm=-2.0, load_N=[3.0], shear_N=[[0.4, 0.2]]),
+        dict(cfg["indenter"][0], x_mm=3.0, load_N=[2.2]),
+    ]
     (tmp_path / "c.toml").write_text(to_toml(cfg))
     out = tmp_path / "pred"
-    assert main(["predict", str(tmp_path / "c.toml"), "--library", str(test_library.folder),
-                 "--out", str(out), "--quiet"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "predict",
+                str(tmp_path / "c.toml"),
+                "--library",
+                str(test_library.folder),
+                "--out",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     for name in ("maps.npz", "dark_field.png", "white_light.png", "six_step/step6.png"):
         assert (out / "state_01" / name).is_file()
     maps = np.load(out / "state_01" / "maps.npz")
     assert np.nanmax(maps["fringe_order"]) > 1.0
     cfg["indenter"][0]["load_N"] = [5.0]
     (tmp_path / "c.toml").write_text(to_toml(cfg))
-    assert main(["predict", str(tmp_path / "c.toml"), "--library", str(test_library.folder),
-                 "--out", str(out), "--quiet"]) == 2  # fmt: skip
+    assert (
+        main(
+            [
+                "predict",
+                str(tmp_path / "c.toml"),
+                "--library",
+                str(test_library.folder),
+                "--out",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 2
+    )
     assert (out / "state_01" / "maps.npz").is_file()  # the earlier run is kept
 
 

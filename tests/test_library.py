@@ -54,8 +54,14 @@ def test_manifest_resume_and_checksums(tiny_library, capsys):
     # a second build of the same folder solves nothing and gives the same fields
     before = {n: f["sha256"] for n, f in m["files"].items()}
     msgs = []
-    m2 = build_library(sensor_config(**TINY), tiny_library.folder, loads=TINY_LOADS,
-                       ratios=TINY_RATIOS, workers=0, echo=msgs.append)  # fmt: skip
+    m2 = build_library(
+        sensor_config(**TINY),
+        tiny_library.folder,
+        loads=TINY_LOADS,
+        ratios=TINY_RATIOS,
+        workers=0,
+        echo=msgs.append,
+    )
     assert "2 already solved" in msgs[0]
     assert {n: f["sha256"] for n, f in m2.manifest["files"].items()} == before
     written = json.loads((tiny_library.folder / "manifest.json").read_text())
@@ -65,7 +71,7 @@ def test_manifest_resume_and_checksums(tiny_library, capsys):
 def test_the_chain_of_a_build_and_of_a_resumed_one():
     """Normal loads in a chain, each branch from its normal state; finished branches keep
     only their normal state (the way there); nothing above the last branch to do."""
-    from fringekit.library.build import chain_config
+    from fringekit.library.chain import chain_config
 
     cfg = sensor_config()
     c, parents, states = chain_config(cfg, 3.5, [1.0, 2.0, 3.0], [0.0, 0.5], [True, True, True])
@@ -96,8 +102,16 @@ def test_a_resumed_build_follows_the_same_path(test_library, cache_dir, tmp_path
     lost = sorted((folder / "branches").glob("*.npz"))[1]
     lost.unlink()
     msgs = []
-    build_library(sensor_config(), folder, loads=LOADS, ratios=RATIOS, workers=1,
-                  cache_dir=cache_dir, echo=msgs.append, progress=True)  # fmt: skip
+    build_library(
+        sensor_config(),
+        folder,
+        loads=LOADS,
+        ratios=RATIOS,
+        workers=1,
+        cache_dir=cache_dir,
+        echo=msgs.append,
+        progress=True,
+    )
     assert "2 already solved" in msgs[0]
     again = load_library(folder)
     for key in ("AB", "force_N", "contact_radius_m"):

@@ -38,8 +38,7 @@ def dent():
     as a user leaves out the contact with --exclude-circle."""
     n = 240
     field = Boussinesq(F=8.0, nu=0.49, z_top=3e-3, thickness=3e-3, core=1.3e-3)
-    m = optical_map(field, PixelGrid.from_field_of_view(12e-3, (n, n)), PSM4_ASSUMED,
-                    n_samples=48)  # fmt: skip
+    m = optical_map(field, PixelGrid.from_field_of_view(12e-3, (n, n)), PSM4_ASSUMED, n_samples=48)
     roi = m.mask & ~circle_mask((n, n), ((n - 1) / 2, (n - 1) / 2), 1.6e-3 / (12e-3 / n))
     q = np.where(m.mask[..., None], np.nan_to_num(m.q[:, :, 0]), [1.0, 0, 0, 0])
     return q, m.fringe_order(), roi
@@ -165,16 +164,33 @@ def test_analyze_mono_writes_points_at_the_true_order(photo, tmp_path):
     root, truth = photo
     pts = _points(tmp_path / "p.csv", "row,col\n60,119.5\n10,10\n119.5,150\n200,119\n")
     out = tmp_path / "a"
-    args = ["analyze", str(root / "dark.png"), "--exclude-circle", "119.5", "119.5", "32",
-            "--pixel-mm", "0.05", "--points", pts, "--out", str(out), "--quiet",
-            "--strict"]  # fmt: skip
+    args = [
+        "analyze",
+        str(root / "dark.png"),
+        "--exclude-circle",
+        "119.5",
+        "119.5",
+        "32",
+        "--pixel-mm",
+        "0.05",
+        "--points",
+        pts,
+        "--out",
+        str(out),
+        "--quiet",
+        "--strict",
+    ]
     assert main(args) == 0
     s = json.loads((out / "summary.json").read_text())
     assert s["method"] == "mono" and s["reliable_fraction_of_roi"] > 0.9
     rows = list(csv.reader((out / "points.csv").open()))
     assert rows[0] == ["row", "col", "x_mm", "y_mm", "order", "order_sd", "reliable"]
-    assert [r[:2] for r in rows[1:]] == [["60", "119.5"], ["10", "10"], ["119.5", "150"],
-                                         ["200", "119"]]  # fmt: skip
+    assert [r[:2] for r in rows[1:]] == [
+        ["60", "119.5"],
+        ["10", "10"],
+        ["119.5", "150"],
+        ["200", "119"],
+    ]
     for r in (rows[1], rows[2], rows[4]):
         rr, cc = int(round(float(r[0]))), int(round(float(r[1])))
         assert r[6] == "true" and abs(float(r[4]) - truth[rr, cc]) < 0.1

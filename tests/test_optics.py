@@ -366,9 +366,14 @@ def _retarder_map(order, theta, mask, guide):
     n = order.shape[0]
     q = retarder(2 * np.pi * order, theta)[:, :, None, :]
     return OpticalMap(
-        PixelGrid((n, n), 1e-4), np.array([PSM4_ASSUMED.wavelength_ref]), q,
-        np.where(mask, guide, np.nan), mask, True, PSM4_ASSUMED,
-    )  # fmt: skip
+        PixelGrid((n, n), 1e-4),
+        np.array([PSM4_ASSUMED.wavelength_ref]),
+        q,
+        np.where(mask, guide, np.nan),
+        mask,
+        True,
+        PSM4_ASSUMED,
+    )
 
 
 def test_branch_ambiguity_marks_every_terrace_and_nothing_under_an_exact_guide():

@@ -72,8 +72,9 @@ def test_unfolding_flips_the_mirrored_shear_components(small_meshes):
     mesh = small_meshes["quarter"]
     sigma = np.array([[1.0, 0.3, 0.2], [0.3, -1.0, 0.1], [0.2, 0.1, 0.5]]) * 1e4
     field = FEMStressField(_homogeneous(mesh, np.eye(3), sigma))
-    p = np.array([[1e-3, 2e-3, 1e-3], [-1e-3, 2e-3, 1e-3], [1e-3, -2e-3, 1e-3],
-                  [-1e-3, -2e-3, 1e-3]])  # fmt: skip
+    p = np.array(
+        [[1e-3, 2e-3, 1e-3], [-1e-3, 2e-3, 1e-3], [1e-3, -2e-3, 1e-3], [-1e-3, -2e-3, 1e-3]]
+    )
     s = field.stress(p)
     np.testing.assert_allclose(s[0], sigma, rtol=1e-9)
     sx = sigma * np.array([[1, -1, -1], [-1, 1, 1], [-1, 1, 1]])  # x -> -x
@@ -169,9 +170,14 @@ def test_indentation_rays_converge_and_contact_is_masked(coarse_dent):
     lat = sample_rays(field, fine, 32, lateral_step=1e-3)
     q, simple, valid = integrate_layers([lat], [LAW], [LAW.wavelength_ref])
     m = OpticalMap(
-        fine, np.array([LAW.wavelength_ref]), q.reshape(80, 80, 1, 4),
-        np.where(valid, simple, np.nan).reshape(80, 80), valid.reshape(80, 80), True, LAW,
-    )  # fmt: skip
+        fine,
+        np.array([LAW.wavelength_ref]),
+        q.reshape(80, 80, 1, 4),
+        np.where(valid, simple, np.nan).reshape(80, 80),
+        valid.reshape(80, 80),
+        True,
+        LAW,
+    )
     assert np.array_equal(m.mask, direct.mask)
     d = np.abs(m.fringe_order() - direct.fringe_order())[direct.mask]
     assert d.max() < 0.01, d.max()

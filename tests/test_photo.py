@@ -22,8 +22,10 @@ CAMERA = Camera(exposure=0.9, full_well=20000.0, read_noise=10.0)
 
 def _six_photos(q, model, seed0=0):
     """The six phase-stepped photographs of ``q`` through ``model``, as floats."""
-    return [photograph(q, a, CAMERA, model, seed=seed0 + k).astype(float) / 255
-            for k, a in enumerate(six_step_arrangements())]  # fmt: skip
+    return [
+        photograph(q, a, CAMERA, model, seed=seed0 + k).astype(float) / 255
+        for k, a in enumerate(six_step_arrangements())
+    ]
 
 
 def test_each_effect_of_the_photograph_model():
@@ -56,8 +58,7 @@ def test_six_step_analysis_of_realistic_photographs():
     alone is 0.008 fringe), on at least 95 % of the pixels with data (measured 100 %).
     At camera size the isoclinic fold breaks (next test)."""
     order, q, mask = indent_field(96, 96)
-    model = PhotoModel(residual_rms_rad=0.05, vignetting=0.3, glare=0.02, jpeg_quality=90,
-                       seed=7)  # fmt: skip
+    model = PhotoModel(residual_rms_rad=0.05, vignetting=0.3, glare=0.02, jpeg_quality=90, seed=7)
     res = six_step(_six_photos(q, model), mask=mask)
     fo = unwrap_fringe_order(res, resolve_ambiguity(res), anchor_order=0.3)
     ok = fo.reliable & mask
@@ -75,8 +76,7 @@ def test_six_step_fold_by_fringe_count_holds_at_camera_size():
     from fringekit.analysis import count_fringe_order
 
     order, q, mask = indent_field(400, 600)  # far-field fringe contours tens of px wide
-    model = PhotoModel(residual_rms_rad=0.05, vignetting=0.3, glare=0.02, jpeg_quality=90,
-                       seed=7)  # fmt: skip
+    model = PhotoModel(residual_rms_rad=0.05, vignetting=0.3, glare=0.02, jpeg_quality=90, seed=7)
     res = six_step(_six_photos(q, model), mask=mask)
     iso = unwrap_fringe_order(res, resolve_ambiguity(res), anchor_order=0.3)
     cnt = count_fringe_order(res, anchor_order=0.3)
@@ -139,6 +139,14 @@ def test_zero_load_reference_removes_residual_birefringence(tmp_path):
         rms[with_ref] = float(np.sqrt(np.mean((m["fringe_order"][ok] - order[ok]) ** 2)))
     assert rms[False] > 0.025 and rms[True] < 0.015, rms
     assert json.loads((out / "summary.json").read_text())["phase"]["reference"] == files["zero"]
-    bad = ["analyze", files["loaded"][0], "--method", "mono", "--reference", *files["zero"],
-           "--out", str(tmp_path / "x")]  # fmt: skip
+    bad = [
+        "analyze",
+        files["loaded"][0],
+        "--method",
+        "mono",
+        "--reference",
+        *files["zero"],
+        "--out",
+        str(tmp_path / "x"),
+    ]
     assert main(bad) == 2 and not (tmp_path / "x").exists()

@@ -24,9 +24,17 @@ def _energy(gap: float, anchor_shift: float) -> float:
     a = R * n + anchor_shift * t
     a = R * a / np.linalg.norm(a)
     res = sphere_contact(
-        x[None, None], np.full((1, 1), 1e-8), np.zeros(3), R, np.zeros((1, 1)), EPS,
-        mu=math.inf, anchor=a[None, None], eps_t=EPS, tangent=False,
-    )  # fmt: skip
+        x[None, None],
+        np.full((1, 1), 1e-8),
+        np.zeros(3),
+        R,
+        np.zeros((1, 1)),
+        EPS,
+        mu=math.inf,
+        anchor=a[None, None],
+        eps_t=EPS,
+        tangent=False,
+    )
     return res.energy
 
 

@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("parallel", "meshes", "fea", "optics", "analysis", "fringekit")
-SOURCES = sorted(p for pkg in PACKAGES for p in (ROOT / pkg).glob("*.py"))
+PACKAGES = ("meshes", "fea", "optics", "analysis", "fringekit")
+SOURCES = sorted(p for pkg in PACKAGES for p in (ROOT / pkg).rglob("*.py"))
 SCRIPTS = sorted([*(ROOT / "bench").glob("*.py"), *(ROOT / "examples").glob("*.py")])
 TESTS = sorted((ROOT / "tests").glob("*.py"))
 
@@ -98,8 +98,11 @@ def test_markdown_links_resolve_inside_the_repository(doc):
     links = re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", text)
     local = [x for x in links if not re.match(r"[a-z]+://", x)]
     missing = [x for x in local if not (path.parent / x).resolve().exists()]
-    outside = [x for x in local if ROOT not in (path.parent / x).resolve().parents
-               and (path.parent / x).resolve() != ROOT]  # fmt: skip
+    outside = [
+        x
+        for x in local
+        if ROOT not in (path.parent / x).resolve().parents and (path.parent / x).resolve() != ROOT
+    ]
     assert not missing and not outside, (missing, outside)
 
 
@@ -136,8 +139,90 @@ def test_no_test_patches_a_private_name():
     found = []
     for p in TESTS:
         for name in _patched_names(ast.parse(p.read_text())):
-            private = [part for part in name.split(".")
-                       if part.startswith("_") and not part.startswith("__")]  # fmt: skip
+            private = [
+                part
+                for part in name.split(".")
+                if part.startswith("_") and not part.startswith("__")
+            ]
             if private:
                 found.append((_rel(p), name))
     assert not found, found
+
+
+def _module_name(path: Path) -> str:
+    """The dotted name a source file installs as (the stages are mapped into fringekit)."""
+    rel = path.relative_to(ROOT).with_suffix("")
+    parts = list(rel.parts)
+    if parts[0] != "fringekit":
+        parts.insert(0, "fringekit")
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+#: Imports kept inside functions on purpose, each optional or heavy and needed on one path
+#: only: PARDISO (x86 only), fTetWild (mesher = "tetwild"), Dask's cluster (sweeps and
+#: library builds), VTK through pyvista (VTU files, FEM fields) and matplotlib.tri with it.
+LAZY_IMPORTS = {"pypardiso", "pytetwild", "dask.distributed", "pyvista", "matplotlib.tri", "colour"}
+
+
+def test_imports_sit_at_the_top_of_their_modules():
+    found = []
+    for p in SOURCES:
+        for fn in ast.walk(ast.parse(p.read_text())):
+            if not isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            for node in ast.walk(fn):
+                if isinstance(node, ast.Import):
+                    names = [a.name for a in node.names]
+                elif isinstance(node, ast.ImportFrom):
+                    names = [node.module or ""]
+                else:
+                    continue
+                lazy = [n for n in names if n.split(".")[0] in LAZY_IMPORTS or n in LAZY_IMPORTS]
+                found += [(_rel(p), fn.name, n) for n in names if n not in lazy]
+    assert not found, found
+
+
+def test_no_import_cycle_between_modules():
+    """Module-level imports of fringekit's modules form no cycle (a package's __init__
+    included: a module that imports its own package's __init__ while the __init__
+    imports it is a cycle)."""
+    modules = {_module_name(p): p for p in SOURCES}
+    graph: dict[str, set[str]] = {}
+    for name, p in modules.items():
+        is_pkg = p.name == "__init__.py"
+        edges = set()
+        for node in ast.parse(p.read_text()).body:
+            if isinstance(node, ast.ImportFrom) and node.level:
+                base = name.split(".")[: len(name.split(".")) - node.level + is_pkg]
+                target = ".".join(base + ([node.module] if node.module else []))
+            elif isinstance(node, ast.ImportFrom):
+                target = node.module or ""
+            elif isinstance(node, ast.Import):
+                target = node.names[0].name
+            else:
+                continue
+            if isinstance(node, ast.ImportFrom):
+                subs = [f"{target}.{a.name}" for a in node.names if f"{target}.{a.name}" in modules]
+                edges.update(subs or [target])
+            else:
+                edges.add(target)
+        graph[name] = {e for e in edges if e in modules and e != name}
+    # the top-level package re-exports the API: edges into it are the interpreter's, not
+    # a design choice, and fringekit itself is the root every import passes through
+    graph.pop("fringekit", None)
+    state: dict[str, int] = {}
+    cycles = []
+
+    def visit(n, path):
+        state[n] = 1
+        for m in sorted(graph.get(n, ())):
+            if state.get(m) == 1:
+                cycles.append(path[path.index(m) :] + [m])
+            elif m not in state:
+                visit(m, [*path, m])
+        state[n] = 2
+
+    for n in sorted(graph):
+        if n not in state:
+            visit(n, [n])
+    assert not cycles, cycles

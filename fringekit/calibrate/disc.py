@@ -125,16 +125,29 @@ class DiscCalibration:
         out.mkdir(parents=True, exist_ok=True)
         (out / "disc_calibration.json").write_text(json.dumps(self.result(), indent=2))
         (out / "summary.json").write_text(json.dumps(self.summary, indent=2))
-        titles = [f"{Path(im['file']).name}: {im['load_N']:g} N, centre {im['centre_order']:.3f}"
-                  for im in self.images]  # fmt: skip
+        titles = [
+            f"{Path(im['file']).name}: {im['load_N']:g} N, centre {im['centre_order']:.3f}"
+            for im in self.images
+        ]
         disc_fit_figure(out / "disc_fit.png", self.photos, self.orders, titles)
         return out
 
 
 def calibrate_disc(
-    images, *, load_N, diameter_mm, thickness_mm, wavelength_nm=None, reference=None,
-    field="dark", centre_px=None, radius_px=None, pixel_mm=None, dark=None, echo=print,
-) -> DiscCalibration:  # fmt: skip
+    images,
+    *,
+    load_N,
+    diameter_mm,
+    thickness_mm,
+    wavelength_nm=None,
+    reference=None,
+    field="dark",
+    centre_px=None,
+    radius_px=None,
+    pixel_mm=None,
+    dark=None,
+    echo=print,
+) -> DiscCalibration:
     """The material fringe value from photographs of a disc in diametral compression.
 
     Fits Frocht's field through the polariscope to the photographs' intensities: the
@@ -199,8 +212,9 @@ def calibrate_disc(
         f"{geometry.radius_px:.1f} px from the {how}; fitting {len(photos)} photograph(s)"
     )
     discs = [DiscImage(p, P, n) for p, P, n in zip(photos, all_loads, names, strict=True)]
-    fit = fit_disc_photos(discs, geometry, diameter=D, thickness=t, field=field,
-                          shared_light=reference is not None)  # fmt: skip
+    fit = fit_disc_photos(
+        discs, geometry, diameter=D, thickness=t, field=field, shared_light=reference is not None
+    )
     worst = max(fit.residuals)
     if worst > REFUSE_RESIDUAL:
         raise InputError(
@@ -217,33 +231,64 @@ def calibrate_disc(
         )
     g = fit.geometry
     summary = {
-        "disc": {"centre_px": [g.row, g.col], "radius_px": g.radius_px,
-                 "load_axis_tilt_deg": float(np.degrees(g.angle_rad)), "found_from": how,
-                 "pixel_mm": diameter_mm / 2 / g.radius_px},  # fmt: skip
-        "diameter_mm": diameter_mm, "thickness_mm": thickness_mm, "field": field,
-        "wavelength_nm": wavelength_nm, "reference": None if reference is None else str(reference),
-        "sd_method": fit.sd_method, "model_evaluations": fit.evaluations,
-        "warnings": warnings, "time_s": time.perf_counter() - t0,
-    }  # fmt: skip
+        "disc": {
+            "centre_px": [g.row, g.col],
+            "radius_px": g.radius_px,
+            "load_axis_tilt_deg": float(np.degrees(g.angle_rad)),
+            "found_from": how,
+            "pixel_mm": diameter_mm / 2 / g.radius_px,
+        },
+        "diameter_mm": diameter_mm,
+        "thickness_mm": thickness_mm,
+        "field": field,
+        "wavelength_nm": wavelength_nm,
+        "reference": None if reference is None else str(reference),
+        "sd_method": fit.sd_method,
+        "model_evaluations": fit.evaluations,
+        "warnings": warnings,
+        "time_s": time.perf_counter() - t0,
+    }
     images_out = [
         {"file": n, "load_N": P, "centre_order": c, "residual_rms": r}
         for n, P, c, r in zip(names, all_loads, fit.centre_orders, fit.residuals, strict=True)
     ]
     orders = [_order_map(p.shape, g, fit, P, D, t) for p, P in zip(photos, all_loads, strict=True)]
-    return DiscCalibration(fit.f_sigma, fit.f_sigma_sd, fit.offset_order, images_out, summary,
-                           photos, orders)  # fmt: skip
+    return DiscCalibration(
+        fit.f_sigma, fit.f_sigma_sd, fit.offset_order, images_out, summary, photos, orders
+    )
 
 
 def run_disc_photos(
-    images, loads, *, diameter_mm, thickness_mm, out, wavelength_nm=None, reference=None,
-    field="dark", centre=None, radius_px=None, pixel_mm=None, dark=None, echo=print,
-) -> dict:  # fmt: skip
+    images,
+    loads,
+    *,
+    diameter_mm,
+    thickness_mm,
+    out,
+    wavelength_nm=None,
+    reference=None,
+    field="dark",
+    centre=None,
+    radius_px=None,
+    pixel_mm=None,
+    dark=None,
+    echo=print,
+) -> dict:
     """``fringekit calibrate --disc``: :func:`calibrate_disc`, then write ``out``."""
     with claim_output(out, command="calibrate", inputs=[*images, reference, dark]) as work:
         cal = calibrate_disc(
-            images, load_N=loads, diameter_mm=diameter_mm, thickness_mm=thickness_mm,
-            wavelength_nm=wavelength_nm, reference=reference, field=field, centre_px=centre,
-            radius_px=radius_px, pixel_mm=pixel_mm, dark=dark, echo=echo,
-        )  # fmt: skip
+            images,
+            load_N=loads,
+            diameter_mm=diameter_mm,
+            thickness_mm=thickness_mm,
+            wavelength_nm=wavelength_nm,
+            reference=reference,
+            field=field,
+            centre_px=centre,
+            radius_px=radius_px,
+            pixel_mm=pixel_mm,
+            dark=dark,
+            echo=echo,
+        )
         cal.write(work)
     return {**cal.result(), "summary": cal.summary}

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from fringekit.optics import DiametralDisc
+
 __all__ = ["disc_outline", "fringe_value_from_disc", "WARN_RESIDUAL", "REFUSE_RESIDUAL"]
 
 #: RMS residual of the fit, relative to the RMS measured order, above which the result
@@ -62,11 +64,13 @@ def fringe_value_from_disc(
     the load axis is the image's vertical. Also returns the centre-only estimate
     8 P / (pi D N_centre) (docs/theory.md).
     """
-    from fringekit.optics import DiametralDisc
-
     order = np.asarray(order, float)
-    for name, v in (("load_N", load_N), ("diameter", diameter), ("thickness", thickness),
-                    ("pixel_size", pixel_size)):  # fmt: skip
+    for name, v in (
+        ("load_N", load_N),
+        ("diameter", diameter),
+        ("thickness", thickness),
+        ("pixel_size", pixel_size),
+    ):
         if not (np.isfinite(v) and v > 0):
             raise ValueError(f"{name} = {v!r} is not allowed; must be > 0")
     rows, cols = order.shape

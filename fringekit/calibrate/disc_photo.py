@@ -26,6 +26,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import least_squares
+
+from fringekit.optics import DiametralDisc
 
 __all__ = ["DiscImage", "DiscFit", "fit_disc_photos", "disc_pixels", "REFUSE_RESIDUAL"]
 
@@ -112,8 +115,6 @@ def disc_coordinates(rows, cols, geometry: DiscGeometry, diameter: float) -> np.
 
 def _shape(xy: np.ndarray, diameter: float, thickness: float) -> np.ndarray:
     """g(x) = t (sigma1 - sigma2) per newton of load (1/m): N = P g / f_sigma."""
-    from fringekit.optics import DiametralDisc
-
     return thickness * DiametralDisc(P=1.0, D=diameter, t=thickness).stress_difference(xy)
 
 
@@ -236,8 +237,6 @@ def _geometry(g0: DiscGeometry, p) -> DiscGeometry:
 def _refine(pb: _Problem, start: tuple[float, float], geometry: DiscGeometry):
     """least_squares over (centre order of the highest load, N_0, load axis angle, centre
     and radius)."""
-    from scipy.optimize import least_squares
-
     p_max = float(pb.loads.max())
 
     def fun(p):
@@ -271,8 +270,10 @@ def _per_image(pb: _Problem, kappa: float, offset: float):
         scaled = res[0] * pb.stack_spread / max(float(amp[0]), 1e-6)
         resid = [float(np.sqrt(np.mean(r**2))) for r in np.split(scaled, len(pb.values))]
     else:
-        resid = [float(np.sqrt(np.mean(res[0] ** 2)) * s / max(float(amp[0]), 1e-6))
-                 for (res, amp), s in zip(parts, pb.spreads, strict=True)]  # fmt: skip
+        resid = [
+            float(np.sqrt(np.mean(res[0] ** 2)) * s / max(float(amp[0]), 1e-6))
+            for (res, amp), s in zip(parts, pb.spreads, strict=True)
+        ]
     return centre, tuple(resid)
 
 
@@ -282,8 +283,6 @@ SECTORS = 8
 
 def _refit_kappa(pb: _Problem, start: tuple[float, float], keep=None) -> float:
     """1/f_sigma refitted at fixed geometry (and N_0 when fitted), on the pixels ``keep``."""
-    from scipy.optimize import least_squares
-
     p_max = float(pb.loads.max())
     sel = slice(None) if keep is None else keep
 
@@ -292,8 +291,13 @@ def _refit_kappa(pb: _Problem, start: tuple[float, float], keep=None) -> float:
         offset = np.array([p[1] if pb.fit_offset else 0.0])
         return np.concatenate([r[0] for r, _ in pb.residuals(kappa, offset, sel)])
 
-    sol = least_squares(fun, [start[0] * p_max * pb.g0, start[1]], loss="soft_l1",
-                        f_scale=0.1, bounds=([1e-4, -0.5], [np.inf, 0.5]))  # fmt: skip
+    sol = least_squares(
+        fun,
+        [start[0] * p_max * pb.g0, start[1]],
+        loss="soft_l1",
+        f_scale=0.1,
+        bounds=([1e-4, -0.5], [np.inf, 0.5]),
+    )
     return float(sol.x[0] / (p_max * pb.g0))
 
 
@@ -312,8 +316,10 @@ def _jackknife(pb: _Problem, images, start, by_image: bool) -> tuple[float, str]
         how = f"jackknife over {len(fs)} photographs"
     else:
         xy = disc_coordinates(pb.rows, pb.cols, pb.geometry, pb.D)
-        sector = (np.floor((np.arctan2(xy[:, 1], xy[:, 0]) + np.pi) / (2 * np.pi) * SECTORS)
-                  .astype(int) % SECTORS)  # fmt: skip
+        sector = (
+            np.floor((np.arctan2(xy[:, 1], xy[:, 0]) + np.pi) / (2 * np.pi) * SECTORS).astype(int)
+            % SECTORS
+        )
         for k in range(SECTORS):
             fs.append(1.0 / _refit_kappa(pb, start, sector != k))
         how = f"jackknife over {SECTORS} sectors of the disc"

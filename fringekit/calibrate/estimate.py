@@ -56,10 +56,13 @@ def run_disc(maps, *, load_N, diameter_mm, thickness_mm, pixel_mm=None, centre=N
         order = np.where(m.reliable, order, np.nan)
     D = diameter_mm * 1e-3
     rc = centre if centre is not None else disc_outline(np.isfinite(m.order), px, D)
-    res = fringe_value_from_disc(order, px, rc, load_N=load_N, diameter=D,
-                                 thickness=thickness_mm * 1e-3)  # fmt: skip
+    res = fringe_value_from_disc(
+        order, px, rc, load_N=load_N, diameter=D, thickness=thickness_mm * 1e-3
+    )
     return {
-        **res, "maps": str(f), "centre_rc": list(rc),
+        **res,
+        "maps": str(f),
+        "centre_rc": list(rc),
         "centre_from": "--centre" if centre is not None else "the outline of the map's data",
         "reliable_mask_used": m.reliable is not None,
-    }  # fmt: skip
+    }

@@ -66,8 +66,9 @@ def run_calibrate(
     with claim_output(out, command="calibrate", inputs=inputs) as work:
         cal, n_states = _calibrate(cfg, work, optics, cache_dir, use_cache, progress, say)
     if cal["error"]:
-        raise PredictError(f"{cal['error']}; calibrated on the {n_states} converged states "
-                           f"in {out}")  # fmt: skip
+        raise PredictError(
+            f"{cal['error']}; calibrated on the {n_states} converged states in {out}"
+        )
     return cal
 
 
@@ -107,7 +108,13 @@ def _calibrate(cfg, out: Path, optics, cache_dir, use_cache, progress, say) -> t
     rows = [[loads[k], *shears[k], *(feats[k][n] for n in names)] for k in range(len(feats))]
     head = ",".join(["load_N", "shear_x_N", "shear_y_N", *names])
     # six significant digits (fringekit.numbers.SIGNIFICANT_DIGITS); nan where undefined
-    np.savetxt(out / "features.csv", np.array(rows, float), delimiter=",", header=head,
-               comments="", fmt="%.6g")  # fmt: skip
+    np.savetxt(
+        out / "features.csv",
+        np.array(rows, float),
+        delimiter=",",
+        header=head,
+        comments="",
+        fmt="%.6g",
+    )
     calibration_figure(out / "calibration.png", cal, profiles)
     return cal, len(sols)

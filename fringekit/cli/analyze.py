@@ -55,29 +55,8 @@ def _mono_options(g) -> None:
     )
 
 
-def add_parser(sub) -> None:
-    an = sub.add_parser(
-        "analyze", help="fringe order from six phase-stepped, one RGB or one monochrome image"
-    )
-    an.add_argument(
-        "images",
-        nargs="+",
-        help="six step images (or a 6-page TIFF), one RGB or one monochrome image",
-    )
-    an.add_argument(
-        "--method",
-        choices=("phase", "rgb", "mono"),
-        default=None,
-        help="default: rgb for one colour PNG/JPEG, mono for one grey image, phase otherwise",
-    )
-    _mono_options(an.add_argument_group("mono: one monochrome photograph"))
-    an.add_argument(
-        "--points",
-        default=None,
-        metavar="FILE.csv",
-        help="CSV with header row,col or x_mm,y_mm: writes points.csv with "
-        "row,col,x_mm,y_mm,order,order_sd,reliable",
-    )
+def _region_options(an) -> None:
+    """The output, the region of interest, the frame and the anchors."""
     an.add_argument("--out", default=None, help="output folder (default fringekit-out/analysis)")
     an.add_argument("--dark", default=None, help="dark frame subtracted from every image")
     an.add_argument("--roi-circle", nargs=3, type=finite, metavar=("ROW", "COL", "R"))
@@ -126,8 +105,12 @@ def add_parser(sub) -> None:
         default=0.0,
         help="(phase, mono) fringe order of the image border ring",
     )
-    an.add_argument("--min-modulation", type=fraction, default=0.1)
-    an.add_argument(
+
+
+def _phase_options(g) -> None:
+    """Options of the six-step phase method."""
+    g.add_argument("--min-modulation", type=fraction, default=0.1)
+    g.add_argument(
         "--reference",
         nargs="+",
         default=None,
@@ -135,24 +118,28 @@ def add_parser(sub) -> None:
         help="(phase) the six images (or a 6-page TIFF) of the unloaded specimen: "
         "their residual retardation is subtracted vectorially",
     )
-    an.add_argument(
+    g.add_argument(
         "--fold",
         choices=("count", "isoclinic"),
         default="count",
         help="(phase) resolve the folded phase by counting fringes from the "
         "anchor, or by the isoclinic's continuity; the other checks it",
     )
-    an.add_argument("--calibration", default=None, help="(rgb) table CSV: order,R,G,B")
-    an.add_argument("--light", default="LED", help="(rgb) light of the synthetic chart")
-    an.add_argument("--camera", default="CIE1931", help="(rgb) camera of the synthetic chart")
-    an.add_argument("--max-order", type=positive, default=4.0, help="(rgb) chart range")
-    an.add_argument(
+
+
+def _rgb_options(g) -> None:
+    """Options of the white-light colour method."""
+    g.add_argument("--calibration", default=None, help="(rgb) table CSV: order,R,G,B")
+    g.add_argument("--light", default="LED", help="(rgb) light of the synthetic chart")
+    g.add_argument("--camera", default="CIE1931", help="(rgb) camera of the synthetic chart")
+    g.add_argument("--max-order", type=positive, default=4.0, help="(rgb) chart range")
+    g.add_argument(
         "--exposure",
         type=positive,
         default=0.9,
         help="(rgb) chart exposure, as in predict's optics.exposure",
     )
-    an.add_argument(
+    g.add_argument(
         "--seed",
         nargs=3,
         type=finite,
@@ -160,7 +147,35 @@ def add_parser(sub) -> None:
         metavar=("ROW", "COL", "N"),
         help="(rgb) pixel of known order: refined search from it",
     )
-    an.add_argument("--window", type=positive, default=0.25, help="(rgb) refined window (fringe)")
+    g.add_argument("--window", type=positive, default=0.25, help="(rgb) refined window (fringe)")
+
+
+def add_parser(sub) -> None:
+    an = sub.add_parser(
+        "analyze", help="fringe order from six phase-stepped, one RGB or one monochrome image"
+    )
+    an.add_argument(
+        "images",
+        nargs="+",
+        help="six step images (or a 6-page TIFF), one RGB or one monochrome image",
+    )
+    an.add_argument(
+        "--method",
+        choices=("phase", "rgb", "mono"),
+        default=None,
+        help="default: rgb for one colour PNG/JPEG, mono for one grey image, phase otherwise",
+    )
+    _mono_options(an.add_argument_group("mono: one monochrome photograph"))
+    an.add_argument(
+        "--points",
+        default=None,
+        metavar="FILE.csv",
+        help="CSV with header row,col or x_mm,y_mm: writes points.csv with "
+        "row,col,x_mm,y_mm,order,order_sd,reliable",
+    )
+    _region_options(an)
+    _phase_options(an.add_argument_group("phase: six phase-stepped images"))
+    _rgb_options(an.add_argument_group("rgb: one white-light colour image"))
     an.add_argument("--line", nargs=4, type=finite, metavar=("R0", "C0", "R1", "C1"))
     an.add_argument(
         "--order-at",

@@ -15,8 +15,11 @@ from __future__ import annotations
 import copy
 import math
 import os
+import re
 from pathlib import Path
 from typing import Any
+
+import tomlkit
 
 from fringekit.config.schema import BUILTIN_CASES, INDENTER_SCHEMA, SCHEMA, ConfigError, Key
 
@@ -242,8 +245,6 @@ def apply_overrides(cfg: dict, overrides: dict[str, Any]) -> dict:
     ``"indenter[k].key"`` (indenter 0 / k). Setting ``load_N`` replaces ``depth_mm`` and
     the other way round.
     """
-    import re
-
     given = copy.deepcopy(cfg)
     for key, value in overrides.items():
         parts = key.split(".")
@@ -278,8 +279,6 @@ def apply_overrides(cfg: dict, overrides: dict[str, Any]) -> dict:
 
 def _toml_table(schema: dict, d: dict):
     """A tomlkit table of ``d``, each key commented with its help, unit and choices."""
-    import tomlkit
-
     table = tomlkit.table()
     for key, k in schema.items():
         v = d.get(key)
@@ -296,8 +295,6 @@ def _toml_table(schema: dict, d: dict):
 
 def to_toml(cfg: dict) -> str:
     """The effective config as commented TOML (re-readable by :func:`load_config`)."""
-    import tomlkit
-
     doc = tomlkit.document()
     case = tomlkit.item(cfg["case"])
     case.comment(SCHEMA["case"].help)

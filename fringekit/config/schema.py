@@ -169,7 +169,7 @@ SCHEMA: dict[str, Any] = {
             "dispersion of the stress-optic coefficient",
             kind="str",
             choices=("none", "cauchy", "power"),
-        ),  # fmt: skip
+        ),
         "dispersion_coefficient": _f(0.0, "Cauchy B (m^2) or power-law exponent", "", -1e3, 1e3),
         "field_of_view_mm": _f(20.0, "square field of view", "mm", 0, 2000, True),
         "center_mm": Key([0.0, 0.0], "field-of-view centre [x, y]", "mm", "point", -1e3, 1e3),
@@ -195,7 +195,7 @@ SCHEMA: dict[str, Any] = {
             0,
             1e9,
             True,
-        ),  # fmt: skip
+        ),
         "substrate_samples_per_ray": Key(
             32, "slabs per ray through the polycarbonate", kind="int", lo=2, hi=4096
         ),

@@ -11,7 +11,10 @@ and every stronger one (one indenter's ridge is not a second indenter).
 from __future__ import annotations
 
 import numpy as np
+from scipy import ndimage
+from skimage.feature import peak_local_max
 
+from fringekit.analysis import image_noise_sd as image_noise
 from fringekit.inversion.model import ImageModel
 
 __all__ = ["DETECT_DIP", "DETECT_REL", "DETECT_SNR", "MIN_SEPARATION_MM", "detect", "noise_sd"]
@@ -28,8 +31,6 @@ MIN_SEPARATION_MM = 2.0
 def _energy(model: ImageModel, smooth_px: float) -> np.ndarray:
     """Smoothed gradient energy (rows, cols) of the measured image, no-data discs filled
     with their rim's energy."""
-    from scipy import ndimage
-
     rows, cols = model.grid.shape
     img = model.measured.reshape(rows, cols, -1)
     use = model.usable.reshape(rows, cols)
@@ -52,8 +53,6 @@ def _energy(model: ImageModel, smooth_px: float) -> np.ndarray:
 def noise_sd(model: ImageModel) -> float:
     """Noise sd of the measured image (Immerkaer's estimator, the channels' median), at
     least the quantisation noise of 8 bits."""
-    from fringekit.analysis import image_noise_sd as image_noise
-
     rows, cols = model.grid.shape
     img = model.measured.reshape(rows, cols, -1)
     use = model.usable.reshape(rows, cols)
@@ -87,17 +86,19 @@ def detect(model: ImageModel, noise: float, exclude=()) -> np.ndarray:
     """Candidate indenter positions (k, 2) (mm), strongest first; ``exclude`` (m, 2) mm
     positions already taken (discs within MIN_SEPARATION_MM of them, and fringe-energy
     peaks within a sphere diameter, are dropped)."""
-    from skimage.feature import peak_local_max
-
     px = model.grid.pixel_size * 1e3
     taken = np.reshape(np.asarray(exclude, float), (-1, 2))
     discs = _far_from(_discs(model), taken)
     taken = np.concatenate([taken, discs])
     e = _energy(model, smooth_px=0.6 / px)
     floor = DETECT_SNR * noise**2 * model.measured.shape[1]
-    peaks = peak_local_max(e, min_distance=max(1, int(0.5 * MIN_SEPARATION_MM / px)),
-                           threshold_abs=floor, threshold_rel=DETECT_REL,
-                           exclude_border=False)  # fmt: skip
+    peaks = peak_local_max(
+        e,
+        min_distance=max(1, int(0.5 * MIN_SEPARATION_MM / px)),
+        threshold_abs=floor,
+        threshold_rel=DETECT_REL,
+        exclude_border=False,
+    )
     apart = max(MIN_SEPARATION_MM, min(model.lib.diameters_mm))
     peaks = peaks[_separated(e, peaks, apart / px)]
     x, y = model.grid.pixel_to_xy(peaks[:, 0], peaks[:, 1])
@@ -116,8 +117,6 @@ def _far_from(pos: np.ndarray, taken: np.ndarray, apart: float = MIN_SEPARATION_
 def _discs(model: ImageModel) -> np.ndarray:
     """Centres (k, 2) (mm) of the no-data discs of the image (pixels at the no-data fill
     level: where ``predict`` marks an indenter's contact), at least 12 pixels each."""
-    from scipy import ndimage
-
     marked = ~model.usable if model.nodata is None else model.nodata
     holes = marked.reshape(model.grid.shape)
     lab, n = ndimage.label(holes)

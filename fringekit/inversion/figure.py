@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from matplotlib.figure import Figure
 
 from fringekit.inversion.model import unpack
 from fringekit.output.figures import sensor_extent
@@ -21,8 +22,6 @@ def _shown(model, values: np.ndarray) -> np.ndarray:
 
 def fit_figure(path, model, res) -> None:
     """Three panels in sensor mm, indenters marked, tangential loads as arrows."""
-    from matplotlib.figure import Figure
-
     fitted, _, _, outside = model.fitted(unpack(res.params.ravel(), list(res.diameters)))
     if not len(res.params):
         fitted = np.full_like(model.measured, np.median(model.measured))
@@ -32,8 +31,11 @@ def fit_figure(path, model, res) -> None:
     fig = Figure(figsize=(13, 4.6), dpi=100)
     axes = fig.subplots(1, 3)
     top = float(np.nanmax(model.measured)) or 1.0
-    panels = (("measured", model.measured / top), ("fitted (library)", fitted / top),
-              ("residual", resid / top))  # fmt: skip
+    panels = (
+        ("measured", model.measured / top),
+        ("fitted (library)", fitted / top),
+        ("residual", resid / top),
+    )
     scale = max(float(np.max(np.abs(res.params[:, 2]))) if len(res.params) else 1.0, 1e-9)
     for ax, (title, v) in zip(axes, panels, strict=True):
         img = _shown(model, v)
@@ -41,21 +43,32 @@ def fit_figure(path, model, res) -> None:
             if img.ndim == 3:  # the channels' mean; all-NaN pixels (no data) stay NaN
                 n = np.isfinite(img).sum(-1)
                 img = np.where(n > 0, np.nansum(img, -1) / np.maximum(n, 1), np.nan)
-            im = ax.imshow(img, extent=ext,
-                           cmap="coolwarm", vmin=-0.3, vmax=0.3)  # fmt: skip
+            im = ax.imshow(img, extent=ext, cmap="coolwarm", vmin=-0.3, vmax=0.3)
             fig.colorbar(im, ax=ax, fraction=0.046, label="of full scale")
         else:
             ax.imshow(np.clip(img, 0, 1), extent=ext, cmap="gray", vmin=0, vmax=1)
         for v_ in res.params:
             ax.plot(v_[0], v_[1], "+", color="yellow", ms=8)
-            ax.arrow(v_[0], v_[1], 3.0 * v_[3] / scale, 3.0 * v_[4] / scale, color="yellow",
-                     width=0.05, length_includes_head=True)  # fmt: skip
+            ax.arrow(
+                v_[0],
+                v_[1],
+                3.0 * v_[3] / scale,
+                3.0 * v_[4] / scale,
+                color="yellow",
+                width=0.05,
+                length_includes_head=True,
+            )
         ax.set_title(title)
         ax.set_xlabel("x (mm)")
     axes[0].set_ylabel("y (mm)")
     for i, v_ in enumerate(res.params):
-        axes[1].annotate(f"{i + 1}: Fz {v_[2]:.2f} N, Ft ({v_[3]:.2f}, {v_[4]:.2f}) N",
-                         (0.02, 0.96 - 0.06 * i), xycoords="axes fraction", color="yellow",
-                         fontsize=7, va="top")  # fmt: skip
+        axes[1].annotate(
+            f"{i + 1}: Fz {v_[2]:.2f} N, Ft ({v_[3]:.2f}, {v_[4]:.2f}) N",
+            (0.02, 0.96 - 0.06 * i),
+            xycoords="axes fraction",
+            color="yellow",
+            fontsize=7,
+            va="top",
+        )
     fig.tight_layout()
     fig.savefig(path)

@@ -34,6 +34,7 @@ import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from scipy.optimize import least_squares
 
 from fringekit.inversion.detect import detect, noise_sd
 from fringekit.inversion.hop import hop
@@ -108,8 +109,9 @@ def subsample(model: ImageModel, k: int) -> ImageModel:
     grid = PixelGrid((len(r), len(c)), model.grid.pixel_size * k, centre)
     pick = (rr * cols + cc).ravel()
     nodata = None if model.nodata is None else model.nodata[pick]
-    return replace(model, grid=grid, measured=model.measured[pick], usable=model.usable[pick],
-                   nodata=nodata)  # fmt: skip
+    return replace(
+        model, grid=grid, measured=model.measured[pick], usable=model.usable[pick], nodata=nodata
+    )
 
 
 def _far(model: ImageModel) -> ImageModel:
@@ -132,8 +134,11 @@ def _start(model: ImageModel, pos_mm: np.ndarray, sheared: bool = True):
     p, diam, table = [], [], None
     # each candidate's own cell: pixels nearer to it than to any other candidate (its
     # neighbours' fringes would raise its load)
-    dist = np.stack([np.hypot(xy[:, 0] - x, xy[:, 1] - y) for x, y in pos_mm]) if len(
-        pos_mm) else np.zeros((0, len(xy)))  # fmt: skip
+    dist = (
+        np.stack([np.hypot(xy[:, 0] - x, xy[:, 1] - y) for x, y in pos_mm])
+        if len(pos_mm)
+        else np.zeros((0, len(xy)))
+    )
     for k, (x, y) in enumerate(pos_mm):  # candidates (a handful)
         cell = model.usable & (dist[k] < WINDOW_MM + FAR_MM) & (dist[k] <= dist.min(axis=0))
         if sheared:
@@ -170,8 +175,6 @@ def fit_indenters(model: ImageModel, p0, diam, noise: float, box=None, ftol=FIT_
     changes by less than ``ftol`` of itself (at the default 1e-6 the parameters then move
     by far less than their sd). ``box`` (mm): the axes stay within it of where they
     start."""
-    from scipy.optimize import least_squares
-
     lo, hi = _bounds(model, len(diam))
     if box is not None:
         w = np.tile([box, box, np.inf, np.inf, np.inf], len(diam))
@@ -187,9 +190,17 @@ def fit_indenters(model: ImageModel, p0, diam, noise: float, box=None, ftol=FIT_
         return np.vstack([fixed.jacobian(p, diam), range_penalty(p, R, f_scale)[1]])
 
     return least_squares(
-        fun, p0, jac=jac, bounds=(lo, hi), loss="soft_l1", f_scale=f_scale, x_scale="jac",
-        max_nfev=FIT_NFEV, ftol=ftol, xtol=1e-6,
-    )  # fmt: skip
+        fun,
+        p0,
+        jac=jac,
+        bounds=(lo, hi),
+        loss="soft_l1",
+        f_scale=f_scale,
+        x_scale="jac",
+        max_nfev=FIT_NFEV,
+        ftol=ftol,
+        xtol=1e-6,
+    )
 
 
 def _prune(p: np.ndarray, sd: np.ndarray, diam: list, lib) -> tuple[np.ndarray, list, list]:
@@ -205,8 +216,7 @@ def _prune(p: np.ndarray, sd: np.ndarray, diam: list, lib) -> tuple[np.ndarray, 
     keep |= q[:, 2] >= AT_LARGEST * lib.max_load_N
     kept: list[int] = []
     for i in np.argsort(-q[:, 2]):  # strongest first; a handful of indenters
-        clash = any(np.hypot(*(q[i, :2] - q[j, :2])) < 0.5e3 * (diam[i] + diam[j])
-                    for j in kept)  # fmt: skip
+        clash = any(np.hypot(*(q[i, :2] - q[j, :2])) < 0.5e3 * (diam[i] + diam[j]) for j in kept)
         if keep[i] and not clash:
             kept.append(int(i))
     kept.sort()
@@ -293,7 +303,9 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
         its += alt[3]
         other = _verdict(fine, alt[0], alt[1]) if alt[1] else None
         if other is not None and (np.sum(other[0] > WARN_RESIDUAL), other[1]) < (
-            np.sum(verdict[0] > WARN_RESIDUAL), verdict[1]):  # fmt: skip
+            np.sum(verdict[0] > WARN_RESIDUAL),
+            verdict[1],
+        ):
             p, diam, res = alt[:3]
             verdict = other
     if not diam and len(pos):

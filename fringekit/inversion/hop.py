@@ -31,6 +31,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import least_squares
 
 from fringekit.inversion.model import N_PARAMS, ImageModel, range_penalty, unpack
 from fringekit.library.lattice import interpolate_turned
@@ -161,8 +162,12 @@ class RetarderTable:
         fa = (ang + np.pi) / (2 * np.pi / TABLE_ANGLES)
         ia = np.minimum(fa.astype(int), TABLE_ANGLES - 1)
         ta = (fa - ia)[..., None]
-        return ((1 - tm) * (1 - ta) * table[im, ia] + tm * (1 - ta) * table[im + 1, ia]
-                + (1 - tm) * ta * table[im, ia + 1] + tm * ta * table[im + 1, ia + 1])  # fmt: skip
+        return (
+            (1 - tm) * (1 - ta) * table[im, ia]
+            + tm * (1 - ta) * table[im + 1, ia]
+            + (1 - tm) * ta * table[im, ia + 1]
+            + tm * ta * table[im + 1, ia + 1]
+        )
 
 
 def retarder_lookup(
@@ -182,8 +187,9 @@ def _scan_loads(lib, fz_now: float) -> np.ndarray:
     """Normal loads the scan tries: about the fitted one, and across the library."""
     lo = 0.5 * float(lib.load_N[1])
     spread = np.geomspace(lo, lib.max_load_N, SCAN_LOADS)
-    return np.unique(np.clip(np.concatenate([fz_now * np.array(SCAN_LOAD_FACTORS), spread]),
-                             lo, lib.max_load_N))  # fmt: skip
+    return np.unique(
+        np.clip(np.concatenate([fz_now * np.array(SCAN_LOAD_FACTORS), spread]), lo, lib.max_load_N)
+    )
 
 
 def _scan(model: ImageModel, p, diam, k: int, gains, offs, f_scale, centres, table=None):
@@ -243,8 +249,6 @@ def _distinct(costs: np.ndarray, rows: np.ndarray, now: float) -> list[np.ndarra
 def _refine(fine: ImageModel, p, diam, k, starts, gains, offs, f_scale):
     """Local fits of indenter k from ``starts``; returns (best cost, best row) and the
     current row's cost on the same pixels."""
-    from scipy.optimize import least_squares
-
     lib = fine.lib
     q = p.reshape(-1, N_PARAMS)
     exclude = [(p, diam)]
@@ -270,10 +274,18 @@ def _refine(fine: ImageModel, p, diam, k, starts, gains, offs, f_scale):
     for v in starts:
         lo = np.array([v[0] - HOP_BOX_MM, v[1] - HOP_BOX_MM, 0.0, -t, -t])
         hi = np.array([v[0] + HOP_BOX_MM, v[1] + HOP_BOX_MM, lib.max_load_N, t, t])
-        res = least_squares(residual, np.clip(v, lo + 1e-9, hi - 1e-9), bounds=(lo, hi),
-                            loss="soft_l1", f_scale=f_scale, x_scale="jac",
-                            max_nfev=HOP_NFEV, ftol=1e-4, xtol=1e-4,
-                            diff_step=DIFF_STEP)  # fmt: skip
+        res = least_squares(
+            residual,
+            np.clip(v, lo + 1e-9, hi - 1e-9),
+            bounds=(lo, hi),
+            loss="soft_l1",
+            f_scale=f_scale,
+            x_scale="jac",
+            max_nfev=HOP_NFEV,
+            ftol=1e-4,
+            xtol=1e-4,
+            diff_step=DIFF_STEP,
+        )
         c = float(robust_cost(res.fun, f_scale))
         if c < best[0]:
             best = (c, res.x)

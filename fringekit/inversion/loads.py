@@ -39,9 +39,19 @@ from fringekit.library.store import Library, check_sensor, load_library
 __all__ = ["LOAD_COLUMNS", "Inversion", "invert"]
 
 LOAD_COLUMNS = (
-    "x_mm", "y_mm", "diameter_mm", "Fx_N", "Fy_N", "Fz_N",
-    "sx_mm", "sy_mm", "sFx_N", "sFy_N", "sFz_N", "residual_rms",
-)  # fmt: skip
+    "x_mm",
+    "y_mm",
+    "diameter_mm",
+    "Fx_N",
+    "Fy_N",
+    "Fz_N",
+    "sx_mm",
+    "sy_mm",
+    "sFx_N",
+    "sFy_N",
+    "sFz_N",
+    "residual_rms",
+)
 
 
 @dataclass(frozen=True)
@@ -79,8 +89,20 @@ class Inversion:
         small enough to stand behind its load."""
         r = self.result
         p, s = r.params, r.sd
-        cols = (p[:, 0], p[:, 1], r.diameters * 1e3, p[:, 3], p[:, 4], p[:, 2],
-                s[:, 0], s[:, 1], s[:, 3], s[:, 4], s[:, 2], r.residual_rms)  # fmt: skip
+        cols = (
+            p[:, 0],
+            p[:, 1],
+            r.diameters * 1e3,
+            p[:, 3],
+            p[:, 4],
+            p[:, 2],
+            s[:, 0],
+            s[:, 1],
+            s[:, 3],
+            s[:, 4],
+            s[:, 2],
+            r.residual_rms,
+        )
         out = {k: np.asarray(v, float) for k, v in zip(LOAD_COLUMNS, cols, strict=True)}
         out["reliable"] = np.asarray(r.residual_rms) <= WARN_RESIDUAL
         return out
@@ -158,8 +180,10 @@ def invert(
     """
     t0 = time.perf_counter()
     if pixel_mm is None:
-        raise ConfigError("--pixel-mm is required: the pixel pitch on the sheet (mm), as "
-                          "predict's optics.field_of_view_mm / optics.pixels")  # fmt: skip
+        raise ConfigError(
+            "--pixel-mm is required: the pixel pitch on the sheet (mm), as "
+            "predict's optics.field_of_view_mm / optics.pixels"
+        )
     if not np.isfinite(pixel_mm) or pixel_mm <= 0:
         raise ConfigError(
             f"--pixel-mm {pixel_mm} is not allowed: give the pixel pitch on the sheet (mm, "
@@ -171,8 +195,10 @@ def invert(
     warnings = []
     if cfg is None:
         cfg = load_config(lib.folder / "config.toml")
-        warnings.append("no sensor config given or found beside the image: the library's "
-                        "own sensor, camera and light are assumed (--sensor)")  # fmt: skip
+        warnings.append(
+            "no sensor config given or found beside the image: the library's "
+            "own sensor, camera and light are assumed (--sensor)"
+        )
     else:
         check_sensor(lib, cfg, where)
     optics = optics_setup(cfg)
@@ -181,25 +207,42 @@ def invert(
     )
     o = cfg["optics"]
     model = ImageModel.build(
-        lib, pixel_grid(shape, pixel_mm, origin_px), method, measured, usable, optics,
-        light=o["light"], white_light_wavelengths=o["white_light_wavelengths"], nodata=nodata,
-    )  # fmt: skip
+        lib,
+        pixel_grid(shape, pixel_mm, origin_px),
+        method,
+        measured,
+        usable,
+        optics,
+        light=o["light"],
+        white_light_wavelengths=o["white_light_wavelengths"],
+        nodata=nodata,
+    )
     say = echo if progress else (lambda s: None)
-    say(f"invert: {method}, {shape[0]} x {shape[1]} px, library {lib.folder} "
-        f"({len(lib.load_N) - 1} loads x {len(lib.shear_ratio)} ratios)")  # fmt: skip
+    say(
+        f"invert: {method}, {shape[0]} x {shape[1]} px, library {lib.folder} "
+        f"({len(lib.load_N) - 1} loads x {len(lib.shear_ratio)} ratios)"
+    )
     res = invert_image(model)
     warnings += residual_warnings(res.params, res.residual_rms)
-    say(f"invert: {len(res.params)} indenter(s), residual {res.residual:.3f} of the fringe "
-        f"amplitude, {time.perf_counter() - t0:.1f} s")  # fmt: skip
+    say(
+        f"invert: {len(res.params)} indenter(s), residual {res.residual:.3f} of the fringe "
+        f"amplitude, {time.perf_counter() - t0:.1f} s"
+    )
     summary = {
-        "method": method, "images": [str(p) for p in paths], "library": str(lib.folder),
-        "sensor_config": where, "pixel_mm": pixel_mm,
+        "method": method,
+        "images": [str(p) for p in paths],
+        "library": str(lib.folder),
+        "sensor_config": where,
+        "pixel_mm": pixel_mm,
         "origin_px": list(origin_px) if origin_px is not None else None,
-        "n_indenters": int(len(res.params)), "iterations": int(res.iterations),
-        "residual": res.residual, "noise_sd": res.noise,
-        "gains": [float(g) for g in res.gains], "offsets": [float(o) for o in res.offsets],
+        "n_indenters": int(len(res.params)),
+        "iterations": int(res.iterations),
+        "residual": res.residual,
+        "noise_sd": res.noise,
+        "gains": [float(g) for g in res.gains],
+        "offsets": [float(o) for o in res.offsets],
         "warnings": warnings,
         "reliable": [bool(r <= WARN_RESIDUAL) for r in res.residual_rms],
         "times_s": {**res.times_s, "total_s": time.perf_counter() - t0},
-    }  # fmt: skip
+    }
     return Inversion(method, res, model, summary)

@@ -93,8 +93,10 @@ def line_fit(m: np.ndarray, d: np.ndarray, positive: bool = False):
 def unpack(p: np.ndarray, diameters) -> list[LoadedIndenter]:
     """Indenters of a parameter vector (n * N_PARAMS,) with their diameters (m)."""
     q = np.asarray(p, float).reshape(-1, N_PARAMS)
-    return [LoadedIndenter(v[0] * 1e-3, v[1] * 1e-3, d, v[3], v[4], v[2])
-            for v, d in zip(q, diameters, strict=True)]  # fmt: skip
+    return [
+        LoadedIndenter(v[0] * 1e-3, v[1] * 1e-3, d, v[3], v[4], v[2])
+        for v, d in zip(q, diameters, strict=True)
+    ]
 
 
 @dataclass(frozen=True)
@@ -139,8 +141,19 @@ class ImageModel:
     points: np.ndarray | None = None
 
     @classmethod
-    def build(cls, lib, grid, method, measured, usable, optics, *, light="LED",
-              white_light_wavelengths=31, nodata=None):  # fmt: skip
+    def build(
+        cls,
+        lib,
+        grid,
+        method,
+        measured,
+        usable,
+        optics,
+        *,
+        light="LED",
+        white_light_wavelengths=31,
+        nodata=None,
+    ):
         """``optics``: a :class:`fringekit.inputs.OpticsSetup` (law, camera, errors);
         ``light``: the white-light source's name; ``nodata`` as the attribute."""
         law = optics.law
@@ -172,9 +185,14 @@ class ImageModel:
         def pick(a):
             return None if a is None else a[pixels]
 
-        return replace(self, measured=self.measured[pixels], usable=self.usable[pixels],
-                       keep=pick(self.keep), nodata=pick(self.nodata),
-                       points=self.xy[pixels])  # fmt: skip
+        return replace(
+            self,
+            measured=self.measured[pixels],
+            usable=self.usable[pixels],
+            keep=pick(self.keep),
+            nodata=pick(self.nodata),
+            points=self.xy[pixels],
+        )
 
     def linear(self, indenters) -> tuple[np.ndarray, np.ndarray]:
         """Model intensities (P, C) before gain and offset, and the pixels outside every

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import colour as cs
 import numpy as np
 from scipy import ndimage
 
@@ -24,8 +25,6 @@ NO_DATA_MIN_PX = 12
 def _decode(frame, camera_name: str, colour: bool) -> np.ndarray:
     """Linear intensities of a frame in [0, 1]: sRGB decoding for the CIE observer."""
     if colour and camera_name == "CIE1931":
-        import colour as cs
-
         return np.clip(cs.cctf_decoding(frame.data, function="sRGB"), 0.0, 1.0)
     return frame.data
 
@@ -62,8 +61,9 @@ def read_measurement(paths, method: str | None, camera_name: str):
             raise ConfigError(f"--method rgb needs a colour image; {paths[0]} is grey")
         data = f.data if method == "rgb" or f.data.ndim == 2 else f.data.mean(-1)
         raw = data.reshape(*data.shape[:2], -1)
-        lin = _decode(f, camera_name, method == "rgb").reshape(raw.shape) if method == "rgb" \
-            else raw  # fmt: skip
+        lin = (
+            _decode(f, camera_name, method == "rgb").reshape(raw.shape) if method == "rgb" else raw
+        )
         sat = f.saturated
     nodata = _no_data(raw)
     rows, cols = raw.shape[:2]

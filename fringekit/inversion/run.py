@@ -16,14 +16,30 @@ __all__ = ["run_invert"]
 
 
 def run_invert(
-    images, library, out, *, method=None, pixel_mm=None, origin_px=None, sensor=None,
-    progress=True, echo=print,
-) -> dict:  # fmt: skip
+    images,
+    library,
+    out,
+    *,
+    method=None,
+    pixel_mm=None,
+    origin_px=None,
+    sensor=None,
+    progress=True,
+    echo=print,
+) -> dict:
     """Invert one image (or six) against a library; write ``out``; return the summary."""
     paths = [images] if isinstance(images, (str, os.PathLike)) else list(images)
     inputs = [*paths, getattr(library, "folder", library), sensor]
     with claim_output(out, command="invert", inputs=inputs) as work:
-        inv = invert(images, library, pixel_mm=pixel_mm, origin_px=origin_px, method=method,
-                     sensor=sensor, progress=progress, echo=echo)  # fmt: skip
+        inv = invert(
+            images,
+            library,
+            pixel_mm=pixel_mm,
+            origin_px=origin_px,
+            method=method,
+            sensor=sensor,
+            progress=progress,
+            echo=echo,
+        )
         inv.write(work)
     return inv.summary

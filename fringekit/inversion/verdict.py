@@ -69,16 +69,19 @@ def refuse(q: np.ndarray, lib, total: float) -> None:
             raise InvertError(
                 f"indenter {i + 1} at ({v[0]:.2f}, {v[1]:.2f}) mm needs a normal load at or "
                 f"beyond the library's largest, {lib.max_load_N:g} N; build a library with "
-                "larger --load-N")  # fmt: skip
+                "larger --load-N"
+            )
         ratio = np.hypot(v[3], v[4]) / max(v[2], 1e-12)
         if ratio >= AT_LARGEST * lib.max_ratio:  # the fit is held at the largest ratio
             raise InvertError(
                 f"indenter {i + 1} at ({v[0]:.2f}, {v[1]:.2f}) mm needs a load at or beyond "
                 f"the library's range: {v[2]:.3g} N with a tangential load of {ratio:.2f} of it "
                 f"(the library goes to {lib.max_ratio:g}, up to {lib.max_load_N:g} N); build "
-                "a library with larger --shear-ratio or --load-N")  # fmt: skip
+                "a library with larger --shear-ratio or --load-N"
+            )
     if total > MAX_RESIDUAL:
         raise InvertError(
             f"the library cannot explain this image: the fit leaves a residual of {total:.2f} "
             f"of the fringe amplitude (at most {MAX_RESIDUAL} is accepted); check the sensor, "
-            "the pixel size, the origin and the method")  # fmt: skip
+            "the pixel size, the origin and the method"
+        )

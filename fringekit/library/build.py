@@ -20,22 +20,19 @@ not a library.
 
 from __future__ import annotations
 
-import copy
 import json
 import os
 import time
 from pathlib import Path
 
 import numpy as np
-from tqdm.auto import tqdm
 
 from fringekit._cluster import run_tasks
 from fringekit.config.files import to_toml
-from fringekit.config.inputs import build_inputs
 from fringekit.config.model import as_config
 from fringekit.errors import ComputeError, ConfigError
-from fringekit.fea import SolveInterrupted, SolverError, solve
-from fringekit.library.lattice import PolarLattice, default_lattice, sample_lattice
+from fringekit.library.chain import save_npz, solve_chain
+from fringekit.library.lattice import default_lattice
 from fringekit.library.store import (
     FIELD_KEYS,
     FORMAT,
@@ -46,15 +43,13 @@ from fringekit.library.store import (
     sensor_key,
     sha256,
 )
-from fringekit.meshes import build_mesh, default_cache_dir
-from fringekit.optics import FEMStressField
+from fringekit.meshes import default_cache_dir
 from fringekit.output.folders import atomic_write, claim_output
 from fringekit.output.versions import run_versions
 
 __all__ = [
     "DEFAULT_LOADS_N",
     "DEFAULT_RATIOS",
-    "chain_config",
     "build_library",
     "library_lattice",
 ]
@@ -78,104 +73,8 @@ def library_lattice(cfg: dict, n_slabs: int = 16):
     return default_lattice(r_max, fine_step=0.1e-3, fine_radius=fine, n_slabs=n_slabs)
 
 
-def chain_config(cfg: dict, diameter_mm: float, loads, ratios, todo) -> tuple[dict, list, list]:
-    """The config of one diameter's chain, its parents and what each state is.
-
-    The normal loads ``loads`` in order, each from the one before; after each load whose
-    ``todo`` is true, its tangential states ``ratio * load`` along +x (ratios[1:]), each
-    from the one before. Loads above the last one to do are left out.
-
-    Returns
-    -------
-    config : dict, one indenter at the origin, full stick, half model
-    parents : list of int, the parent of each load state (fea.solve)
-    states : list of (load index, ratio index), one per load state
-    """
-    last = max(i for i, t in enumerate(todo) if t)
-    normal, shear, parents, states = [], [], [], []
-    prev = 0
-    for i in range(last + 1):
-        for r, ratio in enumerate(ratios if todo[i] else ratios[:1]):
-            normal.append(float(loads[i]))
-            shear.append([float(ratio * loads[i]), 0.0])
-            parents.append(prev if r == 0 else len(states))
-            states.append((i, r))
-        prev = len(states) - len(ratios) + 1 if todo[i] else len(states)
-    b = copy.deepcopy(cfg)
-    b["case"] = f"library-d{diameter_mm:g}"
-    b["indenter"] = [{"x_mm": 0.0, "y_mm": 0.0, "diameter_mm": float(diameter_mm),
-                      "load_N": normal, "depth_mm": None, "shear_N": shear}]  # fmt: skip
-    b["contact"]["friction"] = "stick"
-    b["mesh"]["symmetry"] = "half"
-    return b, parents, states
-
-
 def _branch_id(diameter_mm: float, load_n: float) -> str:
     return f"{diameter_id(diameter_mm)}_F{int(round(load_n * 1000)):06d}"
-
-
-def _solve_chain(task: dict, out: str, cache_dir: str | None, progress: bool = False) -> dict:
-    """Solve one diameter's chain, writing ``branches/<id>.npz`` as each branch's last
-    state converges (runs on a worker, or in this process with a progress bar)."""
-    lat = PolarLattice(np.array(task["r"]), np.array(task["phi"]), task["n_slabs"])
-    branches, ratios = task["branches"], task["ratios"]
-    cfg, parents, states = chain_config(task["config"], task["diameter_mm"],
-                                        [b["load_N"] for b in branches], ratios,
-                                        [b["todo"] for b in branches])  # fmt: skip
-    inp = build_inputs(cfg)
-    t0 = time.perf_counter()
-    mesh = build_mesh(inp.spec, cache_dir=cache_dir)
-    done, samples = [], []
-
-    def keep(k: int, S: int, sol) -> None:
-        if bar is not None:
-            bar.update(1)
-        i, r = states[k - 1]
-        if not branches[i]["todo"]:
-            return  # a normal load below a branch to do: only the way there
-        samples.append(_sample(sol, FEMStressField(sol), lat))
-        if r == len(ratios) - 1:
-            b = branches[i]
-            _save_npz(Path(out) / "branches" / f"{b['id']}.npz",
-                      **{key: np.array([s[key] for s in samples]) for key in samples[0]},
-                      settings=json.dumps(b["settings"]))  # fmt: skip
-            done.append(b["id"])
-            samples.clear()
-
-    bar = _state_bar(len(states), progress)
-    try:
-        solve(mesh, inp.indenters, materials=inp.materials, contact=inp.contact,
-              settings=inp.settings, parents=parents, progress=keep)  # fmt: skip
-        error = None
-    except SolveInterrupted:
-        raise KeyboardInterrupt from None  # the branches written so far are kept
-    except SolverError as exc:
-        error = str(exc)
-    finally:
-        if bar is not None:
-            bar.close()
-    return {"id": task["id"], "error": error, "done": done, "time_s": time.perf_counter() - t0}
-
-
-def _state_bar(total: int, show: bool):
-    if not show:
-        return None
-    return tqdm(total=total, desc="library load states", unit="state")
-
-
-def _sample(sol, field, lat) -> dict:
-    """One converged state on the lattice, with the indenter's contact radius (m),
-    centre and depth (m) and load (N, Fz positive pressing)."""
-    ab, v = sample_lattice(field, lat)
-    ind = sol.indenters[0]
-    return {"AB": ab, "valid": v, "contact_radius_m": ind.contact_radius,
-            "centre_m": [ind.centre[0], ind.centre[1], ind.depth],
-            "force_N": [ind.force[0], ind.force[1], -ind.force[2]]}  # fmt: skip
-
-
-def _save_npz(dest: Path, **arrays) -> None:
-    """``np.savez`` to ``dest``: it appears whole or not at all."""
-    atomic_write(dest, lambda part: np.savez(part, **arrays))
 
 
 def _finished(path: Path, settings: dict) -> bool:
@@ -189,21 +88,35 @@ def _finished(path: Path, settings: dict) -> bool:
 def _check_grid(loads, ratios, diameters) -> None:
     loads, ratios = np.asarray(loads, float), np.asarray(ratios, float)
     if len(loads) < 2 or np.any(loads <= 0) or np.any(np.diff(loads) <= 0):
-        raise ConfigError(f"--load-N = {list(loads)} is not allowed; give at least 2 "
-                          "increasing loads > 0 (N)")  # fmt: skip
+        raise ConfigError(
+            f"--load-N = {list(loads)} is not allowed; give at least 2 increasing loads > 0 (N)"
+        )
     if len(ratios) < 2 or ratios[0] != 0 or np.any(np.diff(ratios) <= 0) or ratios[-1] > 2:
-        raise ConfigError(f"--shear-ratio = {list(ratios)} is not allowed; give increasing "
-                          "ratios from 0, at least 2, at most 2")  # fmt: skip
+        raise ConfigError(
+            f"--shear-ratio = {list(ratios)} is not allowed; give increasing "
+            "ratios from 0, at least 2, at most 2"
+        )
     if not diameters or any(not d > 0 for d in diameters):
-        raise ConfigError(f"--diameter-mm = {list(diameters)} is not allowed; give "
-                          "diameters > 0 (mm)")  # fmt: skip
+        raise ConfigError(
+            f"--diameter-mm = {list(diameters)} is not allowed; give diameters > 0 (mm)"
+        )
 
 
 def build_library(
-    config, out, *, diameters=None, loads=DEFAULT_LOADS_N, ratios=DEFAULT_RATIOS,
-    n_slabs: int = 16, scheduler=None, workers=None, cache_dir=None, progress=True, echo=print,
+    config,
+    out,
+    *,
+    diameters=None,
+    loads=DEFAULT_LOADS_N,
+    ratios=DEFAULT_RATIOS,
+    n_slabs: int = 16,
+    scheduler=None,
+    workers=None,
+    cache_dir=None,
+    progress=True,
+    echo=print,
     inputs=(),
-) -> Library:  # fmt: skip
+) -> Library:
     """Solve a sensor over a grid of loads once: a response library for :func:`invert`
     and fast predictions.
 
@@ -245,18 +158,34 @@ def build_library(
     10.0
     """
     cfg = as_config(config).data
-    diameters = sorted({float(d["diameter_mm"]) for d in cfg["indenter"]} if diameters is None
-                       else {float(d) for d in diameters})  # fmt: skip
+    diameters = sorted(
+        {float(d["diameter_mm"]) for d in cfg["indenter"]}
+        if diameters is None
+        else {float(d) for d in diameters}
+    )
     _check_grid(loads, ratios, diameters)
     if cfg["optics"]["include_substrate"]:
-        raise ConfigError("optics.include_substrate = true is not supported by a library "
-                          "(it stores the sheet's stress only); set it to false")  # fmt: skip
+        raise ConfigError(
+            "optics.include_substrate = true is not supported by a library "
+            "(it stores the sheet's stress only); set it to false"
+        )
     out = Path(out)
     given = [config] if isinstance(config, (str, os.PathLike)) else []
     with claim_output(out, command="library build", inputs=[*given, *inputs], resume=True):
         _same_sensor(out, sensor_key(cfg))
-        return _build(cfg, out, diameters, loads, ratios, n_slabs, scheduler, workers,
-                      cache_dir, progress, echo)  # fmt: skip
+        return _build(
+            cfg,
+            out,
+            diameters,
+            loads,
+            ratios,
+            n_slabs,
+            scheduler,
+            workers,
+            cache_dir,
+            progress,
+            echo,
+        )
 
 
 def _same_sensor(out: Path, key: dict) -> None:
@@ -277,8 +206,11 @@ def _same_sensor(out: Path, key: dict) -> None:
     have = json.loads(json.dumps(key))  # as stored: lists, not tuples
     for table in sorted(set(built) | set(have)):
         a, b = built.get(table), have.get(table)
-        pairs = [(f"{table}.{k}", a.get(k), b.get(k)) for k in sorted(set(a) | set(b))] if (
-            isinstance(a, dict) and isinstance(b, dict)) else [(table, a, b)]  # fmt: skip
+        pairs = (
+            [(f"{table}.{k}", a.get(k), b.get(k)) for k in sorted(set(a) | set(b))]
+            if (isinstance(a, dict) and isinstance(b, dict))
+            else [(table, a, b)]
+        )
         for name, was, now in pairs:
             if was != now:
                 raise ConfigError(
@@ -288,14 +220,22 @@ def _same_sensor(out: Path, key: dict) -> None:
                 )
 
 
-def _build(cfg, out: Path, diameters, loads, ratios, n_slabs, scheduler, workers, cache_dir,
-           progress, echo) -> Library:  # fmt: skip
+def _build(
+    cfg, out: Path, diameters, loads, ratios, n_slabs, scheduler, workers, cache_dir, progress, echo
+) -> Library:
     """Solve the unfinished branches into the claimed folder ``out``, then assemble it."""
     lat = library_lattice(cfg, n_slabs)
     key = sensor_key(cfg)
     mesh = dict(cfg["mesh"], symmetry="half")
-    settings = {"sensor": key, "mesh": mesh, "solver": cfg["solver"], "ratios": list(ratios),
-                "lattice_r_mm": list(lat.r * 1e3), "n_slabs": n_slabs, "path": PATH}  # fmt: skip
+    settings = {
+        "sensor": key,
+        "mesh": mesh,
+        "solver": cfg["solver"],
+        "ratios": list(ratios),
+        "lattice_r_mm": list(lat.r * 1e3),
+        "n_slabs": n_slabs,
+        "path": PATH,
+    }
     branches, chains = [], []
     for d in diameters:
         mine = []
@@ -310,22 +250,36 @@ def _build(cfg, out: Path, diameters, loads, ratios, n_slabs, scheduler, workers
             mine.append(b)
         branches += mine
         if any(b["todo"] for b in mine):
-            chains.append({"id": diameter_id(d), "diameter_mm": d,
-                           "config": cfg, "branches": mine, "ratios": list(ratios),
-                           "r": lat.r, "phi": lat.phi, "n_slabs": n_slabs})  # fmt: skip
+            chains.append(
+                {
+                    "id": diameter_id(d),
+                    "diameter_mm": d,
+                    "config": cfg,
+                    "branches": mine,
+                    "ratios": list(ratios),
+                    "r": lat.r,
+                    "phi": lat.phi,
+                    "n_slabs": n_slabs,
+                }
+            )
     (out / "branches").mkdir(parents=True, exist_ok=True)
     (out / "manifest.json").unlink(missing_ok=True)  # not a library until assembled again
     n_todo = sum(b["todo"] for b in branches)
     say = echo if progress else (lambda s: None)
-    say(f"library: {len(branches)} branches ({len(diameters)} diameter(s) x {len(loads)} "
-        f"loads, {len(ratios)} states each), {len(branches) - n_todo} already solved")  # fmt: skip
+    say(
+        f"library: {len(branches)} branches ({len(diameters)} diameter(s) x {len(loads)} "
+        f"loads, {len(ratios)} states each), {len(branches) - n_todo} already solved"
+    )
     t0 = time.perf_counter()
-    failed = _run_chains(chains, out, str(cache_dir or default_cache_dir()), scheduler,
-                         workers, progress, say)  # fmt: skip
+    failed = _run_chains(
+        chains, out, str(cache_dir or default_cache_dir()), scheduler, workers, progress, say
+    )
     if failed:
-        raise ComputeError(f"library: the solve failed for diameter {failed[0]['id']}: "
-                           f"{failed[0]['error']}; the {failed[0]['n_done']} branch(es) "
-                           "solved are kept, re-run to resume")  # fmt: skip
+        raise ComputeError(
+            f"library: the solve failed for diameter {failed[0]['id']}: "
+            f"{failed[0]['error']}; the {failed[0]['n_done']} branch(es) "
+            "solved are kept, re-run to resume"
+        )
     build_s = time.perf_counter() - t0
     _assemble(cfg, out, branches, diameters, loads, ratios, lat, mesh, build_s)
     return load_library(out)
@@ -345,12 +299,21 @@ def _run_chains(chains, out: Path, cache: str, scheduler, workers, progress, say
     inline = not scheduler and (workers == 0 or (workers is None and len(chains) == 1))
     if inline:
         for t in chains:
-            report(_solve_chain(t, str(out.resolve()), cache, progress))
+            report(solve_chain(t, str(out.resolve()), cache, progress))
     else:
-        run_tasks(_solve_chain, chains, [f"chain-{t['id']}" for t in chains],
-                  str(out.resolve()), cache, scheduler=scheduler, workers=workers,
-                  progress=progress, desc="library diameters", unit="diameter",
-                  on_result=report)  # fmt: skip
+        run_tasks(
+            solve_chain,
+            chains,
+            [f"chain-{t['id']}" for t in chains],
+            str(out.resolve()),
+            cache,
+            scheduler=scheduler,
+            workers=workers,
+            progress=progress,
+            desc="library diameters",
+            unit="diameter",
+            on_result=report,
+        )
     return failed
 
 
@@ -387,22 +350,28 @@ def _assemble(cfg, out: Path, tasks, diameters, loads, ratios, lat, mesh, build_
         name = field_file(d)
         arrays = {k: np.stack([p[k] for p in parts]) for k in FIELD_KEYS}
         arrays["AB"] = condition_fields(arrays["AB"], lat)
-        _save_npz(out / name, **arrays)
+        save_npz(out / name, **arrays)
         files[name] = {"diameter_mm": d, "sha256": sha256(out / name)}
     (out / "config.toml").write_text(to_toml(cfg))
     manifest = {
         "format": FORMAT,
         "sensor": sensor_key(cfg),
-        "grid": {"diameters_mm": diameters, "load_N": [float(v) for v in loads],
-                 "shear_ratio": [float(v) for v in ratios], "friction": "stick"},
-        "lattice": {"r_mm": [float(v) for v in lat.r * 1e3],
-                    "phi_deg": [float(v) for v in np.degrees(lat.phi)],
-                    "n_slabs": lat.n_slabs},
+        "grid": {
+            "diameters_mm": diameters,
+            "load_N": [float(v) for v in loads],
+            "shear_ratio": [float(v) for v in ratios],
+            "friction": "stick",
+        },
+        "lattice": {
+            "r_mm": [float(v) for v in lat.r * 1e3],
+            "phi_deg": [float(v) for v in np.degrees(lat.phi)],
+            "n_slabs": lat.n_slabs,
+        },
         "mesh": mesh,
         "solver": cfg["solver"],
         "files": files,
         "build_s": build_s,
         "versions": run_versions(),
-    }  # fmt: skip
+    }
     atomic_write(out / "manifest.json", json.dumps(manifest, indent=1))
     return manifest

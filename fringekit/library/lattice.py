@@ -68,9 +68,14 @@ class PolarLattice:
 
 
 def default_lattice(
-    r_max: float, *, fine_step: float, fine_radius: float, growth: float = 1.08,
-    phi_step_deg: float = 5.0, n_slabs: int = 16,
-) -> PolarLattice:  # fmt: skip
+    r_max: float,
+    *,
+    fine_step: float,
+    fine_radius: float,
+    growth: float = 1.08,
+    phi_step_deg: float = 5.0,
+    n_slabs: int = 16,
+) -> PolarLattice:
     """Radii at ``fine_step`` (m) out to ``fine_radius`` (m), then growing by ``growth``
     per node out to ``r_max`` (m); angles every ``phi_step_deg`` over [0, 180] deg."""
     if not (0 < fine_step < fine_radius < r_max):

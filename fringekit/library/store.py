@@ -75,9 +75,11 @@ def sensor_key(cfg: dict) -> dict:
     return {
         "sheet": dict(cfg["sheet"]),
         "substrate": dict(cfg["substrate"]),
-        "optics": {k: o[k] for k in ("f_sigma_N_per_m", "wavelength_nm", "dispersion",
-                                     "dispersion_coefficient")},
-    }  # fmt: skip
+        "optics": {
+            k: o[k]
+            for k in ("f_sigma_N_per_m", "wavelength_nm", "dispersion", "dispersion_coefficient")
+        },
+    }
 
 
 @dataclass(frozen=True)
@@ -224,10 +226,13 @@ def check_sensor(lib, cfg: dict, where: str) -> None:
                 if b is None or b.get(k) != a[k]:
                     raise LibraryError(
                         f"--library {lib.folder}: built for {table}.{k} = {a[k]!r}, but the "
-                        f"image's sensor ({where}) has {b.get(k) if b else None!r}")  # fmt: skip
+                        f"image's sensor ({where}) has {b.get(k) if b else None!r}"
+                    )
         elif a != b:
-            raise LibraryError(f"--library {lib.folder}: built for {table} = {a!r}, but the "
-                               f"image's sensor ({where}) has {b!r}")  # fmt: skip
+            raise LibraryError(
+                f"--library {lib.folder}: built for {table} = {a!r}, but the "
+                f"image's sensor ({where}) has {b!r}"
+            )
 
 
 def _bad(folder: Path, what: str) -> LibraryError:
@@ -239,8 +244,11 @@ def load_library(folder) -> Library:
     folder = Path(folder)
     mf = folder / "manifest.json"
     if not mf.is_file():
-        raise _bad(folder, "no manifest.json (not a library folder, or its build did not "
-                   "finish; `fringekit library build` resumes it)")  # fmt: skip
+        raise _bad(
+            folder,
+            "no manifest.json (not a library folder, or its build did not "
+            "finish; `fringekit library build` resumes it)",
+        )
     try:
         manifest = json.loads(mf.read_text())
         if manifest.get("format") != FORMAT:
@@ -260,14 +268,18 @@ def load_library(folder) -> Library:
     for name, info in files.items():
         path = folder / name
         if not path.is_file() or sha256(path) != info["sha256"]:
-            raise _bad(folder, f"{name} is missing or does not match its checksum in "
-                       "manifest.json (corrupt library; rebuild it)")  # fmt: skip
+            raise _bad(
+                folder,
+                f"{name} is missing or does not match its checksum in "
+                "manifest.json (corrupt library; rebuild it)",
+            )
         with np.load(path) as z:
             f = {k: z[k] for k in FIELD_KEYS}
         expect = (len(loads), len(ratios), *lattice.shape, lattice.n_slabs, 2)
         if f["AB"].shape != expect:
-            raise _bad(folder, f"{name} holds fields of shape {f['AB'].shape}, the manifest "
-                       f"says {expect}")  # fmt: skip
+            raise _bad(
+                folder, f"{name} holds fields of shape {f['AB'].shape}, the manifest says {expect}"
+            )
         zero = {k: np.zeros_like(v[:1]) for k, v in f.items()}
         fields[float(info["diameter_mm"])] = {k: np.concatenate([zero[k], v]) for k, v in f.items()}
     if not fields:

@@ -133,8 +133,9 @@ def synthesise(
     ``exact`` as :func:`ray_quaternions` (``False`` and a distance serve the early and
     late stages of ``invert``).
     """
-    lam = np.atleast_1d(np.asarray(
-        law.wavelength_ref if wavelengths is None else wavelengths, float))  # fmt: skip
+    lam = np.atleast_1d(
+        np.asarray(law.wavelength_ref if wavelengths is None else wavelengths, float)
+    )
     xy = grid.xy()
     P = len(xy)
     near = np.zeros(P, bool)

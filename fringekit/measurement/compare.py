@@ -115,21 +115,36 @@ def run_compare(
     first indenter's axis when stored; the measurement's centre is fitted by phase
     correlation unless given as (row, col).
     """
-    p = read_order_map(prediction, pixel_size=predicted_pixel_size,
-                       hint="--predicted-pixel-mm (the predicted pixel pitch)")  # fmt: skip
-    m = read_order_map(measurement, pixel_size=measured_pixel_size,
-                       hint="--measured-pixel-mm (the measured pixel pitch)")  # fmt: skip
+    p = read_order_map(
+        prediction,
+        pixel_size=predicted_pixel_size,
+        hint="--predicted-pixel-mm (the predicted pixel pitch)",
+    )
+    m = read_order_map(
+        measurement,
+        pixel_size=measured_pixel_size,
+        hint="--measured-pixel-mm (the measured pixel pitch)",
+    )
     pf, mf, pred, meas = p.path, m.path, p.order, m.order
     pp, mp, cp, rel = p.pixel_size, m.pixel_size, p.indenter_rc, m.reliable
     with claim_output(out, command="compare", inputs=[prediction, measurement]) as work:
         comp = compare_maps(
-            pred, meas, predicted_pixel_size=pp, measured_pixel_size=mp, centre_predicted=cp,
-            centre_measured=centre_measured, rotation_deg=rotation_deg, mask=rel,
-        )  # fmt: skip
+            pred,
+            meas,
+            predicted_pixel_size=pp,
+            measured_pixel_size=mp,
+            centre_predicted=cp,
+            centre_measured=centre_measured,
+            rotation_deg=rotation_deg,
+            mask=rel,
+        )
         comparison_figure(
-            comp, work / "comparison.png", title=f"{pf.parent.name} vs {mf.parent.name}",
-            pixel_size=mp, centre_xy_mm=p.indenter_xy_mm or (0.0, 0.0),
-        )  # fmt: skip
+            comp,
+            work / "comparison.png",
+            title=f"{pf.parent.name} vs {mf.parent.name}",
+            pixel_size=mp,
+            centre_xy_mm=p.indenter_xy_mm or (0.0, 0.0),
+        )
         np.savez_compressed(
             work / "residual.npz", residual=comp.residual, predicted=comp.predicted, measured=meas
         )

@@ -51,8 +51,17 @@ def _table(calibration, chart: dict | None) -> CalibrationTable:
 MAX_FOLD_DISAGREEMENT = 0.05
 
 
-def analyse_phase(paths, dark, mask_args, anchor_order, order_at=None, *,
-                  min_modulation=0.1, fold="count", reference=None):  # fmt: skip
+def analyse_phase(
+    paths,
+    dark,
+    mask_args,
+    anchor_order,
+    order_at=None,
+    *,
+    min_modulation=0.1,
+    fold="count",
+    reference=None,
+):
     """Six-step images -> (order, reliable, extra maps, summary part, mask).
 
     Both fold resolutions run (counting fringes, and following the isoclinic); ``fold``
@@ -71,8 +80,9 @@ def analyse_phase(paths, dark, mask_args, anchor_order, order_at=None, *,
         res = subtract_reference(res, six_step(ref, mask=mask, min_modulation=min_modulation))
     anchor, known = order_anchors(frames[0].shape, res.valid, order_at, anchor_order)
     if np.ndim(known) == 0:  # the border ring at --anchor-order
-        by_iso = unwrap_fringe_order(res, resolve_ambiguity(res), anchor_mask=anchor,
-                                     anchor_order=known)  # fmt: skip
+        by_iso = unwrap_fringe_order(
+            res, resolve_ambiguity(res), anchor_mask=anchor, anchor_order=known
+        )
     else:  # the --order-at points: a map of known orders
         by_iso = unwrap_fringe_order(res, resolve_ambiguity(res), reference_order=known)
     by_count = count_fringe_order(res, anchor_mask=anchor, anchor_order=np.nan_to_num(known))
@@ -87,11 +97,17 @@ def analyse_phase(paths, dark, mask_args, anchor_order, order_at=None, *,
         "delta_axis_insensitive_rad": np.where(res.valid, res.delta_axis_insensitive, np.nan),
         "modulation": res.modulation,
     }
-    part = {"phase": {"fold": fold, "reference": list(reference or []) or None,
-                      "info": fo.info, "offset": fo.offset,
-                      "anchor_order": anchor_order if np.ndim(known) == 0 else None,
-                      "fold_disagreement_fraction": differ,
-                      "order_at": [list(p) for p in order_at or []]}}  # fmt: skip
+    part = {
+        "phase": {
+            "fold": fold,
+            "reference": list(reference or []) or None,
+            "info": fo.info,
+            "offset": fo.offset,
+            "anchor_order": anchor_order if np.ndim(known) == 0 else None,
+            "fold_disagreement_fraction": differ,
+            "order_at": [list(p) for p in order_at or []],
+        }
+    }
     if differ > MAX_FOLD_DISAGREEMENT:
         other = "isoclinic" if fold == "count" else "count"
         part["extra_warning"] = (

@@ -40,18 +40,28 @@ def analyse_mono(paths, dark, mask_args, anchor_order, order_at, mono: dict):
         flat = grey_channel(flat_frame.data, mask)
     anchor, known = order_anchors(frame.shape, mask, order_at, anchor_order)
     res = mono_order(
-        frame.data, mask=mask, field=mono.get("field", "dark"), anchor_mask=anchor,
-        anchor_order=np.nan_to_num(known), flat=flat,
+        frame.data,
+        mask=mask,
+        field=mono.get("field", "dark"),
+        anchor_mask=anchor,
+        anchor_order=np.nan_to_num(known),
+        flat=flat,
         smooth_px=mono.get("smooth_px", 0.5),
-    )  # fmt: skip
+    )
     maps = {
         "order_sd": res.order_sd,
         "normalised_intensity": res.normalised,
         "fringe_centres": res.centres,
     }
-    part = {"mono": {"field": mono.get("field", "dark"), "flat": mono.get("flat"),
-                     "anchor_order": anchor_order if not order_at else None,
-                     "order_at": [list(p) for p in order_at or []], **res.info}}  # fmt: skip
+    part = {
+        "mono": {
+            "field": mono.get("field", "dark"),
+            "flat": mono.get("flat"),
+            "anchor_order": anchor_order if not order_at else None,
+            "order_at": [list(p) for p in order_at or []],
+            **res.info,
+        }
+    }
     share = float(res.reliable[mask].mean())
     if res.info["ordered_bands"] == 0 or res.info["bands"] < 2:
         part["unreliable_reason"] = "no fringes found to count"
@@ -95,8 +105,9 @@ def read_points(path, shape, pixel_size: float, origin_rc) -> np.ndarray:
         raise ValueError(f"--points {path}: no points, or a value that is not finite")
     if head == ("x_mm", "y_mm"):
         step = pixel_size * 1e3
-        values = np.column_stack([origin_rc[0] - values[:, 1] / step,
-                                  origin_rc[1] + values[:, 0] / step])  # fmt: skip
+        values = np.column_stack(
+            [origin_rc[0] - values[:, 1] / step, origin_rc[1] + values[:, 0] / step]
+        )
     inside = (values >= -0.5).all(axis=1) & (values[:, 0] <= shape[0] - 0.5)
     inside &= values[:, 1] <= shape[1] - 0.5
     if not inside.all():
@@ -123,10 +134,14 @@ def write_points(out: Path, points, maps: dict, pixel_size: float, origin_rc) ->
         w.writerow(POINTS_COLUMNS)
         for k, (pr, pc) in enumerate(points):
             xy = ((pc - origin_rc[1]) * step, (origin_rc[0] - pr) * step) if step else None
-            w.writerow([
-                f"{pr:.6g}", f"{pc:.6g}",
-                f"{xy[0]:.6g}" if xy else "", f"{xy[1]:.6g}" if xy else "",
-                f"{order[k]:.6g}" if np.isfinite(order[k]) else "",
-                f"{sd[k]:.6g}" if np.isfinite(sd[k]) else "",
-                "true" if rel[k] else "false",
-            ])  # fmt: skip
+            w.writerow(
+                [
+                    f"{pr:.6g}",
+                    f"{pc:.6g}",
+                    f"{xy[0]:.6g}" if xy else "",
+                    f"{xy[1]:.6g}" if xy else "",
+                    f"{order[k]:.6g}" if np.isfinite(order[k]) else "",
+                    f"{sd[k]:.6g}" if np.isfinite(sd[k]) else "",
+                    "true" if rel[k] else "false",
+                ]
+            )

@@ -120,11 +120,19 @@ class RGBOptions:
     window: float = 0.25
 
     def as_kwargs(self) -> dict:
-        chart = {"light": self.light, "camera": self.camera, "max_order": self.max_order,
-                 "exposure": self.exposure}  # fmt: skip
+        chart = {
+            "light": self.light,
+            "camera": self.camera,
+            "max_order": self.max_order,
+            "exposure": self.exposure,
+        }
         seeds = [tuple(s) for s in self.seeds]
-        return {"calibration": self.calibration, "chart": chart, "seeds": seeds,
-                "window": self.window}  # fmt: skip
+        return {
+            "calibration": self.calibration,
+            "chart": chart,
+            "seeds": seeds,
+            "window": self.window,
+        }
 
 
 @dataclass(frozen=True)
@@ -306,16 +314,20 @@ def analyze(
     >>> float(an.summary["reliable_fraction_of_roi"]) > 0.9  # doctest: +SKIP
     True
     """
-    paths = [os.fspath(images)] if isinstance(images, (str, os.PathLike)) else [
-        os.fspath(p) for p in images
-    ]  # fmt: skip
+    paths = (
+        [os.fspath(images)]
+        if isinstance(images, (str, os.PathLike))
+        else [os.fspath(p) for p in images]
+    )
     if not paths:
         raise InputError("analyze needs at least one image")
     method = choose_method(method, paths)
     opts = options if options is not None else _OPTIONS[method]()
     if not isinstance(opts, _OPTIONS[method]):
-        raise InputError(f"options {type(opts).__name__} are not for --method {method}; give "
-                         f"{_OPTIONS[method].__name__}")  # fmt: skip
+        raise InputError(
+            f"options {type(opts).__name__} are not for --method {method}; give "
+            f"{_OPTIONS[method].__name__}"
+        )
     if (fringe_value_N_per_m is None) != (thickness_mm is None):
         raise InputError("give both the fringe value and the thickness for stress, or neither")
     circle, pixel_size = region.circle, pixel_mm * 1e-3
@@ -324,15 +336,18 @@ def analyze(
         disc = disc_region(paths[0], region.disc_diameter_mm * 1e-3, dark)
         circle, pixel_size = disc["roi_circle"], pixel_size or disc["pixel_size"]
         origin_px = origin_px if origin_px is not None else disc["origin_px"]
-    mask_args = (circle, list(region.exclude_circles), region.polygon,
-                 [list(p) for p in region.exclude_polygons])  # fmt: skip
+    mask_args = (
+        circle,
+        list(region.exclude_circles),
+        region.polygon,
+        [list(p) for p in region.exclude_polygons],
+    )
     order_at = [tuple(p) for p in order_at]
     if method == "phase":
         kw = dataclasses.asdict(opts)
         res = analyse_phase(paths, dark, mask_args, anchor_order, order_at, **kw)
     elif method == "mono":
-        res = analyse_mono(paths, dark, mask_args, anchor_order, order_at,
-                           dataclasses.asdict(opts))  # fmt: skip
+        res = analyse_mono(paths, dark, mask_args, anchor_order, order_at, dataclasses.asdict(opts))
     else:
         res = analyse_rgb(paths, dark, mask_args, **opts.as_kwargs())
     order, reliable, maps, part, mask = res

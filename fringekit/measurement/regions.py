@@ -4,7 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from fringekit.analysis import circle_mask, exclude_circle, polygon_mask
+from fringekit.analysis import (
+    border_anchor,
+    circle_mask,
+    exclude_circle,
+    find_disc,
+    load_image,
+    polygon_mask,
+)
 
 __all__ = [
     "DISC_ROI_SHARE",
@@ -68,8 +75,6 @@ def order_anchors(shape, valid, order_at, anchor_order: float):
     orders map NaN off them), else the valid pixels on the image border at
     ``--anchor-order`` (mask, that order); an error naming the options when there are
     none."""
-    from fringekit.analysis import border_anchor
-
     anchor, orders = order_at_anchor(shape, valid, order_at)
     if anchor is not None:
         return anchor, orders
@@ -92,8 +97,6 @@ def disc_region(image_path, diameter_m: float, dark=None) -> dict:
     """``--roi-disc``: the circular specimen in the first image (:func:`analysis.find_disc`:
     its outline, or else the symmetry of its fringes). Returns ``roi_circle`` (row, col, radius px),
     ``pixel_size`` (m, from the known diameter), ``origin_px`` (its centre) and ``info``."""
-    from fringekit.analysis import find_disc, load_image
-
     try:
         c, how = find_disc(load_image(image_path, dark=dark).data)
     except ValueError:
@@ -110,5 +113,5 @@ def disc_region(image_path, diameter_m: float, dark=None) -> dict:
             "radius_px": c.radius,
             "found_from": how,
             "support": c.support,
-        },  # fmt: skip
+        },
     }

@@ -27,14 +27,32 @@ from fringekit.output.figures import map_figure, profile_figure, sensor_extent
 __all__ = ["write_analysis"]
 
 
-def _figure(path, data, title, label, cmap="turbo", pixel_size=0.0, vmin=None, vmax=None,
-            origin_rc=(0.0, 0.0)):  # fmt: skip
+def _figure(
+    path,
+    data,
+    title,
+    label,
+    cmap="turbo",
+    pixel_size=0.0,
+    vmin=None,
+    vmax=None,
+    origin_rc=(0.0, 0.0),
+):
     """:func:`map_figure` in the sensor frame (mm, y up) when the pixel size is known,
     else in pixels (the coordinates the options take)."""
     if pixel_size:
         ext = sensor_extent(data.shape, pixel_size, origin_rc)
-        map_figure(path, data, title, label, cmap, extent=ext, axis_labels=("x (mm)", "y (mm)"),
-                   vmin=vmin, vmax=vmax)  # fmt: skip
+        map_figure(
+            path,
+            data,
+            title,
+            label,
+            cmap,
+            extent=ext,
+            axis_labels=("x (mm)", "y (mm)"),
+            vmin=vmin,
+            vmax=vmax,
+        )
     else:
         map_figure(path, data, title, label, cmap, vmin=vmin, vmax=vmax)
 
@@ -42,32 +60,93 @@ def _figure(path, data, title, label, cmap="turbo", pixel_size=0.0, vmin=None, v
 def _write_figures(out: Path, method: str, maps: dict, pixel_size: float, origin_rc) -> None:
     """One PNG per map of ``maps`` (fringe order, the method's maps, stress)."""
     two_pi = 2 * np.pi
-    figures = [("fringe_order", maps["fringe_order"], f"fringe order ({method})",
-                "fringe order", "turbo", None, None)]  # fmt: skip
+    figures = [
+        (
+            "fringe_order",
+            maps["fringe_order"],
+            f"fringe order ({method})",
+            "fringe order",
+            "turbo",
+            None,
+            None,
+        )
+    ]
     if method == "phase":
         figures += [
-            ("isoclinic", np.degrees(maps["isoclinic_rad"]), "isoclinic", "deg", "twilight",
-             None, None),
-            ("phasemap_eq3", maps["delta_eq3_rad"], "isochromatic phase (eq. 3)", "rad",
-             "gray", 0, two_pi),
-            ("phasemap_axis_insensitive", maps["delta_axis_insensitive_rad"],
-             "axis-insensitive phase (eq. 4)", "rad", "gray", 0, np.pi),
+            (
+                "isoclinic",
+                np.degrees(maps["isoclinic_rad"]),
+                "isoclinic",
+                "deg",
+                "twilight",
+                None,
+                None,
+            ),
+            (
+                "phasemap_eq3",
+                maps["delta_eq3_rad"],
+                "isochromatic phase (eq. 3)",
+                "rad",
+                "gray",
+                0,
+                two_pi,
+            ),
+            (
+                "phasemap_axis_insensitive",
+                maps["delta_axis_insensitive_rad"],
+                "axis-insensitive phase (eq. 4)",
+                "rad",
+                "gray",
+                0,
+                np.pi,
+            ),
             ("modulation", maps["modulation"], "modulation", "", "viridis", 0, 1),
-        ]  # fmt: skip
+        ]
     elif method == "mono":
         figures += [
-            ("order_sd", maps["order_sd"], "fringe order uncertainty (1 sd)", "fringe",
-             "magma", 0, None),
-            ("normalised_intensity", np.where(maps["fringe_centres"], np.nan,
-             maps["normalised_intensity"]), "sin^2(pi N), fringe centres blank", "", "gray",
-             0, 1),
-        ]  # fmt: skip
+            (
+                "order_sd",
+                maps["order_sd"],
+                "fringe order uncertainty (1 sd)",
+                "fringe",
+                "magma",
+                0,
+                None,
+            ),
+            (
+                "normalised_intensity",
+                np.where(maps["fringe_centres"], np.nan, maps["normalised_intensity"]),
+                "sin^2(pi N), fringe centres blank",
+                "",
+                "gray",
+                0,
+                1,
+            ),
+        ]
     else:
-        figures.append(("colour_error", maps["colour_error"], "colour distance to table", "",
-                        "magma", None, None))  # fmt: skip
+        figures.append(
+            (
+                "colour_error",
+                maps["colour_error"],
+                "colour distance to table",
+                "",
+                "magma",
+                None,
+                None,
+            )
+        )
     if "stress_difference_Pa" in maps:
-        figures.append(("stress_difference", maps["stress_difference_Pa"] * 1e-6,
-                        "principal stress difference", "MPa", "viridis", None, None))  # fmt: skip
+        figures.append(
+            (
+                "stress_difference",
+                maps["stress_difference_Pa"] * 1e-6,
+                "principal stress difference",
+                "MPa",
+                "viridis",
+                None,
+                None,
+            )
+        )
     for name, data, title, label, cmap, vmin, vmax in figures:
         _figure(out / f"{name}.png", data, title, label, cmap, pixel_size, vmin, vmax, origin_rc)
 
@@ -95,11 +174,22 @@ def _write_profile(out: Path, order, line, pixel_size: float, origin_rc) -> None
             "distance_px,row,col",
             "px",
         )
-    np.savetxt(out / "profile.csv", table, delimiter=",", header=head + ",fringe_order",
-               comments="", fmt="%.6g")  # fmt: skip
+    np.savetxt(
+        out / "profile.csv",
+        table,
+        delimiter=",",
+        header=head + ",fringe_order",
+        comments="",
+        fmt="%.6g",
+    )
     title = f"profile ({line[0]:.0f}, {line[1]:.0f}) -> ({line[2]:.0f}, {line[3]:.0f}) px"
-    profile_figure(out / "profile.png", dist, prof.values,
-                   xlabel=f"distance along the line ({unit})", title=title)  # fmt: skip
+    profile_figure(
+        out / "profile.png",
+        dist,
+        prof.values,
+        xlabel=f"distance along the line ({unit})",
+        title=title,
+    )
 
 
 def _write_outputs(out: Path, method, maps, pixel_size, origin_rc, line, pts) -> None:
@@ -136,8 +226,11 @@ def write_analysis(an, out: Path, *, line=None, points=None) -> Path:
     ``points.csv`` for a CSV of points, and ``summary.json``."""
     pixel_size = an.pixel_mm * 1e-3
     line = _profile_line(line, an.region.exclude_circles, an.roi_mask)
-    pts = None if points is None else read_points(points, an.fringe_order.shape, pixel_size,
-                                                  an.origin_px)  # fmt: skip
+    pts = (
+        None
+        if points is None
+        else read_points(points, an.fringe_order.shape, pixel_size, an.origin_px)
+    )
     _write_outputs(out, an.method, an.maps, pixel_size, an.origin_px, line, pts)
     summary = dict(an.summary, line_px=[float(v) for v in line])
     if pts is not None:

@@ -10,12 +10,13 @@ from __future__ import annotations
 import json
 import re
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
+from matplotlib import colormaps
+from matplotlib.figure import Figure
+from matplotlib.patches import Patch
 
-if TYPE_CHECKING:
-    from matplotlib.figure import Figure
+from fringekit.analysis import line_profile
 
 __all__ = [
     "NO_DATA_RGB",
@@ -47,8 +48,6 @@ def _legend(ax, handles) -> None:
 def _no_data(ax, data, extent) -> list:
     """Paint pixels without data (NaN in a map; NaN in any channel of an RGB float image)
     in :data:`NO_DATA_RGB`; returns the legend entry when there are any."""
-    from matplotlib.patches import Patch
-
     bad = ~np.isfinite(np.asarray(data, float))
     if bad.ndim == 3:
         bad = bad.any(axis=-1)
@@ -70,8 +69,6 @@ def sensor_extent(shape, pixel_size: float, origin_rc) -> tuple[float, float, fl
 
 
 def _figure(figsize, dpi=100, ncols: int = 1):
-    from matplotlib.figure import Figure
-
     fig = Figure(figsize=figsize, dpi=dpi)
     axes = fig.subplots(1, ncols)
     return fig, axes
@@ -109,10 +106,14 @@ def map_figure(
         fig.colorbar(im, ax=ax, label=label)
     handles = _no_data(ax, data, extent)
     if hatch is not None and np.any(hatch):
-        from matplotlib.patches import Patch
-
-        ax.contourf(np.asarray(hatch, float), levels=[0.5, 1.5], colors="none", hatches=["////"],
-                    extent=extent, origin="upper")  # fmt: skip
+        ax.contourf(
+            np.asarray(hatch, float),
+            levels=[0.5, 1.5],
+            colors="none",
+            hatches=["////"],
+            extent=extent,
+            origin="upper",
+        )
         handles.append(Patch(facecolor="none", edgecolor="k", hatch="////", label=hatch_label))
     _legend(ax, handles)
     ax.set_xlabel(axis_labels[0])
@@ -151,8 +152,6 @@ def comparison_figure(
     centre_xy_mm : (x, y)
         Sensor coordinates (mm) of the registered centre (the prediction's indenter axis).
     """
-    from fringekit.analysis import line_profile
-
     if line is None:
         r = comp.centre_measured[0]
         line = ((r, 0.0), (r, comp.measured.shape[1] - 1.0))
@@ -178,9 +177,14 @@ def comparison_figure(
     panels = (
         (comp.measured, "measured fringe order", "viridis", 0, vmax),
         (comp.predicted, "predicted fringe order", "viridis", 0, vmax),
-        (comp.residual, f"residual, fringe (RMS {comp.rms:.3g}, 95th percentile of |r| "
-         f"{comp.p95:.3g})", "RdBu_r", -lim, lim),
-    )  # fmt: skip
+        (
+            comp.residual,
+            f"residual, fringe (RMS {comp.rms:.3g}, 95th percentile of |r| {comp.p95:.3g})",
+            "RdBu_r",
+            -lim,
+            lim,
+        ),
+    )
     (x0, y0), (x1, y1) = to_axes(*line[0]), to_axes(*line[1])
     for a, (data, name, cmap, lo, hi) in zip(ax[:3], panels, strict=True):
         im = a.imshow(data, vmin=lo, vmax=hi, cmap=cmap, extent=extent, interpolation="nearest")
@@ -215,8 +219,6 @@ def calibration_figure(path, cal: dict, profiles) -> None:
     profiles : sequence of (r_mm (k,), order (k,))
         The azimuthal mean order of each load state.
     """
-    from matplotlib import colormaps
-
     fits = cal["normal_fits"]
     names = [n for n in fits if not n.startswith("centroid")]
     fig, ax = _figure((12, 4.4), dpi=110, ncols=2)

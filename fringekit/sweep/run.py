@@ -40,8 +40,10 @@ from pathlib import Path
 
 from fringekit._cluster import run_tasks
 from fringekit.config.files import ConfigError, apply_overrides, load_config, tomllib
+from fringekit.meshes import default_cache_dir
 from fringekit.output.figures import sweep_plots
 from fringekit.output.folders import atomic_write, claim_output
+from fringekit.prediction.pipeline import PredictError, run_predict
 
 __all__ = ["load_sweep", "expand_cases", "run_sweep", "collect_results"]
 
@@ -107,8 +109,6 @@ def expand_cases(base: dict, overrides: list[dict]) -> list[dict]:
 
 def _run_case(case: dict, out_root: str, cache_dir: str | None) -> dict:
     """Run one case into ``cases/<id>.part`` and rename it when done (runs on a worker)."""
-    from fringekit.prediction.pipeline import PredictError, run_predict
-
     final = Path(out_root) / "cases" / case["id"]
     part = final.with_name(final.name + ".part")
     shutil.rmtree(part, ignore_errors=True)
@@ -162,8 +162,6 @@ def run_sweep(
 ) -> dict:
     """Run the sweep's unfinished cases on Dask, then rebuild the table and plots
     (``inputs``: the sweep file, never inside ``out``)."""
-    from fringekit.meshes import default_cache_dir
-
     out = Path(out)
     with claim_output(out, command="sweep", inputs=inputs, resume=True):
         (out / "cases").mkdir(parents=True, exist_ok=True)
@@ -179,10 +177,18 @@ def run_sweep(
                 say(f"case {res['id']} failed: {res.get('error')}")
 
         run_tasks(
-            _run_case, todo, [f"case-{c['id']}" for c in todo], str(out.resolve()), cache,
-            scheduler=scheduler, workers=workers, progress=progress, desc="cases", unit="case",
+            _run_case,
+            todo,
+            [f"case-{c['id']}" for c in todo],
+            str(out.resolve()),
+            cache,
+            scheduler=scheduler,
+            workers=workers,
+            progress=progress,
+            desc="cases",
+            unit="case",
             on_result=report,
-        )  # fmt: skip
+        )
         table = collect_results(sweep, out)
     return {
         "cases": len(sweep["cases"]),
@@ -223,8 +229,17 @@ def collect_results(sweep: dict, out: str | os.PathLike) -> list[dict]:
                 "error": res.get("error", ""),
             }
         )
-    fields = ["id", *keys, "status", "max_fringe_order", "force_z_N", "depth_mm",
-              "contact_radius_mm", "time_s", "error"]  # fmt: skip
+    fields = [
+        "id",
+        *keys,
+        "status",
+        "max_fringe_order",
+        "force_z_N",
+        "depth_mm",
+        "contact_radius_mm",
+        "time_s",
+        "error",
+    ]
     table = io.StringIO()
     w = csv.DictWriter(table, fieldnames=fields)
     w.writeheader()

@@ -38,31 +38,92 @@ __all__ = [
 
 
 class FringekitError(Exception):
-    """The base of every error fringekit raises on purpose."""
+    """The base of every error fringekit raises on purpose.
+
+    Examples
+    --------
+    >>> import fringekit
+    >>> try:
+    ...     fringekit.Config.builtin("no-such-case")
+    ... except fringekit.FringekitError as exc:
+    ...     print(type(exc).__name__)
+    ConfigError
+    """
 
 
 class InputError(FringekitError, ValueError):
     """An input that is not allowed; the message names the option or key, the value and
-    what is allowed."""
+    what is allowed.
+
+    Examples
+    --------
+    >>> import fringekit
+    >>> fringekit.analyze([])
+    Traceback (most recent call last):
+    ...
+    fringekit.errors.InputError: analyze needs at least one image
+    """
 
 
 class ConfigError(InputError):
-    """A config value that is not allowed; the message names key, value and what is allowed."""
+    """A config value that is not allowed; the message names key, value and what is allowed.
+
+    Examples
+    --------
+    >>> import fringekit
+    >>> fringekit.Config.reference().replace({"optics.wavelength_nm": 1000})
+    Traceback (most recent call last):
+    ...
+    fringekit.errors.ConfigError: optics.wavelength_nm = 1000 is not allowed; ...
+    """
 
 
 class LibraryError(InputError):
-    """A library folder that cannot be used (missing, corrupt, another sensor)."""
+    """A library folder that cannot be used (missing, corrupt, another sensor).
+
+    Examples
+    --------
+    >>> import tempfile, fringekit
+    >>> fringekit.Library.open(tempfile.mkdtemp())
+    Traceback (most recent call last):
+    ...
+    fringekit.errors.LibraryError: --library ...: no manifest.json (not a library folder, ...
+    """
 
 
 class RefusedError(FringekitError):
     """Valid inputs whose answer the method cannot stand behind (for example an image the
-    response library cannot explain); the message says which quantity is out of range."""
+    response library cannot explain); the message says which quantity is out of range.
+
+    Examples
+    --------
+    >>> import fringekit
+    >>> issubclass(fringekit.InvertError, fringekit.RefusedError)
+    True
+    """
 
 
 class ComputeError(FringekitError, RuntimeError):
     """A computation that could not finish (solver, mesher); partial results are kept
-    where the raising function says so."""
+    where the raising function says so.
+
+    Examples
+    --------
+    >>> import fringekit
+    >>> from fringekit.fea import SolverError
+    >>> issubclass(SolverError, fringekit.ComputeError), issubclass(
+    ...     fringekit.PredictError, fringekit.ComputeError)
+    (True, True)
+    """
 
 
 class Interrupted(ComputeError):
-    """The user stopped a computation (Ctrl-C)."""
+    """The user stopped a computation (Ctrl-C).
+
+    Examples
+    --------
+    >>> from fringekit.errors import Interrupted
+    >>> from fringekit.fea import SolveInterrupted
+    >>> issubclass(SolveInterrupted, Interrupted)
+    True
+    """

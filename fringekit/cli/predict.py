@@ -28,7 +28,7 @@ def add_parser(sub) -> None:
         "config",
         nargs="?",
         default=None,
-        help="TOML config file or built-in case (reference, shear); default reference",
+        help="TOML config file or built-in case (reference, shear, small); default reference",
     )
     run_options(pr)
     pr.add_argument(

@@ -5,8 +5,11 @@ pins each one to its dataclass), so ``fringekit predict``, the Python API and
 ``fringekit config show`` describe one reference sensor.
 
 Built-in cases (:data:`BUILTIN_CASES`): ``reference`` (3 mm PSM-4-class sheet on 15 mm
-polycarbonate, one 3.5 mm indenter, 8 N vertical; the seed paper's Fig. 3a) and ``shear``
-(the same, then 8 N shear along x with full stick; its Fig. 3b).
+polycarbonate, one 3.5 mm indenter, 8 N vertical; the seed paper's Fig. 3a), ``shear``
+(the same, then 8 N shear along x with full stick; its Fig. 3b) and ``small`` (the
+reference sensor cut to a 20 mm sheet on 4 mm polycarbonate, a coarse mesh and a 64-pixel
+image of 12 mm: the whole pipeline in seconds, for examples and tests; not
+mesh-converged).
 """
 
 from __future__ import annotations
@@ -237,5 +240,14 @@ _SHEAR: dict[str, Any] = {
     "contact": {"friction": "stick"},
     "indenter": [{"load_N": [8.0, 8.0], "shear_N": [[0.0, 0.0], [8.0, 0.0]]}],
 }
+_SMALL: dict[str, Any] = {
+    "case": "small",
+    "sheet": {"width_mm": 20.0, "length_mm": 20.0},
+    "substrate": {"thickness_mm": 4.0},
+    "mesh": {"h_contact_mm": 0.6, "refine_radius_mm": 1.5, "h_sheet_mm": 1.5, "h_far_mm": 4.0,
+             "growth": 0.5},
+    "optics": {"field_of_view_mm": 12.0, "pixels": 64, "samples_per_ray": 24,
+               "white_light_wavelengths": 9},
+}  # fmt: skip
 #: Built-in cases by name (partial configs; defaults fill the rest).
-BUILTIN_CASES: dict[str, dict] = {"reference": _REFERENCE, "shear": _SHEAR}
+BUILTIN_CASES: dict[str, dict] = {"reference": _REFERENCE, "shear": _SHEAR, "small": _SMALL}

@@ -36,7 +36,14 @@ AT_LARGEST = 0.995
 
 
 class InvertError(RefusedError):
-    """An image the library cannot explain (exit 2, one line naming the quantity)."""
+    """An image the library cannot explain (exit 2, one line naming the quantity).
+
+    Examples
+    --------
+    >>> import fringekit
+    >>> issubclass(fringekit.InvertError, fringekit.RefusedError)
+    True
+    """
 
 
 def parameter_sd(res, n_used: int) -> np.ndarray:

@@ -126,10 +126,16 @@ class Library:
 
     Examples
     --------
-    >>> from fringekit import Library
-    >>> lib = Library.open("lib-ref")  # doctest: +SKIP
-    >>> lib.diameters_mm, lib.max_load_N  # doctest: +SKIP
-    ([3.5], 10.0)
+    A library is built by :func:`~fringekit.build_library` (there is an example there);
+    opening checks it, and a folder that is no library is refused in one line:
+
+    >>> import tempfile
+    >>> from fringekit import Library, LibraryError
+    >>> try:
+    ...     Library.open(tempfile.mkdtemp())
+    ... except LibraryError as exc:
+    ...     print(str(exc).split(": ", 1)[1][:16])
+    no manifest.json
     """
 
     folder: Path

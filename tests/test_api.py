@@ -240,3 +240,54 @@ def test_the_wheel_installs_one_package(tmp_path):
     for stage in ("meshes", "fea", "optics", "analysis"):
         assert f"fringekit/{stage}/__init__.py" in names
     assert "fringekit/cli/main.py" in names and "fringekit/_threads.py" in names
+
+
+def test_the_rgb_method_reads_its_colour_table_from_a_file(tiny, tmp_path):
+    """``--colour-table`` (``RGBOptions.colour_table``): the rgb method's colour calibration
+    table from a CSV, the same for the API and the command; a missing file is named."""
+    from fringekit.analysis import CalibrationTable
+    from fringekit.optics import PSM4_ASSUMED, colour_chart, light_source
+
+    _, cli_out = tiny
+    image = cli_out / "state_01" / "white_light.png"
+    lam = PSM4_ASSUMED.wavenumber_grid(31)
+    orders, rgb = colour_chart(PSM4_ASSUMED, light_source("LED", lam), Camera(), max_order=4.0)
+    table = tmp_path / "table.csv"
+    CalibrationTable.from_chart(orders, np.clip(rgb * 0.9, 0, 1)).to_csv(table)
+    an = fringekit.analyze(
+        image,
+        pixel_mm=10 / 32,
+        region=fringekit.Region(exclude_circles=[(15.5, 15.5, 6)]),
+        options=fringekit.RGBOptions(colour_table=str(table), seeds=[(0.0, 0.0, 0.03)]),
+    )
+    assert an.method == "rgb" and an.summary["rgb"]["table"] == str(table)
+    assert an.summary["rgb"]["rows"] == len(orders)
+    out = tmp_path / "cli"
+    argv = [
+        "analyze",
+        str(image),
+        "--method",
+        "rgb",
+        "--colour-table",
+        str(table),
+        "--seed",
+        "0",
+        "0",
+        "0.03",
+        "--exclude-circle",
+        "15.5",
+        "15.5",
+        "6",
+        "--pixel-mm",
+        str(10 / 32),
+        "--out",
+        str(out),
+        "--quiet",
+    ]
+    assert main(argv) == 0
+    assert np.array_equal(
+        np.load(out / "maps.npz")["fringe_order"], an.fringe_order, equal_nan=True
+    )
+    missing = tmp_path / "no" / "table.csv"
+    with pytest.raises(FileNotFoundError, match="table.csv"):
+        fringekit.analyze(image, options=fringekit.RGBOptions(colour_table=str(missing)))

@@ -129,7 +129,9 @@ def _phase_options(g) -> None:
 
 def _rgb_options(g) -> None:
     """Options of the white-light colour method."""
-    g.add_argument("--calibration", default=None, help="(rgb) table CSV: order,R,G,B")
+    g.add_argument(
+        "--colour-table", default=None, help="(rgb) colour calibration table CSV: order,R,G,B"
+    )
     g.add_argument("--light", default="LED", help="(rgb) light of the synthetic chart")
     g.add_argument("--camera", default="CIE1931", help="(rgb) camera of the synthetic chart")
     g.add_argument("--max-order", type=positive, default=4.0, help="(rgb) chart range")
@@ -250,7 +252,7 @@ def run(args: argparse.Namespace) -> int:
     options = {
         "phase": lambda: PhaseOptions(args.min_modulation, args.fold, args.reference),
         "rgb": lambda: RGBOptions(
-            args.calibration,
+            args.colour_table,
             args.light,
             args.camera,
             args.max_order,
@@ -266,7 +268,7 @@ def run(args: argparse.Namespace) -> int:
             f"--reference is for --method phase (six zero-load images); the {method} method "
             "has none (calibrate --disc takes a zero-load photo)"
         )
-    given = [*args.images, *(args.reference or []), args.dark, args.flat, args.calibration]
+    given = [*args.images, *(args.reference or []), args.dark, args.flat, args.colour_table]
     with claim_output(out, command="analyze", inputs=[*given, args.points]) as work:
         an = analyze(
             args.images,

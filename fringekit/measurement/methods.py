@@ -26,9 +26,9 @@ from fringekit.optics import PSM4_ASSUMED, Camera, colour_chart, light_source
 __all__ = ["MAX_FOLD_DISAGREEMENT", "analyse_phase", "analyse_rgb"]
 
 
-def _table(calibration, chart: dict | None) -> CalibrationTable:
-    if calibration is not None:
-        return CalibrationTable.from_csv(calibration)
+def _table(colour_table, chart: dict | None) -> CalibrationTable:
+    if colour_table is not None:
+        return CalibrationTable.from_csv(colour_table)
     chart = chart or {}
     lam = PSM4_ASSUMED.wavenumber_grid(31)  # the grid predict renders white light on
     orders, rgb = colour_chart(
@@ -118,7 +118,7 @@ def analyse_phase(
     return fo.order, fo.reliable, maps, part, mask
 
 
-def analyse_rgb(paths, dark, mask_args, *, calibration=None, chart=None, seeds=(), window=0.25):
+def analyse_rgb(paths, dark, mask_args, *, colour_table=None, chart=None, seeds=(), window=0.25):
     """One colour image -> (order, reliable, extra maps, summary part, mask)."""
     if len(paths) != 1:
         raise ValueError(f"the rgb method takes one colour image, got {len(paths)}")
@@ -129,7 +129,7 @@ def analyse_rgb(paths, dark, mask_args, *, calibration=None, chart=None, seeds=(
     # the sRGB gamut and clip, in the chart exactly as in the image); a pixel with
     # every channel at full scale does not
     mask = region_mask(frame.shape, *mask_args) & ~np.all(frame.data >= 1.0, axis=-1)
-    table = _table(calibration, chart)
+    table = _table(colour_table, chart)
     if seeds:
         seed_list = [((r, c), o) for r, c, o in seeds]
         rr = search_refined(frame.data, table, seed_list, mask=mask, window=window)

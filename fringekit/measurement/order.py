@@ -102,9 +102,9 @@ class RGBOptions:
 
     Attributes
     ----------
-    calibration : path, optional
-        A colour table (CSV ``order,R,G,B``); default a synthetic chart of the light and
-        camera below.
+    colour_table : path, optional
+        The colour calibration table of RGB photoelasticity (CSV ``order,R,G,B``);
+        default a synthetic chart of the light and camera below.
     light, camera : str
         The chart's light source and camera sensitivities.
     max_order : float
@@ -123,7 +123,7 @@ class RGBOptions:
     3.0
     """
 
-    calibration: str | None = None
+    colour_table: str | None = None
     light: str = "LED"
     camera: str = "CIE1931"
     max_order: float = 4.0
@@ -140,7 +140,7 @@ class RGBOptions:
         }
         seeds = [tuple(s) for s in self.seeds]
         return {
-            "calibration": self.calibration,
+            "colour_table": self.colour_table,
             "chart": chart,
             "seeds": seeds,
             "window": self.window,

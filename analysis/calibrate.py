@@ -21,7 +21,7 @@ per-feature one, not the weighted-mean formula). Where the load path carries she
 ``shear_x = c0 + c1 centroid_x`` (and y) are fitted linearly.
 
 The fringe value from a diametral disc, which needs the disc's stress field, is fitted by
-the application layer (:func:`fringekit.disc.fringe_value_from_disc`).
+the application layer (:func:`fringekit.calibrate.disc_map.fringe_value_from_disc`).
 """
 
 from __future__ import annotations

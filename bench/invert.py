@@ -38,8 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
-from fringekit.cli.commands import overrides
 from fringekit.cli.main import main
+from fringekit.cli.options import overrides
 from fringekit.config.files import apply_overrides, load_config, to_toml
 from fringekit.library.build import DEFAULT_LOADS_N, DEFAULT_RATIOS, build_library
 

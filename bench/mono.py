@@ -7,7 +7,7 @@ Usage: python bench/mono.py [--rows 2000 --cols 3000] [--disc-px 1000] [--json F
   birefringence 0.05 rad RMS, 30 % vignetting, 2 % glare, 8-bit, 10k e- full well, 5 e-
   read noise, JPEG 90) and ordered by :func:`analysis.mono_order`;
 - ``disc``: Frocht's disc (40 mm, f_sigma 7000 N/m, residual order 0.5) photographed at
-  ``--disc-px`` square and fitted by :func:`fringekit.disc_photo.fit_disc_photos` from
+  ``--disc-px`` square and fitted by :func:`fringekit.calibrate.disc_photo.fit_disc_photos` from
   one photograph and from a series of five, after :func:`analysis.disc_by_symmetry` and
   :func:`analysis.find_discs`.
 

@@ -10,7 +10,8 @@ calibrated (5 N, solved separately) from its predicted fringe map.
 
     python examples/calibration_load_to_fringe.py [--coarse] [--out DIR]
 
-Writes ``calibration.png``, ``calibration.json`` and ``check.json`` (the 5 N estimate).
+Writes ``calibration/`` (the folder of ``fringekit calibrate``: ``calibration.png``,
+``calibration.json``), ``check_5N/`` and ``check.json`` (the 5 N estimate).
 """
 
 from __future__ import annotations
@@ -28,7 +29,8 @@ def main(argv=None) -> dict:
     out = out_dir(args, "calibration")
     loads = [2.0, 4.0, 6.0, 8.0] if args.coarse else [float(k) for k in range(1, 11)]
     cfg = config({"indenter.load_N": loads, "case": "calibration"}, args.coarse)
-    cal = run_calibrate(cfg, out, cache_dir=args.cache_dir, progress=not args.quiet)
+    # calibrate writes a folder of its own; the 5 N check goes beside it
+    cal = run_calibrate(cfg, out / "calibration", cache_dir=args.cache_dir, progress=not args.quiet)
     check_cfg = config({"indenter.load_N": [5.0], "case": "check_5N"}, args.coarse)
     _, state = predict(check_cfg, out / "check_5N", args)
     import numpy as np

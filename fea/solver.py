@@ -365,7 +365,7 @@ def _reached(model: Model, s: float, k: int | None = None) -> str:
     parts = []
     for j, ind in enumerate(model.indenters):
         if ind.force_control:
-            text = f"{-f[j, 2] / model.frac[j]:.4g} N"
+            text = f"{-f[j, 2] / model.frac[j] + 0.0:.4g} N"  # + 0.0: no "-0 N"
         else:
             text = f"depth {(model.c0[j, 2] - c[j, 2]) * 1e3:.4g} mm"
         if ind.shear_force is not None and np.any(f[j, :2] != 0):

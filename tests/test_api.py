@@ -291,3 +291,53 @@ def test_the_rgb_method_reads_its_colour_table_from_a_file(tiny, tmp_path):
     missing = tmp_path / "no" / "table.csv"
     with pytest.raises(FileNotFoundError, match="table.csv"):
         fringekit.analyze(image, options=fringekit.RGBOptions(colour_table=str(missing)))
+
+
+def test_numpy_numbers_are_config_values_and_messages_show_no_repr():
+    cfg = fringekit.Config.reference().replace(
+        {"optics.pixels": np.int64(64), "sheet.E_MPa": np.float64(5.0)}
+    )
+    assert cfg["optics.pixels"] == 64 and type(cfg["optics.pixels"]) is int
+    with pytest.raises(ConfigError) as exc:
+        cfg.replace({"sheet.E_MPa": np.float64(-1.0)})
+    assert str(exc.value).startswith("sheet.E_MPa = -1.0 is not allowed")
+    assert "np." not in str(exc.value) and "float64" not in str(exc.value)
+
+
+@pytest.mark.parametrize(
+    ("make", "words"),
+    [
+        (lambda: fringekit.PhaseOptions(fold="x"), ["--fold x", "count or isoclinic"]),
+        (lambda: fringekit.PhaseOptions(min_modulation=1.5), ["--min-modulation 1.5"]),
+        (lambda: fringekit.MonoOptions(field="grey"), ["--field grey", "dark or bright"]),
+        (lambda: fringekit.MonoOptions(smooth_px=-1), ["--smooth-px -1"]),
+        (lambda: fringekit.RGBOptions(window=0), ["--window 0", "> 0"]),
+        (lambda: fringekit.analyze("a.png", pixel_mm=-0.1), ["--pixel-mm -0.1"]),
+        (lambda: fringekit.Region(exclude_polygons=[[(1, 1)]]), ["--exclude-polygon 1,1"]),
+    ],
+)
+def test_api_options_are_checked_when_given(make, words):
+    with pytest.raises(InputError) as exc:
+        make()
+    assert all(w in str(exc.value) for w in words), str(exc.value)
+
+
+def test_a_two_vertex_exclusion_is_a_line_three_pixels_wide():
+    (band,) = fringekit.Region(exclude_polygons=[[(10, 10), (20, 10)]]).exclude_polygons
+    assert band == ((10.0, 11.5), (20.0, 11.5), (20.0, 8.5), (10.0, 8.5))
+
+
+def test_a_failed_prediction_keeps_its_converged_part(cache_dir, tmp_path):
+    cfg = fringekit.Config.from_dict(TINY).replace(
+        {"solver.max_iterations": 2, "solver.max_cutbacks": 0}
+    )
+    with pytest.raises(fringekit.PredictError) as exc:
+        fringekit.predict(cfg, cache_dir=cache_dir, use_cache=False)
+    assert exc.value.prediction.status == "failed" and not exc.value.prediction.solutions
+    # the command's back-end writes it and raises the same, with the prediction attached
+    from fringekit.prediction.pipeline import run_predict
+
+    with pytest.raises(fringekit.PredictError) as exc:
+        run_predict(cfg, tmp_path / "out", cache_dir=cache_dir, use_cache=False, progress=False)
+    assert exc.value.prediction is not None and exc.value.__cause__ is not None
+    assert json.loads((tmp_path / "out" / "summary.json").read_text())["status"] == "failed"

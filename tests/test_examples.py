@@ -100,4 +100,4 @@ def test_fig10_11_foot_like_load(tmp_path, cache_dir):
 def test_calibration_estimates_an_uncalibrated_load(tmp_path, cache_dir):
     res = _run("calibration_load_to_fringe", tmp_path, cache_dir)
     assert res["check"]["estimate_N"] == pytest.approx(5.0, rel=0.03)
-    assert (tmp_path / "calibration.png").is_file()
+    assert (tmp_path / "calibration" / "calibration.png").is_file()

@@ -1,5 +1,5 @@
 """One source of defaults: every config default equals the stage dataclass default it
-becomes, and every command builds its stage inputs through ``fringekit.inputs``."""
+becomes, and every command builds its stage inputs through ``fringekit.config.inputs``."""
 
 from __future__ import annotations
 

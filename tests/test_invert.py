@@ -320,7 +320,7 @@ def test_predict_from_a_library(test_library, tmp_path):
 
 @pytest.mark.slow
 def test_the_basin_search_turns_a_wrong_tangential_load_back(test_library):
-    """fringekit.invert_hop: a start with one head's tangential load turned 150 deg, its
+    """fringekit.inversion.hop: a start with one head's tangential load turned 150 deg, its
     normal load 15 % low and its axis 0.28 mm off is brought back to the true basin (the
     direction within 5 deg, 0.1-0.7 deg measured; the normal load within 3 %), before
     any joint fit; the joint fit from there gives the truth to 1e-3; at the truth
@@ -371,7 +371,7 @@ def test_the_range_penalty_and_its_jacobian():
 @pytest.mark.slow
 @pytest.mark.parametrize("method", ["rgb", "phase"])
 def test_the_scan_table_matches_the_polariscope(test_library, method):
-    """The scan's intensity table (fringekit.invert_hop.retarder_lookup) against the model's own
+    """The scan's intensity table (fringekit.inversion.hop.retarder_lookup) against the model's own
     intensities of equivalent retarders: within 1 % of the fringe amplitude, from a table
     built for these rays and from one reused with headroom; a table too small for the
     rays is rebuilt, and looking rays up beyond its range directly is an error."""
@@ -444,7 +444,7 @@ def test_a_start_fit_held_at_its_box_edge_is_freed(test_library, monkeypatch):
 @pytest.mark.slow
 @pytest.mark.parametrize("method", ["mono", "phase"])
 def test_the_start_scans_the_tangential_load(test_library, method):
-    """fringekit.invert_start: each candidate's start is the library state (normal load,
+    """fringekit.inversion.start: each candidate's start is the library state (normal load,
     tangential ratio and direction) whose one-indenter image fits its far field best:
     on the two sheared heads' image it points within 30 deg (the scan's step; 21 and
     27 deg measured) of each tangential load, with a ratio within 0.2 and Fz within 25 %
@@ -464,7 +464,7 @@ def test_the_start_scans_the_tangential_load(test_library, method):
 
 
 def test_the_start_cost_is_a_straight_line_fit_with_a_positive_gain():
-    """fringekit.invert_start.projected_cost against numpy's least squares per image and
+    """fringekit.inversion.start.projected_cost against numpy's least squares per image and
     channel group, where its gain is positive; an image the data fit only with a
     negative gain costs the data's variance about its mean (gain 0)."""
     from fringekit.inversion.start import projected_cost

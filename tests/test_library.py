@@ -60,6 +60,7 @@ def test_manifest_resume_and_checksums(tiny_library, capsys):
         loads=TINY_LOADS,
         ratios=TINY_RATIOS,
         workers=0,
+        progress=True,
         echo=msgs.append,
     )
     assert "2 already solved" in msgs[0]
@@ -109,8 +110,8 @@ def test_a_resumed_build_follows_the_same_path(test_library, cache_dir, tmp_path
         ratios=RATIOS,
         workers=1,
         cache_dir=cache_dir,
-        echo=msgs.append,
         progress=True,
+        echo=msgs.append,
     )
     assert "2 already solved" in msgs[0]
     again = load_library(folder)

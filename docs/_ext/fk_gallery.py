@@ -46,9 +46,10 @@ def example_argv(gallery_conf: dict, script_vars: dict) -> list[str]:
 
 
 def png_scraper(block, block_vars: dict, gallery_conf: dict) -> str:
-    """The PNG figures at the top of the example's output folder, as reST images."""
+    """The PNG figures at the top of the example's output folder (or, when it has none,
+    those one folder down: a command's own output folder), as reST images."""
     out = output_folder(block_vars["src_file"])
-    pngs = sorted(out.glob("*.png")) if out.is_dir() else []
+    pngs = (sorted(out.glob("*.png")) or sorted(out.glob("*/*.png"))) if out.is_dir() else []
     shown = []
     for png, dest in zip(pngs, block_vars["image_path_iterator"], strict=False):
         shutil.copyfile(png, dest)

@@ -3,7 +3,7 @@
 Reads the photographs (and the zero-load ``--reference``), finds the disc (given by
 ``--centre`` and ``--radius-px``; else :func:`analysis.find_disc`: its outline, else the
 symmetry of its fringes), fits Frocht's field through
-the polariscope to the intensities (:func:`fringekit.disc_photo.fit_disc_photos`) and
+the polariscope to the intensities (:func:`fringekit.calibrate.disc_photo.fit_disc_photos`) and
 writes to ``--out``:
 
 - ``disc_calibration.json`` - exactly ``f_sigma_N_per_m``, ``f_sigma_sd_N_per_m``,
@@ -33,10 +33,10 @@ from fringekit.calibrate.disc_photo import (
     disc_coordinates,
     fit_disc_photos,
 )
-from fringekit.errors import InputError
+from fringekit.errors import InputError, RefusedError
 from fringekit.optics import DiametralDisc
 from fringekit.output.figures import disc_fit_figure
-from fringekit.output.folders import claim_output
+from fringekit.output.folders import atomic_write, claim_output
 
 __all__ = ["DiscCalibration", "calibrate_disc", "is_photo", "run_disc_photos"]
 
@@ -55,7 +55,7 @@ def _geometry(photo, centre, radius_px, pixel_mm, diameter_mm) -> tuple[DiscGeom
     try:
         c, how = find_disc(photo)
     except ValueError:
-        raise ValueError(
+        raise InputError(
             "--disc: no disc found in the photograph; give --centre ROW COL and --radius-px R"
         ) from None
     row, col = centre if centre is not None else (c.row, c.col)
@@ -122,8 +122,8 @@ class DiscCalibration:
         ``folder`` (created if missing); return it."""
         out = Path(folder)
         out.mkdir(parents=True, exist_ok=True)
-        (out / "disc_calibration.json").write_text(json.dumps(self.result(), indent=2))
-        (out / "summary.json").write_text(json.dumps(self.summary, indent=2))
+        atomic_write(out / "disc_calibration.json", json.dumps(self.result(), indent=2))
+        atomic_write(out / "summary.json", json.dumps(self.summary, indent=2))
         titles = [
             f"{Path(im['file']).name}: {im['load_N']:g} N, centre {im['centre_order']:.3f}"
             for im in self.images
@@ -145,7 +145,7 @@ def calibrate_disc(
     radius_px=None,
     pixel_mm=None,
     dark=None,
-    echo=print,
+    echo=None,
 ) -> DiscCalibration:
     """The material fringe value from photographs of a disc in diametral compression.
 
@@ -174,8 +174,8 @@ def calibrate_disc(
         The pixel pitch (mm), which gives the radius from the diameter.
     dark : path, optional
         A dark frame subtracted from every photograph.
-    echo : callable
-        Where the one line on the disc found goes.
+    echo : callable, optional
+        Where the one line on the disc found goes (default: nowhere).
 
     Returns
     -------
@@ -185,7 +185,10 @@ def calibrate_disc(
     ------
     InputError
         Loads and photographs that do not pair up, photographs of different sizes, no
-        disc found, or photographs Frocht's field does not explain (residual above 25 %).
+        disc found.
+    RefusedError
+        Photographs Frocht's field does not explain (an RMS residual above 25 % of the
+        fringe amplitude).
 
     Examples
     --------
@@ -207,7 +210,7 @@ def calibrate_disc(
     ...     photos.append(folder / f"disc_{load:g}N.png")
     ...     write_image(photos[-1], monochrome_image(q, dark_field_circular(), Camera()))
     >>> cal = fringekit.calibrate_disc(photos, load_N=[1.0, 2.0], diameter_mm=40,
-    ...                                thickness_mm=6, echo=lambda line: None)
+    ...                                thickness_mm=6)
     >>> round(cal.f_sigma_N_per_m), round(PSM4_ASSUMED.f_sigma)
     (386, 386)
     """
@@ -230,7 +233,7 @@ def calibrate_disc(
     D, t = diameter_mm * 1e-3, thickness_mm * 1e-3
     strongest = photos[int(np.argmax(all_loads))]
     geometry, how = _geometry(strongest, centre_px, radius_px, pixel_mm, diameter_mm)
-    echo(
+    (echo or (lambda line: None))(
         f"disc: centre ({geometry.row:.1f}, {geometry.col:.1f}) px, radius "
         f"{geometry.radius_px:.1f} px from the {how}; fitting {len(photos)} photograph(s)"
     )
@@ -240,7 +243,7 @@ def calibrate_disc(
     )
     worst = max(fit.residuals)
     if worst > REFUSE_RESIDUAL:
-        raise InputError(
+        raise RefusedError(
             f"--disc: Frocht's field leaves an RMS residual of {100 * worst:.0f} % of the fringe "
             "amplitude: the photographs are not explained as a disc in diametral compression "
             "(check --load-N, --diameter-mm, --field, the disc found, or give --centre/--radius-px)"
@@ -255,11 +258,11 @@ def calibrate_disc(
     g = fit.geometry
     summary = {
         "disc": {
-            "centre_px": [g.row, g.col],
-            "radius_px": g.radius_px,
+            "centre_px": [float(g.row), float(g.col)],
+            "radius_px": float(g.radius_px),
             "load_axis_tilt_deg": float(np.degrees(g.angle_rad)),
             "found_from": how,
-            "pixel_mm": diameter_mm / 2 / g.radius_px,
+            "pixel_mm": float(diameter_mm / 2 / g.radius_px),
         },
         "diameter_mm": diameter_mm,
         "thickness_mm": thickness_mm,
@@ -272,12 +275,18 @@ def calibrate_disc(
         "time_s": time.perf_counter() - t0,
     }
     images_out = [
-        {"file": n, "load_N": P, "centre_order": c, "residual_rms": r}
+        {"file": n, "load_N": P, "centre_order": float(c), "residual_rms": float(r)}
         for n, P, c, r in zip(names, all_loads, fit.centre_orders, fit.residuals, strict=True)
     ]
     orders = [_order_map(p.shape, g, fit, P, D, t) for p, P in zip(photos, all_loads, strict=True)]
     return DiscCalibration(
-        fit.f_sigma, fit.f_sigma_sd, fit.offset_order, images_out, summary, photos, orders
+        float(fit.f_sigma),
+        float(fit.f_sigma_sd),
+        float(fit.offset_order),
+        images_out,
+        summary,
+        photos,
+        orders,
     )
 
 

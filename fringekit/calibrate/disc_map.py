@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from fringekit.errors import InputError
 from fringekit.optics import DiametralDisc
 
 __all__ = ["disc_outline", "fringe_value_from_disc", "WARN_RESIDUAL", "REFUSE_RESIDUAL"]
@@ -38,7 +39,7 @@ def disc_outline(valid: np.ndarray, pixel_size: float, diameter: float) -> tuple
     circle = np.hypot(rr - centre[0], cc - centre[1]) * pixel_size <= d_eq / 2
     covered = float(valid[circle].mean()) if circle.any() else 0.0
     if not n or abs(d_eq / diameter - 1) > 0.1 or covered < 0.95:
-        raise ValueError(
+        raise InputError(
             f"--centre is missing and the map's data region ({n} pixels, equivalent diameter "
             f"{d_eq * 1e3:.3g} mm, {100 * covered:.0f} % round) does not outline a "
             f"{diameter * 1e3:.3g} mm disc; give --centre ROW COL, the disc centre in pixels "
@@ -72,7 +73,7 @@ def fringe_value_from_disc(
         ("pixel_size", pixel_size),
     ):
         if not (np.isfinite(v) and v > 0):
-            raise ValueError(f"{name} = {v!r} is not allowed; must be > 0")
+            raise InputError(f"{name} = {v!r} is not allowed; must be > 0")
     rows, cols = order.shape
     r, c = np.mgrid[:rows, :cols]
     xy = np.stack([(c - centre_rc[1]) * pixel_size, -(r - centre_rc[0]) * pixel_size], -1)
@@ -80,7 +81,7 @@ def fringe_value_from_disc(
     inside = np.hypot(xy[..., 0], xy[..., 1]) <= r_max * diameter
     use = inside & np.isfinite(order)
     if use.sum() < 10:
-        raise ValueError(
+        raise InputError(
             "fewer than 10 measured pixels inside the disc: check the centre, pixel size "
             "and diameter"
         )
@@ -92,7 +93,7 @@ def fringe_value_from_disc(
     rms = float(np.sqrt(np.mean(resid**2)))
     rel = rms / max(float(np.sqrt(np.mean(Nm**2))), 1e-12)
     if rel > REFUSE_RESIDUAL or not f > 0:
-        raise ValueError(
+        raise InputError(
             f"the map does not look like a diametral disc at {load_N:g} N: Frocht's field "
             f"leaves an RMS residual of {rms:.3g} fringe ({100 * rel:.0f} % of the measured "
             "order); check the centre, the pixel size, the diameter and that the image is a disc"

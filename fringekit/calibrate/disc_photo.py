@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
+from fringekit.errors import InputError
 from fringekit.optics import DiametralDisc
 
 __all__ = ["DiscImage", "DiscFit", "fit_disc_photos", "disc_pixels", "REFUSE_RESIDUAL"]
@@ -350,10 +351,10 @@ def fit_disc_photos(
     fix N_0. The 1-sigma of f_sigma is a jackknife (:func:`_jackknife`).
     """
     if field not in ("dark", "bright"):
-        raise ValueError(f"--field {field!r} is not allowed; use dark or bright")
+        raise InputError(f"--field {field!r} is not allowed; use dark or bright")
     loaded = [im for im in images if im.load_N > 0]
     if not loaded:
-        raise ValueError("--load-N: at least one photograph must carry a load > 0")
+        raise InputError("--load-N: at least one photograph must carry a load > 0")
     pb = _Problem(images, geometry, diameter, thickness, field, fit_offset, shared_light)
     start = _grid_start(pb, max_order)
     sol = _refine(pb, start, geometry)

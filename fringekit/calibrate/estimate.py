@@ -4,7 +4,7 @@ calibration.
 ``run_estimate`` computes the features of :func:`analysis.fringe_features` from a
 fringe-order map (``fringekit analyze`` or ``predict`` output) and inverts a calibration
 (:func:`analysis.estimate_load`); ``run_disc`` fits the fringe value to a diametral-disc
-map (:func:`fringekit.disc.fringe_value_from_disc`).
+map (:func:`fringekit.calibrate.disc_map.fringe_value_from_disc`).
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ import numpy as np
 
 from fringekit.analysis import estimate_load, fringe_features, load_calibration
 from fringekit.calibrate.disc_map import disc_outline, fringe_value_from_disc
+from fringekit.errors import InputError
 from fringekit.measurement.compare import read_order_map
 from fringekit.output.folders import claim_output
 
@@ -25,10 +26,10 @@ def _read_map(maps, pixel_mm, centre):
     m = read_order_map(maps, pixel_size=pixel_mm * 1e-3 if pixel_mm else None)
     rc = centre if centre is not None else m.indenter_rc
     if rc is None:
-        raise ValueError(f"{m.path} stores no indenter position; give --centre ROW COL (pixels)")
+        raise InputError(f"{m.path} stores no indenter position; give --centre ROW COL (pixels)")
     rows, cols = m.order.shape
     if not (0 <= rc[0] <= rows - 1 and 0 <= rc[1] <= cols - 1):
-        raise ValueError(
+        raise InputError(
             f"--centre {rc[0]:g} {rc[1]:g} is outside the map; allowed rows 0..{rows - 1}, "
             f"columns 0..{cols - 1}"
         )

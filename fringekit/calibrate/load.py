@@ -6,7 +6,7 @@ features of :func:`analysis.fringe_features` about the first indenter and fits t
 load. It writes ``calibration.json`` (the fits, the per-state features, the effective
 config), ``features.csv`` and ``calibration.png``.
 
-The inverse (``estimate``) and the disc fit are in :mod:`fringekit.estimate`.
+The inverse (``estimate``) and the disc fit are in :mod:`fringekit.calibrate.estimate`.
 """
 
 from __future__ import annotations
@@ -107,7 +107,7 @@ def _calibrate(cfg, out: Path, optics, cache_dir, use_cache, progress, say) -> t
     names = sorted(feats[0])
     rows = [[loads[k], *shears[k], *(feats[k][n] for n in names)] for k in range(len(feats))]
     head = ",".join(["load_N", "shear_x_N", "shear_y_N", *names])
-    # six significant digits (fringekit.numbers.SIGNIFICANT_DIGITS); nan where undefined
+    # six significant digits (fringekit.output.numbers.SIGNIFICANT_DIGITS); nan where undefined
     np.savetxt(
         out / "features.csv",
         np.array(rows, float),

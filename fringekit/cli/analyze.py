@@ -29,10 +29,6 @@ from fringekit.output.folders import claim_output
 __all__ = ["add_parser", "run"]
 
 
-#: Half-width (px) of an excluded line (``--exclude-polygon`` with two vertices).
-LINE_HALF_WIDTH_PX = 1.5
-
-
 def _mono_options(g) -> None:
     g.add_argument(
         "--field",
@@ -213,31 +209,15 @@ def add_parser(sub) -> None:
 def roi_polygon(args: argparse.Namespace):
     """The polygonal region of interest of ``--roi-rect`` or ``--roi-polygon`` (px)."""
     if args.roi_rect is not None and args.roi_polygon is not None:
-        raise ValueError("give --roi-rect or --roi-polygon, not both")
+        raise InputError("give --roi-rect or --roi-polygon, not both")
     if args.roi_rect is not None:
         r0, c0, r1, c1 = args.roi_rect
         return [(r0, c0), (r0, c1), (r1, c1), (r1, c0)]
     if args.roi_polygon is not None and len(args.roi_polygon) < 3:
-        raise ValueError(
+        raise InputError(
             f"--roi-polygon has {len(args.roi_polygon)} vertices; allowed: 3 or more ROW,COL"
         )
     return args.roi_polygon
-
-
-def exclusion_polygon(vertices):
-    """An ``--exclude-polygon``: 3 or more vertices as given; two vertices, the line
-    between them widened to a 3 px band (a crack)."""
-    if len(vertices) >= 3:
-        return vertices
-    if len(vertices) != 2 or vertices[0] == vertices[1]:
-        raise ValueError(
-            f"--exclude-polygon {' '.join(f'{r:g},{c:g}' for r, c in vertices)}: allowed: two "
-            "distinct vertices (a line) or three or more (a polygon)"
-        )
-    (r0, c0), (r1, c1) = vertices
-    length = ((r1 - r0) ** 2 + (c1 - c0) ** 2) ** 0.5
-    nr, nc = -(c1 - c0) / length * LINE_HALF_WIDTH_PX, (r1 - r0) / length * LINE_HALF_WIDTH_PX
-    return [(r0 + nr, c0 + nc), (r1 + nr, c1 + nc), (r1 - nr, c1 - nc), (r0 - nr, c0 - nc)]
 
 
 def run(args: argparse.Namespace) -> int:
@@ -246,7 +226,7 @@ def run(args: argparse.Namespace) -> int:
         circle=tuple(args.roi_circle) if args.roi_circle else None,
         polygon=roi_polygon(args),
         exclude_circles=[tuple(e) for e in args.exclude_circle or []],
-        exclude_polygons=[exclusion_polygon(p) for p in args.exclude_polygon or []],
+        exclude_polygons=[tuple(map(tuple, p)) for p in args.exclude_polygon or []],
         disc_diameter_mm=args.roi_disc,
     )
     options = {

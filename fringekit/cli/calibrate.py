@@ -18,6 +18,7 @@ from fringekit.cli.options import (
     positive,
     run_options,
 )
+from fringekit.errors import InputError
 from fringekit.output.folders import claim_output
 
 __all__ = ["add_parser", "run"]
@@ -112,7 +113,7 @@ def _disc_photos(args: argparse.Namespace) -> int:
 
 def _disc_map(args: argparse.Namespace) -> int:
     if len(args.disc) != 1 or len(args.load_N) != 1:
-        raise ValueError("--disc with a fringe-order map takes one map and one --load-N")
+        raise InputError("--disc with a fringe-order map takes one map and one --load-N")
     res = run_disc(
         args.disc[0],
         load_N=args.load_N[0],
@@ -143,7 +144,7 @@ def run(args: argparse.Namespace) -> int:
     if args.disc:
         for name in ("load_N", "diameter_mm", "thickness_mm"):
             if getattr(args, name) is None:
-                raise ValueError(f"--disc needs --{name.replace('_', '-')}")
+                raise InputError(f"--disc needs --{name.replace('_', '-')}")
         return _disc_photos(args) if is_photo(args.disc[0]) else _disc_map(args)
     base = default_calibration_config() if args.config is None else None
     cfg = overrides(args.config, args.set or [], base=base)

@@ -18,7 +18,9 @@ The application layer's entry point. Subcommands:
   ``invert IMAGE... --library DIR``: every indenter's position and load.
 
 One module per subcommand (``fringekit.cli.<name>``) holds its parser and its handler;
-each handler calls the API and writes what it returns.
+each handler reads its inputs, runs the computation (the API, or a run function beside it
+that writes as it goes: sweep, calibrate, compare, estimate, mesh, predict --library) and
+prints a summary.
 Exit status: 0 success, 2 a user error (bad config or input; one line, no traceback),
 1 a run that failed (the solver did not reach a load; what converged is written).
 """

@@ -7,18 +7,20 @@ names, so an unknown key or an out-of-range value is an error naming the key, th
 and what is allowed (field units at the edges, SI inside: ``docs/theory.md``,
 "Conventions"). ``fringekit config show`` prints the result with units and a line of help per key.
 
-The keys, their defaults, units and ranges are in :mod:`fringekit.schema`.
+The keys, their defaults, units and ranges are in :mod:`fringekit.config.schema`.
 """
 
 from __future__ import annotations
 
 import copy
 import math
+import numbers
 import os
 import re
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import tomlkit
 
 from fringekit.config.schema import BUILTIN_CASES, INDENTER_SCHEMA, SCHEMA, ConfigError, Key
@@ -42,8 +44,15 @@ __all__ = [
 ]
 
 
+def _shown(value) -> str:
+    """A value as a user wrote it: TOML-like, no Python or numpy repr."""
+    if isinstance(value, numbers.Number) and not isinstance(value, bool):
+        return f"{value.item() if hasattr(value, 'item') else value!r}"
+    return repr(value) if isinstance(value, str) else str(value)
+
+
 def _bad(key: str, value, allowed: str) -> ConfigError:
-    return ConfigError(f"{key} = {value!r} is not allowed; {allowed}")
+    return ConfigError(f"{key} = {_shown(value)} is not allowed; {allowed}")
 
 
 def _range_text(k: Key) -> str:
@@ -52,7 +61,7 @@ def _range_text(k: Key) -> str:
 
 
 def _number(name: str, v, k: Key, integer: bool = False) -> float | int:
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
         raise _bad(name, v, f"give a number{' (integer)' if integer else ''}")
     if integer and not float(v).is_integer():
         raise _bad(name, v, "give an integer")

@@ -3,7 +3,9 @@
 A :class:`Config` holds one checked, effective configuration (every default filled in,
 every value within its range: :func:`fringekit.config.files.effective_config`). It is
 built from a built-in case, a TOML file or a dict, and changed only by :meth:`Config.replace`,
-which checks the whole config again; so a ``Config`` that exists is one that runs.
+which checks the whole config again: every key, type, range and the checks between keys
+that need no mesh (what needs the geometry, such as an indenter off the sheet, is
+checked when a run starts, before anything is computed).
 Keys keep their units in their names (``sheet.E_MPa``, ``indenter.load_N``).
 """
 
@@ -66,7 +68,8 @@ class Config:
 
     @classmethod
     def builtin(cls, name: str) -> Config:
-        """A built-in case by name (``"reference"`` or ``"shear"``)."""
+        """A built-in case by name: ``"reference"``, ``"shear"`` or ``"small"`` (see
+        :data:`fringekit.config.schema.BUILTIN_CASES`)."""
         if name not in BUILTIN_CASES:
             raise ConfigError(
                 f"case {name!r} is not built in; built-in cases: {sorted(BUILTIN_CASES)}"

@@ -1,8 +1,8 @@
 """From one image to every indenter's position and load vector, by fitting the library.
 
-1. **Detection** (:mod:`fringekit.invert_detect`): candidate positions; none means no
+1. **Detection** (:mod:`fringekit.inversion.detect`): candidate positions; none means no
    indenter.
-2. **Start** (:mod:`fringekit.invert_start`). Each candidate's load (normal, tangential
+2. **Start** (:mod:`fringekit.inversion.start`). Each candidate's load (normal, tangential
    and its direction; and the diameter, when the library holds several) is the library
    state, of START_LOADS normal loads, whose one-indenter image fits the far field about
    it best. When the fit from there leaves an indenter flagged, steps 2-4 are repeated
@@ -15,7 +15,7 @@
    smooth there) with one equivalent retarder per ray, then every 2nd pixel with the
    Jones integration within EXACT_MM of each indenter, the axes held within START_BOX_MM
    of where detection put them.
-   Then each indenter's tangential basin is searched (:mod:`fringekit.invert_hop`) and
+   Then each indenter's tangential basin is searched (:mod:`fringekit.inversion.hop`) and
    the joint fit repeated, free, while an indenter moves to another basin.
 4. **Model selection.** An indenter whose fitted Fz is not significant (below 3 sd or
    ``MIN_LOAD_FRACTION`` of the library's first load), or that sits closer to a stronger
@@ -60,13 +60,13 @@ MIN_LOAD_FRACTION = 0.5
 FAR_MM = 2.0
 #: The full stage integrates rays within this distance (mm) of an indenter axis slab by
 #: slab (Jones) and the others as one equivalent retarder (0.0004 fringe RMS apart beyond
-#: two contact radii in the reference case; fringekit.synth).
+#: two contact radii in the reference case; fringekit.library.synth).
 EXACT_MM = 2.5
 #: Before the basin search, the axes stay within this distance (mm) of where detection
 #: put them: the far field cannot tell a moved axis from a tangential load, and a free
 #: first fit moved them by up to 1 mm.
 START_BOX_MM = 0.15
-#: Rounds of the per-indenter basin search (fringekit.invert_hop), each followed by a
+#: Rounds of the per-indenter basin search (fringekit.inversion.hop), each followed by a
 #: joint fit when an indenter moved.
 HOP_ROUNDS = 3
 #: Evaluations of a joint fit at most.

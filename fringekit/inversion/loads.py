@@ -35,6 +35,7 @@ from fringekit.inversion.model import ImageModel
 from fringekit.inversion.read import pixel_grid, read_measurement, sensor_config
 from fringekit.inversion.verdict import WARN_RESIDUAL, residual_warnings
 from fringekit.library.store import Library, check_sensor, load_library
+from fringekit.output.folders import atomic_write
 
 __all__ = ["LOAD_COLUMNS", "Inversion", "invert"]
 
@@ -120,7 +121,7 @@ class Inversion:
             for row in zip(*(table[k] for k in LOAD_COLUMNS), strict=True):
                 w.writerow([f"{x:.6g}" for x in row])
         fit_figure(out / "fit.png", self.model, self.result)
-        (out / "summary.json").write_text(json.dumps(self.summary, indent=2))
+        atomic_write(out / "summary.json", json.dumps(self.summary, indent=2))
         return out
 
 
@@ -159,6 +160,8 @@ def invert(
         ``predict`` folder the image lies in, else the library's own.
     progress : bool
         One line per stage through ``echo``.
+    echo : callable
+        Where the stage lines go.
 
     Returns
     -------

@@ -1,7 +1,7 @@
 """The image model ``fringekit invert`` fits: library synthesis through the polariscope.
 
 For a set of indenters the library gives the path quaternions of every pixel
-(:func:`fringekit.synth.synthesise`); the polariscope and light turn them into linear
+(:func:`fringekit.library.synth.synthesise`); the polariscope and light turn them into linear
 intensities: the dark-field circular image (``mono``), the six phase-stepped images
 (``phase``) or the white-light colour image (``rgb``, linear RGB of the camera). The
 unknown exposure, gain and offset enter linearly: measured = gain * model + offset per
@@ -119,7 +119,7 @@ class ImageModel:
         with the parameters would let the fit lower its cost by leaving pixels out)
     exact : bool or float — Jones integration of every ray, of the rays within this
         distance (m) of an indenter axis, or (False) of none: one equivalent retarder per
-        ray (:func:`fringekit.synth.synthesise`)
+        ray (:func:`fringekit.library.synth.synthesise`)
     nodata : (P,) bool or None — pixels at the image's no-data fill level (a contact zone
         ``predict`` marked); None: every unusable pixel counts (saturated ones included)
     points : (P, 2) float array or None — the pixels' positions (m) when they are a
@@ -154,7 +154,7 @@ class ImageModel:
         white_light_wavelengths=31,
         nodata=None,
     ):
-        """``optics``: a :class:`fringekit.inputs.OpticsSetup` (law, camera, errors);
+        """``optics``: a :class:`fringekit.config.inputs.OpticsSetup` (law, camera, errors);
         ``light``: the white-light source's name; ``nodata`` as the attribute."""
         law = optics.law
         if method == "mono":

@@ -3,9 +3,9 @@ images.
 
 For a candidate at (x, y) every library state of START_LOADS normal loads x tangential
 ratios every START_RATIO_STEP x START_DIRECTIONS directions (and every diameter) is
-synthesised on the candidate's own far-field pixels (:func:`fringekit.inversion._start`
+synthesised on the candidate's own far-field pixels (:func:`fringekit.inversion.fit._start`
 chooses them) with one equivalent retarder per ray, whose intensities come from the
-polariscope's table (:class:`fringekit.invert_hop.RetarderTable`). Each image gets its
+polariscope's table (:class:`fringekit.inversion.hop.RetarderTable`). Each image gets its
 own gain and offset in closed form, a positive gain (a negative one would turn the
 fringes' dark and bright over and is not a camera's); the least squares picks the start.
 
@@ -32,7 +32,7 @@ START_RATIO_STEP = 0.2
 def projected_cost(lin: np.ndarray, measured: np.ndarray, groups) -> np.ndarray:
     """Least-squares cost (M,) of M model images ``lin`` (M, P, C) against ``measured``
     (P, C), each with its own gain (>= 0) and offset per channel group
-    (:func:`fringekit.invert_model.line_fit`, vectorised over the images). A negative
+    (:func:`fringekit.inversion.model.line_fit`, vectorised over the images). A negative
     best gain counts as gain 0 (the measured variance about its mean)."""
     cost = np.zeros(len(lin))
     for g in groups:  # one, or three colour channels

@@ -7,7 +7,7 @@ along +x at that normal load through the ratios of the grid (the seed paper's pr
 normal load first, then shear at constant normal load). Each normal state is reached
 from the one before (4-6 Newton iterations) instead of from the unloaded sheet (20-50
 with cut-backs). The half model about y = 0 holds that loading. Every converged state is
-sampled on the polar ray lattice (:mod:`fringekit.lattice`).
+sampled on the polar ray lattice (:mod:`fringekit.library.lattice`).
 
 A branch (one normal load and its tangential states) is written to
 ``branches/<id>.npz`` atomically as soon as its last state converges, so a killed build
@@ -113,7 +113,7 @@ def build_library(
     scheduler=None,
     workers=None,
     cache_dir=None,
-    progress=True,
+    progress=False,
     echo=print,
     inputs=(),
 ) -> Library:
@@ -139,15 +139,30 @@ def build_library(
         Through-thickness slabs of the stored retarder fields.
     scheduler : str, optional
         A Dask scheduler address; default a local cluster (``workers`` processes).
+    workers : int, optional
+        Local single-threaded worker processes, one diameter's chain each; default one
+        diameter is solved in this process on every core; 0 always in this process.
     cache_dir : path, optional
         Mesh cache root.
     progress : bool
-        A progress bar with an ETA and one line per stage through ``echo``.
+        A progress bar with an ETA and one line per stage through ``echo`` (default off).
+    echo : callable
+        Where the stage lines go.
+    inputs : sequence of paths
+        Files the build reads (the config), which ``out`` may not be or hold.
 
     Returns
     -------
     Library
         The assembled library, read back and checked.
+
+    Raises
+    ------
+    ConfigError
+        A bad config or grid, or ``out`` a folder the build may not write (another
+        sensor's library, files fringekit did not write), before anything is solved.
+    ComputeError
+        A solve that failed; the branches solved are kept and a re-run resumes.
 
     Examples
     --------
@@ -355,7 +370,7 @@ def _assemble(cfg, out: Path, tasks, diameters, loads, ratios, lat, mesh, build_
         arrays["AB"] = condition_fields(arrays["AB"], lat)
         save_npz(out / name, **arrays)
         files[name] = {"diameter_mm": d, "sha256": sha256(out / name)}
-    (out / "config.toml").write_text(to_toml(cfg))
+    atomic_write(out / "config.toml", to_toml(cfg))
     manifest = {
         "format": FORMAT,
         "sensor": sensor_key(cfg),

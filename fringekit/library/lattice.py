@@ -11,7 +11,7 @@ combinations the optics needs, in POLAR components and multiplied by the slab th
 
 Polar components make the normal-load field independent of phi (exact interpolation in
 phi), and the products with dz make fields of several indenters add slab by slab on one
-ray (the superposition of :mod:`fringekit.synth`). A Cartesian pair (a, b) =
+ray (the superposition of :mod:`fringekit.library.synth`). A Cartesian pair (a, b) =
 (sigma_xx - sigma_yy, 2 sigma_xy) at polar angle alpha is the polar pair turned by 2 alpha
 (the transformation of a plane stress tensor, e.g. Timoshenko and Goodier, Theory of
 Elasticity, section 9):

@@ -1,6 +1,6 @@
 """A response library: one sensor's single-indenter fields over a grid of loads.
 
-Folder layout (written by :mod:`fringekit.library_build`)::
+Folder layout (written by :mod:`fringekit.library.build`)::
 
     manifest.json       format, sensor config, grid, lattice, mesh settings, versions,
                         the sha256 of every field file
@@ -15,7 +15,7 @@ The grid is normal load ``load_N`` (nF, increasing) x tangential ratio ``shear_r
 (nS, from 0): the seed paper's protocol, normal load first, then tangential load at
 constant normal load. Between grid points fields are interpolated linearly in load and
 ratio (a zero-load field, no stress and no contact, is implied below the first load), and
-bilinearly in (r, phi) on the lattice (:mod:`fringekit.lattice`). A tangential load in
+bilinearly in (r, phi) on the lattice (:mod:`fringekit.library.lattice`). A tangential load in
 any other direction is the +x solution turned about the axis.
 """
 

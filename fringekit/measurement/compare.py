@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from fringekit.analysis import compare_maps
+from fringekit.errors import InputError
 from fringekit.output.figures import comparison_figure
 from fringekit.output.folders import claim_output
 
@@ -70,10 +71,10 @@ def read_order_map(path, *, pixel_size: float | None = None, hint: str = "--pixe
         z = np.load(f, allow_pickle=False)
     except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
         first = (str(exc).strip().splitlines() or [type(exc).__name__])[0][:100]
-        raise ValueError(f"{f}: not a maps.npz of fringekit predict or analyze ({first})") from None
+        raise InputError(f"{f}: not a maps.npz of fringekit predict or analyze ({first})") from None
     with z:
         if "fringe_order" not in z:
-            raise ValueError(
+            raise InputError(
                 f"{f}: holds no fringe_order map (arrays: {sorted(z.files)}); give the "
                 "maps.npz of fringekit predict or analyze"
             )
@@ -94,7 +95,7 @@ def read_order_map(path, *, pixel_size: float | None = None, hint: str = "--pixe
             )
     px = pixel_size or px
     if not px:
-        raise ValueError(f"{f} stores no pixel size; give {hint}")
+        raise InputError(f"{f} stores no pixel size; give {hint}")
     rc = (float(rc[0]), float(rc[1])) if rc is not None else None
     return OrderMap(f, order, px, rc, rel, xy)
 

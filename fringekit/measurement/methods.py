@@ -20,6 +20,7 @@ from fringekit.analysis import (
     subtract_reference,
     unwrap_fringe_order,
 )
+from fringekit.errors import InputError
 from fringekit.measurement.regions import order_anchors, region_mask
 from fringekit.optics import PSM4_ASSUMED, Camera, colour_chart, light_source
 
@@ -73,7 +74,7 @@ def analyse_phase(
     if reference:
         ref = load_six_step(reference[0] if len(reference) == 1 else reference, dark=dark)
         if ref[0].shape != frames[0].shape:
-            raise ValueError(
+            raise InputError(
                 f"--reference: images of {ref[0].shape} px, the loaded ones {frames[0].shape}; "
                 "allowed: the same camera view"
             )
@@ -121,10 +122,10 @@ def analyse_phase(
 def analyse_rgb(paths, dark, mask_args, *, colour_table=None, chart=None, seeds=(), window=0.25):
     """One colour image -> (order, reliable, extra maps, summary part, mask)."""
     if len(paths) != 1:
-        raise ValueError(f"the rgb method takes one colour image, got {len(paths)}")
+        raise InputError(f"the rgb method takes one colour image, got {len(paths)}")
     frame = load_image(paths[0], dark=dark)
     if frame.data.ndim != 3:
-        raise ValueError(f"{paths[0]}: a grey image; the rgb method needs colour")
+        raise InputError(f"{paths[0]}: a grey image; the rgb method needs colour")
     # one channel at full scale still constrains the order (vivid fringe colours leave
     # the sRGB gamut and clip, in the chart exactly as in the image); a pixel with
     # every channel at full scale does not

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from fringekit.analysis import grey_channel, load_image, mono_order
+from fringekit.errors import InputError
 from fringekit.measurement.regions import order_anchors, region_mask
 
 __all__ = ["POINTS_COLUMNS", "analyse_mono", "read_points", "write_points"]
@@ -26,14 +27,14 @@ POINTS_COLUMNS = ("row", "col", "x_mm", "y_mm", "order", "order_sd", "reliable")
 def analyse_mono(paths, dark, mask_args, anchor_order, order_at, mono: dict):
     """One monochrome image -> (order, reliable, extra maps, summary part, mask)."""
     if len(paths) != 1:
-        raise ValueError(f"the mono method takes one image, got {len(paths)}")
+        raise InputError(f"the mono method takes one image, got {len(paths)}")
     frame = load_image(paths[0], dark=dark)
     mask = region_mask(frame.shape, *mask_args) & ~frame.saturated
     flat = None
     if mono.get("flat"):
         flat_frame = load_image(mono["flat"], dark=dark)
         if flat_frame.shape != frame.shape:
-            raise ValueError(
+            raise InputError(
                 f"--flat {mono['flat']}: shape {flat_frame.shape} does not match the image's "
                 f"{frame.shape}"
             )
@@ -83,26 +84,26 @@ def read_points(path, shape, pixel_size: float, origin_rc) -> np.ndarray:
     ``row,col`` or ``x_mm,y_mm``); errors name ``--points``, the line and what is allowed."""
     path = Path(path)
     if not path.is_file():
-        raise ValueError(f"--points {path}: the file does not exist")
+        raise InputError(f"--points {path}: the file does not exist")
     with path.open(newline="") as fh:
         rows = [r for r in csv.reader(fh) if r and any(c.strip() for c in r)]
     if not rows:
-        raise ValueError(f"--points {path}: empty; allowed: a header row,col or x_mm,y_mm")
+        raise InputError(f"--points {path}: empty; allowed: a header row,col or x_mm,y_mm")
     head = tuple(c.strip() for c in rows[0])
     if head not in (("row", "col"), ("x_mm", "y_mm")):
-        raise ValueError(
+        raise InputError(
             f"--points {path}: header {','.join(head)!r} is not allowed; use row,col or x_mm,y_mm"
         )
     if head == ("x_mm", "y_mm") and not pixel_size:
-        raise ValueError(f"--points {path}: x_mm,y_mm points need --pixel-mm")
+        raise InputError(f"--points {path}: x_mm,y_mm points need --pixel-mm")
     try:
         values = np.array([[float(c) for c in r] for r in rows[1:]], float).reshape(-1, 2)
     except ValueError:
-        raise ValueError(
+        raise InputError(
             f"--points {path}: every line after the header must be two numbers"
         ) from None
     if not len(values) or not np.isfinite(values).all():
-        raise ValueError(f"--points {path}: no points, or a value that is not finite")
+        raise InputError(f"--points {path}: no points, or a value that is not finite")
     if head == ("x_mm", "y_mm"):
         step = pixel_size * 1e3
         values = np.column_stack(
@@ -112,7 +113,7 @@ def read_points(path, shape, pixel_size: float, origin_rc) -> np.ndarray:
     inside &= values[:, 1] <= shape[1] - 0.5
     if not inside.all():
         k = int(np.flatnonzero(~inside)[0])
-        raise ValueError(
+        raise InputError(
             f"--points {path}: point {k + 1} ({rows[k + 1][0].strip()}, "
             f"{rows[k + 1][1].strip()}) is outside the {shape[0]} x {shape[1]} image"
         )

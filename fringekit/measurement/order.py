@@ -23,6 +23,7 @@ from fringekit.measurement.regions import disc_region
 from fringekit.measurement.write import write_analysis
 
 __all__ = [
+    "LINE_HALF_WIDTH_PX",
     "Analysis",
     "MonoOptions",
     "PhaseOptions",
@@ -30,9 +31,30 @@ __all__ = [
     "Region",
     "analyze",
     "choose_method",
+    "exclusion_polygon",
 ]
 
 METHODS = ("phase", "rgb", "mono")
+
+
+#: Half-width (px) of an excluded line (an exclusion polygon of two vertices: a crack).
+LINE_HALF_WIDTH_PX = 1.5
+
+
+def exclusion_polygon(vertices) -> tuple:
+    """An ``--exclude-polygon``: 3 or more vertices as given; two vertices, the line
+    between them widened to a 3 px band (a crack)."""
+    if len(vertices) >= 3:
+        return tuple(tuple(v) for v in vertices)
+    if len(vertices) != 2 or tuple(vertices[0]) == tuple(vertices[1]):
+        raise InputError(
+            f"--exclude-polygon {' '.join(f'{r:g},{c:g}' for r, c in vertices)}: allowed: two "
+            "distinct vertices (a line) or three or more (a polygon)"
+        )
+    (r0, c0), (r1, c1) = vertices
+    length = ((r1 - r0) ** 2 + (c1 - c0) ** 2) ** 0.5
+    nr, nc = -(c1 - c0) / length * LINE_HALF_WIDTH_PX, (r1 - r0) / length * LINE_HALF_WIDTH_PX
+    return ((r0 + nr, c0 + nc), (r1 + nr, c1 + nc), (r1 - nr, c1 - nc), (r0 - nr, c0 - nc))
 
 
 @dataclass(frozen=True)
@@ -48,7 +70,8 @@ class Region:
     exclude_circles : sequence of (row, col, radius)
         Circles left out (an indenter's contact zone, a load point).
     exclude_polygons : sequence of sequences of (row, col)
-        Polygons left out.
+        Polygons left out; one of two vertices is the line between them, 3 px wide (a
+        crack).
     disc_diameter_mm : float, optional
         Find a circular specimen of this diameter in the first image: it sets the circle,
         the pixel size and the origin.
@@ -67,8 +90,9 @@ class Region:
     disc_diameter_mm: float | None = None
 
     def __post_init__(self):
-        for name in ("exclude_circles", "exclude_polygons"):
-            object.__setattr__(self, name, tuple(tuple(v) for v in getattr(self, name)))
+        object.__setattr__(self, "exclude_circles", tuple(tuple(v) for v in self.exclude_circles))
+        polygons = tuple(exclusion_polygon(p) for p in self.exclude_polygons)
+        object.__setattr__(self, "exclude_polygons", polygons)
 
 
 @dataclass(frozen=True)
@@ -94,6 +118,14 @@ class PhaseOptions:
     min_modulation: float = 0.1
     fold: str = "count"
     reference: tuple | None = None
+
+    def __post_init__(self):
+        if self.fold not in ("count", "isoclinic"):
+            raise InputError(f"--fold {self.fold} is not allowed; use count or isoclinic")
+        if not 0 <= self.min_modulation < 1:
+            raise InputError(
+                f"--min-modulation {self.min_modulation} is not allowed; give a fraction in [0, 1)"
+            )
 
 
 @dataclass(frozen=True)
@@ -130,6 +162,14 @@ class RGBOptions:
     exposure: float = 0.9
     seeds: tuple = ()
     window: float = 0.25
+
+    def __post_init__(self):
+        for name in ("max_order", "exposure", "window"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v > 0):
+                raise InputError(
+                    f"--{name.replace('_', '-')} {v} is not allowed; give a number > 0"
+                )
 
     def as_kwargs(self) -> dict:
         chart = {
@@ -171,6 +211,12 @@ class MonoOptions:
     field: str = "dark"
     flat: str | None = None
     smooth_px: float = 0.5
+
+    def __post_init__(self):
+        if self.field not in ("dark", "bright"):
+            raise InputError(f"--field {self.field} is not allowed; use dark or bright")
+        if not (np.isfinite(self.smooth_px) and self.smooth_px >= 0):
+            raise InputError(f"--smooth-px {self.smooth_px} is not allowed; give a number >= 0")
 
 
 #: Share of the region of interest that must be reliable before analyze stops warning
@@ -352,6 +398,11 @@ def analyze(
     )
     if not paths:
         raise InputError("analyze needs at least one image")
+    if not (np.isfinite(pixel_mm) and pixel_mm >= 0):
+        raise InputError(
+            f"--pixel-mm {pixel_mm} is not allowed; give the pixel pitch on the sheet (mm, > 0), "
+            "or 0 for pixels"
+        )
     method = choose_method(method, paths)
     opts = options if options is not None else _OPTIONS[method]()
     if not isinstance(opts, _OPTIONS[method]):

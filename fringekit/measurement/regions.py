@@ -12,6 +12,7 @@ from fringekit.analysis import (
     load_image,
     polygon_mask,
 )
+from fringekit.errors import InputError
 
 __all__ = [
     "DISC_ROI_SHARE",
@@ -38,7 +39,7 @@ def region_mask(shape, roi_circle, exclude, roi_polygon=None, exclude_polygons=(
     for poly in exclude_polygons or ():
         mask &= ~polygon_mask(shape[:2], poly)
     if not mask.any():
-        raise ValueError(
+        raise InputError(
             "the region of interest holds no pixel (--roi-circle, --roi-rect or --roi-polygon "
             "minus --exclude-circle and --exclude-polygon); allowed: a region inside the "
             f"{shape[0]} x {shape[1]} image"
@@ -60,7 +61,7 @@ def order_at_anchor(shape, valid, order_at):
     for r, c, n in order_at:
         disc = circle_mask(shape, (r, c), ORDER_AT_RADIUS_PX)
         if not (disc & valid).any():
-            raise ValueError(
+            raise InputError(
                 f"--order-at {r:g} {c:g} {n:g}: no valid pixel within {ORDER_AT_RADIUS_PX:g} px "
                 f"of ({r:g}, {c:g}); allowed: a point inside the image with fringe data (not "
                 "masked, modulation above --min-modulation)"
@@ -80,7 +81,7 @@ def order_anchors(shape, valid, order_at, anchor_order: float):
         return anchor, orders
     anchor = border_anchor(valid)
     if not anchor.any():
-        raise ValueError(
+        raise InputError(
             "no pixel with fringe data in the region of interest lies on the image border, "
             f"where --anchor-order ({anchor_order:g}) applies; give --order-at ROW COL N, a "
             "pixel of known order"
@@ -100,7 +101,7 @@ def disc_region(image_path, diameter_m: float, dark=None) -> dict:
     try:
         c, how = find_disc(load_image(image_path, dark=dark).data)
     except ValueError:
-        raise ValueError(
+        raise InputError(
             f"--roi-disc: no circular specimen found in {image_path}; give --roi-circle "
             "ROW COL R and --pixel-mm"
         ) from None

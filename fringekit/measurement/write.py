@@ -10,7 +10,7 @@
 - ``summary.json`` - method, inputs, counts of valid and reliable pixels, order range;
 - ``points.csv`` - with ``points``: the order at the given points.
 
-Stored maps are read back by :mod:`fringekit.maps` (``compare``, ``estimate``).
+Stored maps are read back by :mod:`fringekit.measurement.compare` (``compare``, ``estimate``).
 """
 
 from __future__ import annotations
@@ -21,8 +21,10 @@ from pathlib import Path
 import numpy as np
 
 from fringekit.analysis import line_profile
+from fringekit.errors import InputError
 from fringekit.measurement.mono import read_points, write_points
 from fringekit.output.figures import map_figure, profile_figure, sensor_extent
+from fringekit.output.folders import atomic_write
 
 __all__ = ["write_analysis"]
 
@@ -213,7 +215,7 @@ def _profile_line(line, exclude, roi: np.ndarray) -> tuple[float, float, float, 
         line = (r, float(cc.min()), r, float(cc.max()))
     for name, (r, c) in (("start", line[:2]), ("end", line[2:])):
         if not (0 <= r <= rows - 1 and 0 <= c <= cols - 1):
-            raise ValueError(
+            raise InputError(
                 f"--line {name} ({r:g}, {c:g}) is outside the image; allowed rows 0..{rows - 1}, "
                 f"columns 0..{cols - 1}"
             )
@@ -235,5 +237,5 @@ def write_analysis(an, out: Path, *, line=None, points=None) -> Path:
     summary = dict(an.summary, line_px=[float(v) for v in line])
     if pts is not None:
         summary["points"] = str(points)
-    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=float))
+    atomic_write(out / "summary.json", json.dumps(summary, indent=2, default=float))
     return out

@@ -1,7 +1,7 @@
 """``fringekit predict --library DIR``: a config's fringes from a library, without FEM.
 
 Each indenter's final load state (``load_N[-1]``, ``shear_N[-1]``) is synthesised from
-the library (:mod:`fringekit.synth`) on the config's pixel grid, and written as
+the library (:mod:`fringekit.library.synth`) on the config's pixel grid, and written as
 ``predict`` writes a rendered state: ``state_01/maps.npz``, ``six_step/step1..6.png``,
 ``dark_field.png``, ``white_light.png``, ``mask.png``, ``fringe_order.png``, plus
 ``summary.json`` (``"source": "library"`` and the library's measured accuracy) and

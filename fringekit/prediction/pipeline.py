@@ -6,7 +6,7 @@ Output folder layout (``<out>/<case>/``):
   ``{"force_N": [x, y, z], "depth_mm", "contact_radius_mm", ...}`` per indenter),
   ``states`` (every load state), run times, versions and the effective config;
 - ``config.toml`` - the effective config (re-runnable as is);
-- ``state_XX/`` for each rendered load state (:func:`fringekit.render.render_state`):
+- ``state_XX/`` for each rendered load state (:func:`fringekit.prediction.render.render_state`):
   ``solution.vtu`` (deformed quadratic tets, stresses in Pa), ``maps.npz`` (fringe order,
   simple order, isoclinic, mask, pixel x/y in m), ``fringe_order.png`` and
   ``isoclinic.png`` (figures with a colour bar), ``six_step/step1..6.png`` (monochrome,
@@ -77,7 +77,7 @@ class PredictError(ComputeError):
 
 
 class PredictInterrupted(PredictError, Interrupted):
-    """The user stopped the solve; the converged states and a summary were written."""
+    """The user stopped the solve (Ctrl-C); ``prediction`` holds the converged states."""
 
 
 def solve_config(cfg: dict, *, cache_dir=None, use_cache: bool = True, progress: bool = True):
@@ -204,7 +204,7 @@ class Prediction:
         out = Path(folder)
         out.mkdir(parents=True, exist_ok=True)
         t0 = time.perf_counter()
-        (out / "config.toml").write_text(to_toml(self.config.data))
+        atomic_write(out / "config.toml", to_toml(self.config.data))
         rendered = {rs.state for rs in self.states}
         for k, sol in enumerate(self.solutions):  # states not rendered still get their VTU
             if k + 1 not in rendered and self.status == "interrupted":
@@ -388,6 +388,7 @@ def run_predict(
     if error is not None:
         raise type(error)(
             f"{pred.summary['error']}; the {len(pred.solutions)} converged state(s) are "
-            f"written to {dest}" + (f" (the earlier run in {out} is kept)" if dest != out else "")
-        )
+            f"written to {dest}" + (f" (the earlier run in {out} is kept)" if dest != out else ""),
+            prediction=pred,
+        ) from error
     return pred.summary

@@ -264,7 +264,7 @@ def _profile(d: Path, sol, order: np.ndarray, grid) -> None:
 
 def no_data_fill(img: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """``img`` (rows, cols[, 3], uint8 or uint16) with the pixels outside ``mask`` at the
-    documented no-data level (:data:`fringekit.figures.NO_DATA_IMAGE_LEVEL` of full scale
+    documented no-data level (:data:`fringekit.output.figures.NO_DATA_IMAGE_LEVEL` of full scale
     in every channel): the contact zone and pixels off the sheet look the same in every
     image, and differ from a dark fringe."""
     out = img.copy()

@@ -245,6 +245,6 @@ def collect_results(sweep: dict, out: str | os.PathLike) -> list[dict]:
     w.writeheader()
     w.writerows(rows)
     atomic_write(out / "results.csv", table.getvalue())
-    (out / "results.json").write_text(json.dumps(rows, indent=2, default=float))
+    atomic_write(out / "results.json", json.dumps(rows, indent=2, default=float))
     sweep_plots(rows, keys, out / "plots")
     return rows

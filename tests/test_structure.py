@@ -8,6 +8,7 @@ the packages is checked by import-linter (``pyproject.toml``, run by ``.ci/run``
 from __future__ import annotations
 
 import ast
+import importlib.util
 import re
 from pathlib import Path
 
@@ -226,3 +227,13 @@ def test_no_import_cycle_between_modules():
         if n not in state:
             visit(n, [n])
     assert not cycles, cycles
+
+
+@pytest.mark.parametrize("script", sorted((ROOT / "bench").glob("*.py")), ids=lambda p: p.name)
+def test_every_bench_script_imports(script):
+    """A benchmark imports what it measures by public names that exist (running one takes
+    minutes; its imports are what a restructuring breaks)."""
+    spec = importlib.util.spec_from_file_location(f"bench_{script.stem}", script)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    assert callable(module.main)

@@ -299,6 +299,13 @@ def test_predict_from_a_library(test_library, tmp_path):
         assert (out / "state_01" / name).is_file()
     maps = np.load(out / "state_01" / "maps.npz")
     assert np.nanmax(maps["fringe_order"]) > 1.0
+    # each indenter's axis in pixels, as predict's maps hold it (estimate reads it)
+    x, y = maps["x_m"], maps["y_m"]
+    for (r, c), x_mm in zip(maps["indenter_rc"], (-2.0, 3.0), strict=True):
+        assert x[int(round(r)), int(round(c))] * 1e3 == pytest.approx(
+            x_mm, abs=maps["pixel_size_m"] * 1e3
+        )
+        assert abs(y[int(round(r)), int(round(c))]) <= maps["pixel_size_m"]
     cfg["indenter"][0]["load_N"] = [5.0]
     (tmp_path / "c.toml").write_text(to_toml(cfg))
     assert (

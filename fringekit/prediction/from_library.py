@@ -28,6 +28,7 @@ from fringekit.prediction.render import (
     grid_figure,
     monochrome_images,
     white_light,
+    write_maps,
     write_monochrome,
     write_white_light,
 )
@@ -91,21 +92,15 @@ def _render(cfg, lib, inds, d: Path) -> dict:
         law=opt.law,
     )
     order = omap.fringe_order()
-    theta = np.where(omap.mask, omap.principal_angle(), np.nan)
-    rows, cols = opt.grid.shape
-    xy = opt.grid.xy().reshape(rows, cols, 2)
-    np.savez_compressed(
-        d / "maps.npz",
-        fringe_order=order,
-        simple_order=omap.simple_order,
-        isoclinic_rad=theta,
-        mask=omap.mask,
-        x_m=xy[..., 0],
-        y_m=xy[..., 1],
-        pixel_size_m=opt.grid.pixel_size,
-        wavelength_m=opt.law.wavelength_ref,
-        branch_ambiguous=omap.branch_ambiguous(),
-    )
+    maps = {
+        "fringe_order": order,
+        "branch_ambiguous": omap.branch_ambiguous(),
+        "simple_order": omap.simple_order,
+        "isoclinic_rad": np.where(omap.mask, omap.principal_angle(), np.nan),
+        "mask": omap.mask,
+    }
+    axes_rc = [opt.grid.xy_to_pixel(i.x, i.y) for i in inds]  # each axis at first touch
+    write_maps(d, opt.grid, maps, axes_rc, opt.law.wavelength_ref)
     write_monochrome(d, *monochrome_images(sm.q[:, :, 0], cfg, opt, sm.mask), sm.mask)
     write_white_light(d, white_light(sm.q[:, :, 1:], lam, cfg, opt, sm.mask), opt)
     title = f"fringe order at {o['wavelength_nm']:g} nm (library)"

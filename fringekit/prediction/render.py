@@ -42,6 +42,7 @@ __all__ = [
     "no_data_fill",
     "render_state",
     "white_light",
+    "write_maps",
     "write_monochrome",
     "write_state",
     "write_white_light",
@@ -183,23 +184,34 @@ class RenderedState:
         }
 
 
-def _write_maps(d: Path, rs: RenderedState) -> None:
-    """``maps.npz`` of one state."""
-    rows, cols = rs.grid.shape
-    xy = rs.grid.xy().reshape(rows, cols, 2)
+def write_maps(d: Path, grid, maps: dict, indenter_rc, wavelength_m: float) -> None:
+    """``maps.npz`` of one state: ``maps`` (``fringe_order``, ``branch_ambiguous``,
+    ``simple_order``, ``isoclinic_rad``, ``mask``, each (rows, cols)) with the pixels' x
+    and y (m), the pixel size (m), ``indenter_rc`` (m, 2) each indenter's axis in pixels
+    (row, col) and the reference wavelength (m)."""
+    rows, cols = grid.shape
+    xy = grid.xy().reshape(rows, cols, 2)
     np.savez_compressed(
         d / "maps.npz",
-        fringe_order=rs.fringe_order,
-        branch_ambiguous=rs.branch_ambiguous,
-        simple_order=rs.simple_order,
-        isoclinic_rad=rs.isoclinic_rad,
-        mask=rs.mask,
+        **maps,
         x_m=xy[..., 0],
         y_m=xy[..., 1],
-        pixel_size_m=rs.grid.pixel_size,
-        indenter_rc=indenter_pixels(rs.solution, rs.grid),
-        wavelength_m=rs.wavelength_m,
+        pixel_size_m=grid.pixel_size,
+        indenter_rc=np.asarray(indenter_rc, float).reshape(-1, 2),
+        wavelength_m=wavelength_m,
     )
+
+
+def _write_maps(d: Path, rs: RenderedState) -> None:
+    """``maps.npz`` of one rendered state."""
+    maps = {
+        "fringe_order": rs.fringe_order,
+        "branch_ambiguous": rs.branch_ambiguous,
+        "simple_order": rs.simple_order,
+        "isoclinic_rad": rs.isoclinic_rad,
+        "mask": rs.mask,
+    }
+    write_maps(d, rs.grid, maps, indenter_pixels(rs.solution, rs.grid), rs.wavelength_m)
 
 
 def white_light(qw, lam, cfg: dict, optics: OpticsSetup, mask) -> np.ndarray:

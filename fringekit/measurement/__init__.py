@@ -2,15 +2,8 @@
 photograph -> a fringe-order map with the pixels the method stands behind; comparison
 with a prediction."""
 
-from fringekit.measurement.order import (
-    Analysis,
-    MonoOptions,
-    PhaseOptions,
-    Region,
-    RGBOptions,
-    analyze,
-    choose_method,
-)
+from fringekit.measurement.options import MonoOptions, PhaseOptions, Region, RGBOptions
+from fringekit.measurement.order import Analysis, analyze, choose_method
 
 __all__ = [
     "Analysis",

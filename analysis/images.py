@@ -163,7 +163,9 @@ def _read_frame(path) -> Frame:
     if not path.is_file():
         raise FileNotFoundError(f"image file {str(path)!r} does not exist")
     try:
-        img = iio.imread(path)
+        # the camera's EXIF orientation, as a viewer shows the photograph (JPEG, PNG)
+        rotate = path.suffix.lower() not in (".tif", ".tiff")
+        img = iio.imread(path, rotate=True) if rotate else iio.imread(path)
     except Exception as exc:  # imageio raises many types (and multi-line advice)
         first = (str(exc).strip().splitlines() or [type(exc).__name__])[0][:120]
         raise ValueError(f"{path}: not a readable PNG/TIFF/JPEG image ({first})") from None
@@ -194,9 +196,11 @@ def _subtract_dark(frame: Frame, dark) -> Frame:
         frame = Frame(
             np.clip(frame.data - d.data, 0.0, None), frame.saturated, frame.bit_depth, frame.source
         )
-    if np.ptp(frame.data) == 0:
+    if not np.isfinite(frame.data).any():
+        raise ValueError(f"{frame.source}: the image holds no finite value (every pixel is NaN)")
+    if np.nanmax(frame.data) == np.nanmin(frame.data):
         raise ValueError(
-            f"{frame.source}: the image is empty (every pixel equals {frame.data.flat[0]:.4g})"
+            f"{frame.source}: the image is empty (every pixel equals {np.nanmin(frame.data):.4g})"
         )
     return frame
 

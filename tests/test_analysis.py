@@ -416,3 +416,36 @@ def test_colour_spread_tells_white_light_from_single_colour_light():
     grey = np.repeat(np.linspace(0, 1, 400).reshape(20, 20, 1), 3, axis=-1)
     green = grey * np.array([0.1, 0.9, 0.2]) + 0.002 * np.random.default_rng(0).random((20, 20, 3))
     assert colour_spread(grey) < 1e-12 and colour_spread(green) < MIN_COLOUR_SPREAD
+
+
+@pytest.mark.parametrize("suffix", [".jpg", ".png"])
+def test_a_photograph_is_read_as_its_exif_orientation_shows_it(tmp_path, suffix):
+    """A camera stores a portrait photograph landscape with an EXIF orientation tag
+    (6: turn 90 deg clockwise to view); rows and columns are those a viewer shows."""
+    from PIL import Image
+
+    a = np.zeros((20, 40), np.uint8)
+    a[:5, :10] = 255  # top left as stored
+    a[10:, 30:] = 128  # bottom right as stored
+    img = Image.fromarray(a)
+    exif = img.getexif()
+    exif[0x0112] = 6
+    path = tmp_path / f"portrait{suffix}"
+    img.save(path, exif=exif, **({"quality": 95} if suffix == ".jpg" else {}))
+    frame = load_image(path)
+    assert frame.data.shape == (40, 20)
+    assert frame.data[0, -1] == pytest.approx(1.0, abs=0.02)  # now top right
+    assert frame.data[-1, 0] == pytest.approx(128 / 255, abs=0.02)  # now bottom left
+
+
+def test_an_image_without_a_finite_value_is_refused(tmp_path):
+    import tifffile
+
+    nan = np.full((8, 8), np.nan, np.float32)
+    tifffile.imwrite(tmp_path / "nan.tif", nan)
+    with pytest.raises(ValueError, match="nan.tif: the image holds no finite value"):
+        load_image(tmp_path / "nan.tif")
+    nan[2, 2] = 0.5  # NaN is no data; one value alone is an empty image
+    tifffile.imwrite(tmp_path / "one.tif", nan)
+    with pytest.raises(ValueError, match="every pixel equals 0.5"):
+        load_image(tmp_path / "one.tif")

@@ -341,3 +341,14 @@ def test_a_failed_prediction_keeps_its_converged_part(cache_dir, tmp_path):
         run_predict(cfg, tmp_path / "out", cache_dir=cache_dir, use_cache=False, progress=False)
     assert exc.value.prediction is not None and exc.value.__cause__ is not None
     assert json.loads((tmp_path / "out" / "summary.json").read_text())["status"] == "failed"
+
+
+def test_an_all_nan_tiff_is_one_line_and_writes_nothing(tmp_path, capsys):
+    import tifffile
+
+    tifffile.imwrite(tmp_path / "nan.tif", np.full((16, 16), np.nan, np.float32))
+    out = tmp_path / "out"
+    assert main(["analyze", str(tmp_path / "nan.tif"), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "nan.tif: the image holds no finite value" in err
+    assert not out.exists()

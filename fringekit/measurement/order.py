@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import tifffile
 
 from fringekit.analysis import load_image, principal_stress_difference
 from fringekit.errors import InputError
@@ -126,11 +127,24 @@ class Analysis:
         return write_analysis(self, Path(folder), line=line, points=points)
 
 
+def _tiff_pages(path: str) -> int:
+    """The pages of a TIFF file (0 when it cannot be read: load_image then says why)."""
+    try:
+        with tifffile.TiffFile(path) as tif:
+            return len(tif.pages)
+    except (OSError, tifffile.TiffFileError):
+        return 0
+
+
 def choose_method(method: str | None, paths: list[str]) -> str:
-    """The method asked for, or the default for the images given (checked)."""
+    """The method asked for, or the default for the images given (checked): ``phase`` for
+    several images or one multi-page TIFF (a six-step stack), else ``rgb`` for a colour
+    image and ``mono`` for a grey one."""
     if method is None:
-        single = len(paths) == 1 and not paths[0].lower().endswith((".tif", ".tiff"))
-        method = ("rgb" if load_image(paths[0]).data.ndim == 3 else "mono") if single else "phase"
+        stack = len(paths) > 1 or (
+            paths[0].lower().endswith((".tif", ".tiff")) and _tiff_pages(paths[0]) > 1
+        )
+        method = "phase" if stack else ("rgb" if load_image(paths[0]).data.ndim == 3 else "mono")
     if method not in METHODS:
         raise InputError(f"--method {method} is not allowed; use phase, rgb or mono")
     return method

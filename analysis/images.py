@@ -12,6 +12,7 @@ from pathlib import Path
 
 import imageio.v3 as iio
 import numpy as np
+import png
 import tifffile
 from scipy import ndimage
 
@@ -68,8 +69,9 @@ def normalise(image, *, source: str = "array") -> Frame:
 
     Parameters
     ----------
-    image : (rows, cols) or (rows, cols, 3|4) array
-        uint8, uint16 or float in [0, 1]. An alpha channel is dropped.
+    image : (rows, cols), (rows, cols, 2) or (rows, cols, 3|4) array
+        uint8, uint16 or float in [0, 1]: grey, grey + alpha, colour, colour + alpha. An
+        alpha channel is dropped.
     source : str
         Name used in error messages.
 
@@ -91,8 +93,8 @@ def normalise(image, *, source: str = "array") -> Frame:
     ([[0.0, 0.2], [1.0, 0.4]], [[False, False], [True, False]], 8)
     """
     img = np.asarray(image)
-    if img.ndim == 3 and img.shape[2] == 4:
-        img = img[..., :3]
+    if img.ndim == 3 and img.shape[2] in (2, 4):  # grey or colour with alpha: alpha dropped
+        img = img[..., 0] if img.shape[2] == 2 else img[..., :3]
     if img.ndim not in (2, 3) or (img.ndim == 3 and img.shape[2] != 3):
         raise ValueError(
             f"{source}: image shape {img.shape} is not allowed; use (rows, cols) grey or "
@@ -157,19 +159,40 @@ def load_image(path, *, dark=None) -> Frame:
     return _subtract_dark(_read_frame(path), dark)
 
 
+def _is_16_bit_png(path: Path) -> bool:
+    """Whether ``path`` is a PNG of 16 bits per sample (its IHDR's bit depth byte)."""
+    with open(path, "rb") as fh:
+        head = fh.read(26)
+    return head[:8] == b"\x89PNG\r\n\x1a\n" and head[12:16] == b"IHDR" and head[24] == 16
+
+
+def _read_16_bit_png(path: Path) -> np.ndarray:
+    """A 16-bit PNG at its full depth, (rows, cols) or (rows, cols, planes) uint16: Pillow,
+    which imageio reads PNGs with, keeps 16-bit grey but cuts 16-bit colour to 8 bits.
+    pypng decodes every PNG variant (filters, interlacing, alpha); the EXIF orientation
+    is not applied here (16-bit PNGs come from processing software, not cameras)."""
+    width, height, rows, info = png.Reader(filename=str(path)).asDirect()
+    img = np.vstack([np.asarray(row, np.uint16) for row in rows])
+    planes = info["planes"]
+    return img.reshape(height, width, planes) if planes > 1 else img.reshape(height, width)
+
+
 def _read_frame(path) -> Frame:
     """One image file as a Frame, without the emptiness check (a dark frame may be flat)."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"image file {str(path)!r} does not exist")
     try:
-        # the camera's EXIF orientation, as a viewer shows the photograph (JPEG, PNG)
-        rotate = path.suffix.lower() not in (".tif", ".tiff")
-        img = iio.imread(path, rotate=True) if rotate else iio.imread(path)
+        if _is_16_bit_png(path):
+            img = _read_16_bit_png(path)
+        else:
+            # the camera's EXIF orientation, as a viewer shows the photograph (JPEG, PNG)
+            rotate = path.suffix.lower() not in (".tif", ".tiff")
+            img = iio.imread(path, rotate=True) if rotate else iio.imread(path)
     except Exception as exc:  # imageio raises many types (and multi-line advice)
         first = (str(exc).strip().splitlines() or [type(exc).__name__])[0][:120]
         raise ValueError(f"{path}: not a readable PNG/TIFF/JPEG image ({first})") from None
-    if img.ndim == 3 and img.shape[2] not in (3, 4) and img.shape[0] > 1:
+    if img.ndim == 3 and img.shape[2] not in (2, 3, 4) and img.shape[0] > 1:
         raise ValueError(
             f"{path}: holds {img.shape[0]} pages; read phase-stepped stacks with load_six_step"
         )

@@ -449,3 +449,35 @@ def test_an_image_without_a_finite_value_is_refused(tmp_path):
     tifffile.imwrite(tmp_path / "one.tif", nan)
     with pytest.raises(ValueError, match="every pixel equals 0.5"):
         load_image(tmp_path / "one.tif")
+
+
+@pytest.mark.parametrize("planes", [1, 2, 3, 4])
+def test_a_16_bit_png_is_read_at_its_full_depth(tmp_path, planes):
+    """16-bit grey, colour and colour + alpha PNGs keep every bit (Pillow cuts 16-bit
+    colour to 8 bits); the values are the file's over 65535."""
+    import png
+
+    rng = np.random.default_rng(3)
+    a = rng.integers(0, 65535, size=(6, 5, planes), dtype=np.uint16)
+    a[0, 0] = 257  # not a multiple of 256: lost at 8 bits
+    writer = png.Writer(5, 6, greyscale=planes <= 2, alpha=planes in (2, 4), bitdepth=16)
+    with open(tmp_path / "deep.png", "wb") as fh:
+        writer.write(fh, a.reshape(6, 5 * planes).tolist())
+    frame = load_image(tmp_path / "deep.png")
+    want = a[..., 0] if planes <= 2 else a[..., :3]  # alpha dropped
+    assert frame.bit_depth == 16
+    np.testing.assert_array_equal(frame.data, want / 65535.0)
+
+
+def test_a_grey_png_with_alpha_is_a_grey_image(tmp_path):
+    """An 8-bit grey + alpha PNG (photo editors write them) is one grey image, not "a
+    stack of 64 pages"."""
+    import imageio.v3 as iio
+
+    a = np.stack(
+        [np.arange(64, dtype=np.uint8).reshape(8, 8) * 4, np.full((8, 8), 255, np.uint8)], -1
+    )
+    iio.imwrite(tmp_path / "grey_alpha.png", a)
+    frame = load_image(tmp_path / "grey_alpha.png")
+    assert frame.data.shape == (8, 8) and frame.bit_depth == 8
+    np.testing.assert_array_equal(frame.data, a[..., 0] / 255.0)

@@ -180,6 +180,8 @@ def _read_16_bit_png(path: Path) -> np.ndarray:
 def _read_frame(path) -> Frame:
     """One image file as a Frame, without the emptiness check (a dark frame may be flat)."""
     path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{path} is a folder; give an image file (PNG, TIFF or JPEG)")
     if not path.is_file():
         raise FileNotFoundError(f"image file {str(path)!r} does not exist")
     try:
@@ -194,7 +196,8 @@ def _read_frame(path) -> Frame:
         raise ValueError(f"{path}: not a readable PNG/TIFF/JPEG image ({first})") from None
     if img.ndim == 3 and img.shape[2] not in (2, 3, 4) and img.shape[0] > 1:
         raise ValueError(
-            f"{path}: holds {img.shape[0]} pages; read phase-stepped stacks with load_six_step"
+            f"{path}: holds {img.shape[0]} pages, a stack where one image is expected (six "
+            "phase-stepped images go to the phase method)"
         )
     return normalise(img, source=str(path))
 

@@ -146,6 +146,24 @@ def run(args: argparse.Namespace) -> int:
             if getattr(args, name) is None:
                 raise InputError(f"--disc needs --{name.replace('_', '-')}")
         return _disc_photos(args) if is_photo(args.disc[0]) else _disc_map(args)
+    disc_only = (
+        "load_N",
+        "diameter_mm",
+        "thickness_mm",
+        "wavelength_nm",
+        "reference",
+        "dark",
+        "pixel_mm",
+        "centre",
+        "radius_px",
+    )
+    given = [n for n in disc_only if getattr(args, n) is not None]
+    if given:
+        flag = "--" + given[0].replace("_", "-")
+        raise InputError(
+            f"{flag} is an option of calibrate --disc; give --disc IMAGE... with it, or leave "
+            "it out for the load-path calibration"
+        )
     base = default_calibration_config() if args.config is None else None
     cfg = overrides(args.config, args.set or [], base=base)
     out = Path(args.out) if args.out else Path("fringekit-out") / cfg["case"]

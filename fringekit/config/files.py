@@ -240,7 +240,7 @@ def load_config(source: str | os.PathLike | None = None) -> dict:
             f"{sorted(BUILTIN_CASES)}"
         )
     try:
-        given = tomllib.loads(path.read_text())
+        given = tomllib.loads(path.read_text(encoding="utf-8-sig"))  # an editor's BOM is fine
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path}: not valid TOML: {exc}") from None
     given.setdefault("case", path.stem)

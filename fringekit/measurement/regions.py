@@ -28,6 +28,16 @@ def region_mask(shape, roi_circle, exclude, roi_polygon=None, exclude_polygons=(
     """The region of interest (circle and/or polygon; default the whole image) without
     the excluded circles and polygons (cracks, labels, load points); errors name the
     option when nothing is left."""
+    rows, cols = shape[:2]
+    named = [("--roi-circle", roi_circle)] if roi_circle is not None else []
+    for name, (r, c, rad) in named + [("--exclude-circle", e) for e in exclude or ()]:
+        # the distance from the circle's centre to the image's nearest pixel
+        dr, dc = max(0.0, -r, r - (rows - 1)), max(0.0, -c, c - (cols - 1))
+        if np.hypot(dr, dc) >= rad:
+            raise InputError(
+                f"{name} {r:g} {c:g} {rad:g} lies outside the {rows} x {cols} image; allowed: "
+                f"a circle that covers pixels of rows 0..{rows - 1} and columns 0..{cols - 1}"
+            )
     mask = np.ones(shape[:2], bool)
     if roi_circle is not None:
         r, c, rad = roi_circle

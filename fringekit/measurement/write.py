@@ -206,12 +206,13 @@ def _write_outputs(out: Path, method, maps, pixel_size, origin_rc, line, pts) ->
 
 def _profile_line(line, exclude, roi: np.ndarray) -> tuple[float, float, float, float]:
     """The profile line (r0, c0, r1, c1) px: the given one, checked against the image, or
-    the row through the first excluded circle's centre (the indenter), else through the
-    middle of the region of interest, across the region's columns."""
+    the row through the first excluded circle's centre in the image (the indenter), else
+    through the middle of the region of interest, across the region's columns."""
     rows, cols = roi.shape
     if line is None:
         rr, cc = np.nonzero(roi)
-        r = exclude[0][0] if exclude else float(np.round(rr.mean()))
+        inside = [e for e in exclude if 0 <= e[0] <= rows - 1]  # an indenter in the image
+        r = inside[0][0] if inside else float(np.round(rr.mean()))
         line = (r, float(cc.min()), r, float(cc.max()))
     for name, (r, c) in (("start", line[:2]), ("end", line[2:])):
         if not (0 <= r <= rows - 1 and 0 <= c <= cols - 1):

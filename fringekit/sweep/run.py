@@ -56,7 +56,7 @@ def load_sweep(path: str | os.PathLike) -> dict:
     if not path.is_file():
         raise ConfigError(f"sweep file {str(path)!r} does not exist")
     try:
-        d = tomllib.loads(path.read_text())
+        d = tomllib.loads(path.read_text(encoding="utf-8-sig"))  # an editor's BOM is fine
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path}: not valid TOML: {exc}") from None
     unknown = sorted(set(d) - _SWEEP_KEYS)

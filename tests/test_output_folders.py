@@ -8,6 +8,7 @@ import os
 import shutil
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -473,3 +474,23 @@ def test_atomic_write_writes_whole_or_not_at_all(tmp_path):
         atomic_write(f, half)
     assert f.read_text() == "text"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["b.bin", "c.npz", "t.json"]
+
+
+def test_the_lock_of_a_killed_but_unreaped_run_is_taken_over(kit, capsys):
+    """A killed run's process may linger as a zombie (nobody reaps it in a container whose
+    first process reaps nothing): signal 0 still reaches it, yet it writes nothing more."""
+    if not Path("/proc/self/stat").exists():
+        pytest.skip("needs /proc to tell an unreaped process from a running one")
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    for _ in range(200):  # ended, not reaped: a zombie
+        if Path(f"/proc/{proc.pid}/stat").read_text().rsplit(")", 1)[1].split()[0] == "Z":
+            break
+        time.sleep(0.05)
+    try:
+        out = kit[0] / "zombie"
+        lock = out.with_name(".zombie.lock")
+        lock.write_text(f"{proc.pid}\n")
+        assert main(_argv(kit, "estimate", out)) == 0, capsys.readouterr().err
+        assert not lock.exists() and (out / "estimate.json").is_file()
+    finally:
+        proc.wait()

@@ -293,6 +293,9 @@ def _lock_pid(lock: Path) -> int | None:
 
 
 def _alive(pid: int) -> bool:
+    """Whether process ``pid`` still runs. A killed run's process can linger as a zombie
+    until it is reaped (in a container whose first process reaps nothing, for good):
+    signal 0 still reaches it, so on Linux its state in /proc decides."""
     if pid <= 0:
         return False
     try:
@@ -301,4 +304,14 @@ def _alive(pid: int) -> bool:
         return False
     except PermissionError:  # another user's process
         return True
-    return True
+    return not _zombie(pid)
+
+
+def _zombie(pid: int) -> bool:
+    """Whether ``pid`` has ended but not been reaped (state Z or X in /proc/PID/stat, the
+    field after the command name's closing parenthesis); False where /proc is absent."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat[stat.rfind(")") + 2 : stat.rfind(")") + 3] in ("Z", "X")

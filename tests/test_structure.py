@@ -237,3 +237,11 @@ def test_every_bench_script_imports(script):
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     assert callable(module.main)
+
+
+def test_the_formatter_is_never_switched_off():
+    """The formatter's off switches hide code from ruff format (there were 294)."""
+    switch = re.compile(r"#\s*fmt:\s*(skip|off)\b")
+    files = [p for p in [*SOURCES, *SCRIPTS, *TESTS] if p.name != "test_structure.py"]
+    found = [_rel(p) for p in files if switch.search(p.read_text())]
+    assert not found, found

@@ -244,10 +244,19 @@ _SMALL: dict[str, Any] = {
     "case": "small",
     "sheet": {"width_mm": 20.0, "length_mm": 20.0},
     "substrate": {"thickness_mm": 4.0},
-    "mesh": {"h_contact_mm": 0.6, "refine_radius_mm": 1.5, "h_sheet_mm": 1.5, "h_far_mm": 4.0,
-             "growth": 0.5},
-    "optics": {"field_of_view_mm": 12.0, "pixels": 64, "samples_per_ray": 24,
-               "white_light_wavelengths": 9},
-}  # fmt: skip
+    "mesh": {
+        "h_contact_mm": 0.6,
+        "refine_radius_mm": 1.5,
+        "h_sheet_mm": 1.5,
+        "h_far_mm": 4.0,
+        "growth": 0.5,
+    },
+    "optics": {
+        "field_of_view_mm": 12.0,
+        "pixels": 64,
+        "samples_per_ray": 24,
+        "white_light_wavelengths": 9,
+    },
+}
 #: Built-in cases by name (partial configs; defaults fill the rest).
 BUILTIN_CASES: dict[str, dict] = {"reference": _REFERENCE, "shear": _SHEAR, "small": _SMALL}

@@ -80,12 +80,11 @@ class PredictInterrupted(PredictError, Interrupted):
     """The user stopped the solve (Ctrl-C); ``prediction`` holds the converged states."""
 
 
-def solve_config(cfg: dict, *, cache_dir=None, use_cache: bool = True, progress: bool = True):
-    """Mesh and solve a config through the caches: (mesh, solutions, stats, failure text)."""
-    inp = build_inputs(cfg)
-    mesh = build_mesh(inp.spec, cache_dir=cache_dir, use_cache=use_cache)
+def _solve(inp, mesh, *, cache_dir, use_cache: bool, progress: bool):
+    """Solve through the solution cache: (solutions, stats, cache file, failure text,
+    interrupted); a failed solve keeps the states it reached (stats and file None)."""
     try:
-        sols, stats, _ = solve_cached(
+        sols, stats, cache_file = solve_cached(
             mesh,
             inp.indenters,
             materials=inp.materials,
@@ -95,9 +94,19 @@ def solve_config(cfg: dict, *, cache_dir=None, use_cache: bool = True, progress:
             use_cache=use_cache,
             progress=progress,
         )
-        return mesh, sols, stats, None
+        return sols, stats, cache_file, None, False
     except SolverError as exc:
-        return mesh, exc.solutions, None, str(exc)
+        return exc.solutions, None, None, str(exc), isinstance(exc, SolveInterrupted)
+
+
+def solve_config(cfg: dict, *, cache_dir=None, use_cache: bool = True, progress: bool = True):
+    """Mesh and solve a config through the caches: (mesh, solutions, stats, failure text)."""
+    inp = build_inputs(cfg)
+    mesh = build_mesh(inp.spec, cache_dir=cache_dir, use_cache=use_cache)
+    sols, stats, _, failure, _ = _solve(
+        inp, mesh, cache_dir=cache_dir, use_cache=use_cache, progress=progress
+    )
+    return mesh, sols, stats, failure
 
 
 def _model_summary(spec, mesh, rep, stats, failure, cache_file) -> dict:
@@ -281,21 +290,9 @@ def predict(
     say(f"mesh: {rep}")
     say(f"solve: {estimate_text(mesh, inp.indenters)}")
     t0 = time.perf_counter()
-    failure, stats, interrupted = None, None, False
-    try:
-        sols, stats, cache_file = solve_cached(
-            mesh,
-            inp.indenters,
-            materials=inp.materials,
-            contact=inp.contact,
-            settings=inp.settings,
-            cache_dir=cache_dir,
-            use_cache=use_cache,
-            progress=progress,
-        )
-    except SolverError as exc:
-        sols, failure, cache_file = exc.solutions, str(exc), None
-        interrupted = isinstance(exc, SolveInterrupted)
+    sols, stats, cache_file, failure, interrupted = _solve(
+        inp, mesh, cache_dir=cache_dir, use_cache=use_cache, progress=progress
+    )
     times["solve_s"] = time.perf_counter() - t0
     cached = stats is None and failure is None
     say(f"solve: {len(sols)} load state(s) in {times['solve_s']:.1f} s" + " (from cache)" * cached)

@@ -5,10 +5,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from fringekit import __version__
 from fringekit.cli.options import (
     at_least_one,
     at_least_zero,
-    fringekit_version,
     nonnegative,
     overrides,
     positive,
@@ -89,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         g = m["grid"]
         print(
-            f"fringekit {fringekit_version()} - library {args.out}: "
+            f"fringekit {__version__} - library {args.out}: "
             f"{len(g['diameters_mm'])} diameter(s) x {len(g['load_N'])} loads x "
             f"{len(g['shear_ratio'])} ratios, solved in {m['build_s']:.1f} s"
         )

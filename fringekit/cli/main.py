@@ -30,6 +30,7 @@ from __future__ import annotations
 import logging
 import sys
 
+from fringekit import __version__
 from fringekit.cli import (
     analyze,
     calibrate,
@@ -42,7 +43,7 @@ from fringekit.cli import (
     predict,
     sweep,
 )
-from fringekit.cli.options import Parser, fringekit_version
+from fringekit.cli.options import Parser
 from fringekit.errors import ComputeError, FringekitError, Interrupted
 
 __all__ = ["main"]
@@ -58,7 +59,7 @@ def _parser() -> Parser:
         description="Contact stress and photoelastic fringe prediction for photoelastic "
         "tactile sensors.",
     )
-    p.add_argument("--version", action="version", version=f"fringekit {fringekit_version()}")
+    p.add_argument("--version", action="version", version=f"fringekit {__version__}")
     sub = p.add_subparsers(dest="command")
     for command in SUBCOMMANDS:
         command.add_parser(sub)

@@ -9,9 +9,9 @@ import json
 import time
 from pathlib import Path
 
+from fringekit import __version__
 from fringekit.cli.options import (
     finite,
-    fringekit_version,
     overrides,
 )
 from fringekit.config.files import apply_overrides
@@ -89,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
         write_vtu(mesh, work / "mesh.vtu")
         vtu = out / "mesh.vtu"
         summary = {
-            "fringekit_version": fringekit_version(),
+            "fringekit_version": __version__,
             "mesh_spec_SI": spec.to_dict(),
             "quality": rep.as_dict(),
             "facet_sets": {k: len(v) for k, v in mesh.facets.items()},
@@ -98,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
         }
         (work / "mesh_summary.json").write_text(json.dumps(summary, indent=2))
     if not args.quiet:
-        print(f"fringekit {fringekit_version()} - {cfg['case']} mesh ({spec.symmetry} model)")
+        print(f"fringekit {__version__} - {cfg['case']} mesh ({spec.symmetry} model)")
         print(f"  {rep}")
         print("  facet sets: " + ", ".join(f"{k} {v}" for k, v in summary["facet_sets"].items()))
         print(f"  built or loaded in {elapsed:.1f} s; wrote {vtu} and {out / 'mesh_summary.json'}")

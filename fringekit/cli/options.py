@@ -15,7 +15,6 @@ import sys
 
 from fringekit.config.files import apply_overrides, load_config, tomllib
 from fringekit.errors import ConfigError
-from fringekit.output.versions import package_version
 
 __all__ = [
     "Parser",
@@ -23,7 +22,6 @@ __all__ = [
     "at_least_zero",
     "finite",
     "fraction",
-    "fringekit_version",
     "nonnegative",
     "overrides",
     "pixel",
@@ -134,8 +132,3 @@ def overrides(cfg_source, sets: list[str], base: dict | None = None) -> dict:
         except tomllib.TOMLDecodeError:
             values[key.strip()] = text.strip()  # a bare word is a string
     return apply_overrides(base, values) if values else base
-
-
-def fringekit_version() -> str:
-    """The installed fringekit version (``0+unknown`` when run from a source tree)."""
-    return package_version("fringekit", missing="0+unknown")

@@ -8,8 +8,8 @@ import argparse
 import time
 from pathlib import Path
 
+from fringekit import __version__
 from fringekit.cli.options import (
-    fringekit_version,
     overrides,
     run_options,
 )
@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
     )
     if not args.quiet:
         took = time.perf_counter() - t0
-        print(f"fringekit {fringekit_version()} - {cfg['case']}: done in {took:.1f} s")
+        print(f"fringekit {__version__} - {cfg['case']}: done in {took:.1f} s")
         for j, ind in enumerate(summary["indenters"]):
             f = ", ".join(f"{v:.3g}" for v in ind["force_N"])
             print(

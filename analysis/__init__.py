@@ -20,7 +20,7 @@ from .circles import Circle, disc_by_symmetry, find_disc, find_discs
 from .compare import Comparison, Profile, compare_maps, line_profile
 from .images import SIX_STEP_ORDER, Frame, image_noise_sd, load_image, load_six_step, normalise
 from .masks import border_anchor, check_mask, circle_mask, exclude_circle, polygon_mask
-from .mono import MonoResult, grey_channel, mono_order
+from .mono import AGREE_MIN, MonoResult, channel_agreement, grey_channel, mono_order
 from .phase import (
     Resolution,
     SixStep,
@@ -49,6 +49,8 @@ __all__ = [
     "find_discs",
     "MonoResult",
     "grey_channel",
+    "channel_agreement",
+    "AGREE_MIN",
     "mono_order",
     "calibrate_from_maps",
     "estimate_load",

@@ -26,6 +26,7 @@ import numpy as np
 
 from fringekit.analysis import find_disc, grey_channel, load_image
 from fringekit.calibrate.disc_photo import (
+    FIT_RADIUS,
     REFUSE_RESIDUAL,
     WARN_RESIDUAL,
     DiscGeometry,
@@ -38,7 +39,13 @@ from fringekit.optics import DiametralDisc
 from fringekit.output.figures import disc_fit_figure
 from fringekit.output.folders import atomic_write, claim_output
 
-__all__ = ["DiscCalibration", "calibrate_disc", "is_photo", "run_disc_photos"]
+__all__ = [
+    "DiscCalibration",
+    "calibrate_disc",
+    "check_disc_in_image",
+    "is_photo",
+    "run_disc_photos",
+]
 
 
 def is_photo(path) -> bool:
@@ -46,8 +53,67 @@ def is_photo(path) -> bool:
     return Path(path).suffix.lower() in (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 
 
+#: Least fraction of the fitted disc (FIT_RADIUS of its radius) that must lie in the image,
+#: and its least radius (px): a disc mostly off the image, or a few pixels wide, is no
+#: calibration however well its few pixels fit.
+MIN_INSIDE = 0.5
+MIN_RADIUS_PX = 8.0
+
+
+def check_disc_in_image(shape, geometry: DiscGeometry, named: str) -> None:
+    """Refuse (:class:`InputError`, naming ``named``) a disc that lies mostly outside an
+    image of ``shape`` (rows, cols) or is too small to fit.
+
+    The inside fraction is that of the fitted area (radius ``FIT_RADIUS * radius_px``),
+    counted on a 64 x 64 lattice over its bounding square.
+
+    Examples
+    --------
+    >>> check_disc_in_image((240, 240), DiscGeometry(120, 120, 100), "--radius-px 100")
+    >>> check_disc_in_image((240, 240), DiscGeometry(120, 120, 5000), "--radius-px 5000")
+    Traceback (most recent call last):
+    ...
+    fringekit.errors.InputError: --radius-px 5000: the disc (centre row 120, col 120, radius
+    5000 px) has only ... % of its area in the 240 x 240 image ...
+    """
+    rows, cols = shape[:2]
+    R = FIT_RADIUS * geometry.radius_px
+    u = (np.arange(64) + 0.5) / 32 - 1
+    dy, dx = np.meshgrid(u * R, u * R, indexing="ij")
+    disc = np.hypot(dx, dy) <= R
+    r, c = geometry.row + dy[disc], geometry.col + dx[disc]
+    inside = float(np.mean((r >= -0.5) & (r <= rows - 0.5) & (c >= -0.5) & (c <= cols - 0.5)))
+    if inside < MIN_INSIDE or geometry.radius_px < MIN_RADIUS_PX:
+        raise InputError(
+            f"{named}: the disc (centre row {geometry.row:.4g}, col {geometry.col:.4g}, radius "
+            f"{geometry.radius_px:.4g} px) has only {100 * inside:.2g} % of its area in the "
+            f"{rows} x {cols} image (rows 0..{rows - 1}, cols 0..{cols - 1}); allowed: a disc "
+            f"at least {100 * MIN_INSIDE:.0f} % inside, radius at least {MIN_RADIUS_PX:g} px"
+        )
+
+
+def _named(centre, radius_px, pixel_mm) -> str:
+    """The options that placed the disc, as the user gave them."""
+    parts = []
+    if centre is not None:
+        parts.append(f"--centre {centre[0]:g} {centre[1]:g}")
+    if radius_px is not None:
+        parts.append(f"--radius-px {radius_px:g}")
+    elif pixel_mm:
+        parts.append(f"--pixel-mm {pixel_mm:g}")
+    return ", ".join(parts) or "--disc (the disc found)"
+
+
 def _geometry(photo, centre, radius_px, pixel_mm, diameter_mm) -> tuple[DiscGeometry, str]:
-    """The disc in the photo: from the options, its outline, or its fringes' symmetry."""
+    """The disc in the photo: from the options, its outline, or its fringes' symmetry;
+    refused when it lies mostly outside the photo."""
+    geometry, how = _placed(photo, centre, radius_px, pixel_mm, diameter_mm)
+    check_disc_in_image(photo.shape, geometry, _named(centre, radius_px, pixel_mm))
+    return geometry, how
+
+
+def _placed(photo, centre, radius_px, pixel_mm, diameter_mm) -> tuple[DiscGeometry, str]:
+    """The disc from the options, its outline, or its fringes' symmetry."""
     if pixel_mm and radius_px is None:
         radius_px = diameter_mm / 2 / pixel_mm
     if centre is not None and radius_px is not None:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import sys
 
 from fringekit.config.files import apply_overrides, load_config, tomllib
@@ -30,8 +31,20 @@ __all__ = [
 ]
 
 
+#: A negative number in float() notation: -12, -1.5, -.5, -1e6, -2.5E-3, -inf, -nan.
+NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*(e[-+]?\d+)?|\.\d+(e[-+]?\d+)?|inf(inity)?|nan)$", re.I)
+
+
 class Parser(argparse.ArgumentParser):
-    """An argument parser whose errors are one line on stderr (exit status 2)."""
+    """An argument parser whose errors are one line on stderr (exit status 2), and that
+    reads a negative number in any float notation (``-1e6``, ``-.5``, ``-inf``) as a value,
+    not an option (argparse itself knows only ``-12`` and ``-1.5``)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        # argparse's hook for telling negative numbers from options (a private attribute,
+        # the same name in Python 3.10-3.13): a value whenever float() would take it
+        self._negative_number_matcher = NEGATIVE_NUMBER
 
     def error(self, message: str):  # noqa: D102 - argparse's hook
         sys.stderr.write(f"{self.prog}: error: {message}\n")

@@ -88,7 +88,7 @@ class Inversion:
     def table(self) -> dict[str, np.ndarray]:
         """The loads as columns named :data:`LOAD_COLUMNS` (mm and N), one row per
         indenter; ``reliable`` (bool) says where the residual near the indenter is
-        small enough to stand behind its load."""
+        small enough to stand behind its load, and the indenter lies on the sheet."""
         r = self.result
         p, s = r.params, r.sd
         cols = (
@@ -106,7 +106,7 @@ class Inversion:
             r.residual_rms,
         )
         out = {k: np.asarray(v, float) for k, v in zip(LOAD_COLUMNS, cols, strict=True)}
-        out["reliable"] = np.asarray(r.residual_rms) <= WARN_RESIDUAL
+        out["reliable"] = np.asarray(self.summary["reliable"], bool).reshape(len(p))
         return out
 
     def write(self, folder: str | os.PathLike) -> Path:
@@ -123,6 +123,19 @@ class Inversion:
         fit_figure(out / "fit.png", self.model, self.result)
         atomic_write(out / "summary.json", json.dumps(self.summary, indent=2))
         return out
+
+
+def _off_sheet(xy_mm: np.ndarray, sheet_mm) -> np.ndarray:
+    """(n,) bool: which of the (n, 2) positions (mm, sensor frame) lie off a sheet of
+    ``sheet_mm`` = (width, length) centred on the origin.
+
+    Examples
+    --------
+    >>> _off_sheet(np.array([[0.0, 9.9], [-619.0, 619.0]]), (20, 20))
+    array([False,  True])
+    """
+    half = np.asarray(sheet_mm, float) / 2
+    return np.any(np.abs(np.asarray(xy_mm, float).reshape(-1, 2)) > half, axis=1)
 
 
 def _library(library: Library | str | os.PathLike) -> Library:
@@ -213,10 +226,13 @@ def invert(
     else:
         check_sensor(lib, cfg, where)
     optics = optics_setup(cfg)
-    method, measured, usable, nodata, shape = read_measurement(
+    method, measured, usable, nodata, shape, note = read_measurement(
         paths, method, optics.camera.sensitivities
     )
+    if note:
+        warnings.append(note)
     o = cfg["optics"]
+    sheet_mm = (cfg["sheet"]["width_mm"], cfg["sheet"]["length_mm"])
     model = ImageModel.build(
         lib,
         pixel_grid(shape, pixel_mm, origin_px),
@@ -235,6 +251,13 @@ def invert(
     )
     res = invert_image(model)
     warnings += residual_warnings(res.params, res.residual_rms)
+    off = _off_sheet(res.params[:, :2], sheet_mm)
+    warnings += [
+        f"indenter {i + 1} at ({res.params[i, 0]:.2f}, {res.params[i, 1]:.2f}) mm lies off the "
+        f"{sheet_mm[0]:g} x {sheet_mm[1]:g} mm sheet: not reliable (check --pixel-mm and "
+        "--origin-px)"
+        for i in np.flatnonzero(off)
+    ]
     say(
         f"invert: {len(res.params)} indenter(s), residual {res.residual:.3f} of the fringe "
         f"amplitude, {time.perf_counter() - t0:.1f} s"
@@ -253,7 +276,9 @@ def invert(
         "gains": [float(g) for g in res.gains],
         "offsets": [float(o) for o in res.offsets],
         "warnings": warnings,
-        "reliable": [bool(r <= WARN_RESIDUAL) for r in res.residual_rms],
+        "reliable": [
+            bool(r <= WARN_RESIDUAL and not o) for r, o in zip(res.residual_rms, off, strict=True)
+        ],
         "times_s": {**res.times_s, "total_s": time.perf_counter() - t0},
     }
     return Inversion(method, res, model, summary)

@@ -9,9 +9,10 @@ import colour as cs
 import numpy as np
 from scipy import ndimage
 
-from fringekit.analysis import load_image, load_six_step
+from fringekit.analysis import grey_channel, load_image, load_six_step
 from fringekit.config.files import load_config
 from fringekit.errors import ConfigError
+from fringekit.measurement.mono import colour_as_grey
 from fringekit.optics import PixelGrid
 from fringekit.output.figures import NO_DATA_IMAGE_LEVEL
 
@@ -41,8 +42,10 @@ def _no_data(stack: np.ndarray) -> np.ndarray:
 
 
 def read_measurement(paths, method: str | None, camera_name: str):
-    """(method, measured (P, C) linear, usable (P,), no-data (P,), shape) from the image
-    files: usable pixels are neither saturated nor at the no-data fill level."""
+    """(method, measured (P, C) linear, usable (P,), no-data (P,), shape, note) from the
+    image files: usable pixels are neither saturated nor at the no-data fill level; the note
+    says which channel of a colour photograph of monochromatic light the mono method reads
+    (one whose channels disagree is refused)."""
     paths = [str(p) for p in paths]
     if method is None:
         single = len(paths) == 1
@@ -55,11 +58,13 @@ def read_measurement(paths, method: str | None, camera_name: str):
         raw = np.stack([f.data if f.data.ndim == 2 else f.data.mean(-1) for f in frames], -1)
         lin = raw
         sat = np.any([f.saturated for f in frames], axis=0)
+        note = ""
     else:
         f = load_image(paths[0])
         if method == "rgb" and f.data.ndim != 3:
             raise ConfigError(f"--method rgb needs a colour image; {paths[0]} is grey")
-        data = f.data if method == "rgb" or f.data.ndim == 2 else f.data.mean(-1)
+        note = "" if method == "rgb" else colour_as_grey(f.data, None, paths[0], "--method mono")
+        data = f.data if method == "rgb" or f.data.ndim == 2 else grey_channel(f.data)
         raw = data.reshape(*data.shape[:2], -1)
         lin = (
             _decode(f, camera_name, method == "rgb").reshape(raw.shape) if method == "rgb" else raw
@@ -68,7 +73,7 @@ def read_measurement(paths, method: str | None, camera_name: str):
     nodata = _no_data(raw)
     rows, cols = raw.shape[:2]
     usable = (~sat & ~nodata).ravel()
-    return method, lin.reshape(rows * cols, -1), usable, nodata.ravel(), (rows, cols)
+    return method, lin.reshape(rows * cols, -1), usable, nodata.ravel(), (rows, cols), note
 
 
 def sensor_config(sensor, images) -> tuple[dict | None, str | None]:
@@ -89,8 +94,16 @@ def sensor_config(sensor, images) -> tuple[dict | None, str | None]:
 
 def pixel_grid(shape, pixel_mm: float, origin_px) -> PixelGrid:
     """The sensor-frame pixel grid of an image of ``shape`` (rows, cols) at ``pixel_mm``
-    (mm) with the origin at ``origin_px`` (row, col; default the image centre)."""
+    (mm) with the origin at ``origin_px`` (row, col; default the image centre).
+
+    An origin outside the image is refused (:class:`ConfigError`): the origin is a point
+    of the sheet, so an image that holds it sees the sheet."""
     rows, cols = shape
     r0, c0 = origin_px if origin_px is not None else ((rows - 1) / 2, (cols - 1) / 2)
+    if not (-0.5 <= r0 <= rows - 0.5 and -0.5 <= c0 <= cols - 0.5):
+        raise ConfigError(
+            f"--origin-px {r0:g} {c0:g} lies outside the {rows} x {cols} image; allowed: "
+            f"a pixel of it, rows 0..{rows - 1}, cols 0..{cols - 1} (default its centre)"
+        )
     p = pixel_mm * 1e-3
     return PixelGrid((rows, cols), p, (-(c0 - (cols - 1) / 2) * p, (r0 - (rows - 1) / 2) * p))

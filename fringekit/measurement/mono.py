@@ -14,14 +14,52 @@ from pathlib import Path
 
 import numpy as np
 
-from fringekit.analysis import grey_channel, load_image, mono_order
+from fringekit.analysis import (
+    AGREE_MIN,
+    channel_agreement,
+    grey_channel,
+    load_image,
+    mono_order,
+)
 from fringekit.errors import InputError
 from fringekit.measurement.regions import order_anchors, region_mask
 
-__all__ = ["POINTS_COLUMNS", "analyse_mono", "read_points", "write_points"]
+__all__ = ["POINTS_COLUMNS", "analyse_mono", "colour_as_grey", "read_points", "write_points"]
 
 #: Columns of ``points.csv``, in order.
 POINTS_COLUMNS = ("row", "col", "x_mm", "y_mm", "order", "order_sd", "reliable")
+
+
+def colour_as_grey(data, mask, path, option: str) -> str:
+    """For a monochrome method given a colour photograph: the note that says which
+    channel is read, or an :class:`InputError` when its channels disagree (white light,
+    whose colours the ``rgb`` method reads); ``""`` for a grey image.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> order = np.linspace(0, 4, 200)[None, :] * np.ones((8, 1))
+    >>> sodium = np.sin(np.pi * order[..., None]) ** 2 * np.array([0.8, 1.0, 0.3])
+    >>> print(colour_as_grey(sodium, None, "photo.png", "--method mono"))
+    photo.png is a colour image of monochromatic light (its channels agree, correlation
+    1.00): read as its green channel
+    """
+    if np.ndim(data) != 3:
+        return ""
+    c, pair = channel_agreement(data, mask)
+    if c < AGREE_MIN:
+        raise InputError(
+            f"{option}: {path} is a colour image whose {pair} channels disagree (correlation "
+            f"{c:.2f}, allowed at least {AGREE_MIN:g}): white-light fringes; use --method rgb, "
+            "or photograph in monochromatic light"
+        )
+    m = np.ones(np.shape(data)[:2], bool) if mask is None else mask
+    spread = np.subtract(*np.percentile(np.asarray(data, float)[m], [99, 1], axis=0))
+    name = ("red", "green", "blue")[int(np.argmax(spread))]
+    return (
+        f"{path} is a colour image of monochromatic light (its channels agree, correlation "
+        f"{c:.2f}): read as its {name} channel"
+    )
 
 
 def analyse_mono(paths, dark, mask_args, anchor_order, order_at, mono: dict):
@@ -30,6 +68,7 @@ def analyse_mono(paths, dark, mask_args, anchor_order, order_at, mono: dict):
         raise InputError(f"the mono method takes one image, got {len(paths)}")
     frame = load_image(paths[0], dark=dark)
     mask = region_mask(frame.shape, *mask_args) & ~frame.saturated
+    colour_note = colour_as_grey(frame.data, mask, paths[0], "--method mono")
     flat = None
     if mono.get("flat"):
         flat_frame = load_image(mono["flat"], dark=dark)
@@ -63,6 +102,8 @@ def analyse_mono(paths, dark, mask_args, anchor_order, order_at, mono: dict):
             **res.info,
         }
     }
+    if colour_note:
+        part["extra_warning"] = colour_note
     share = float(res.reliable[mask].mean())
     if res.info["ordered_bands"] == 0 or res.info["bands"] < 2:
         part["unreliable_reason"] = "no fringes found to count"

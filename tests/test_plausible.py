@@ -1,0 +1,126 @@
+"""Plausible or refused (issue: hostile inputs at the edges): geometry given against the
+image, a colour photograph given to a monochrome method, and data a command did not
+measure. Each refusal is one line naming the option and its value, with no Python repr,
+before anything is written."""
+
+from __future__ import annotations
+
+import re
+
+import imageio.v3 as iio
+import numpy as np
+import pytest
+
+from fringekit.cli import main
+
+REPR = re.compile(r"np\.\w+\(|PosixPath\(|WindowsPath\(|load_six_step|compare_maps")
+
+
+def _refused(argv, capsys, words, out):
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0, err
+    assert all(w in err for w in words), err
+    assert not REPR.search(err), err
+    assert not out.exists()
+
+
+def _rings(n=96, order_max=4.0, lam=(550.0,), gains=(1.0,)):
+    """Dark-field rings (order falling from the centre) in light of the wavelengths
+    ``lam`` (nm; the order is given at 550 nm), one channel per wavelength, 8-bit."""
+    r, c = np.mgrid[:n, :n]
+    order = order_max * np.exp(-((np.hypot(r - n / 2, c - n / 2) / (n / 4)) ** 2))
+    ch = [g * np.sin(np.pi * order * 550 / w) ** 2 for w, g in zip(lam, gains, strict=True)]
+    img = np.stack(ch, -1) if len(ch) > 1 else ch[0]
+    return np.round(20 + 220 * img).astype(np.uint8)
+
+
+@pytest.fixture
+def disc_photo(tmp_path):
+    path = tmp_path / "disc.png"
+    iio.imwrite(path, _rings(240))
+    return path
+
+
+@pytest.mark.parametrize(
+    "options, words",
+    [
+        (["--radius-px", "5000"], ["--radius-px 5000", "240 x 240"]),
+        (["--centre", "500", "-20", "--radius-px", "100"], ["--centre 500 -20", "240 x 240"]),
+        (["--pixel-mm", "0.001"], ["--pixel-mm 0.001", "240 x 240"]),
+        (["--centre", "120", "120", "--radius-px", "3"], ["--radius-px 3", "at least 8 px"]),
+    ],
+)
+def test_a_disc_outside_the_photo_is_refused(disc_photo, tmp_path, capsys, options, words):
+    """A disc mostly off the photo used to give a fringe value 6.6x wrong with a 0.1 %
+    residual: the few pixels it kept fit anything."""
+    out = tmp_path / "cal"
+    argv = ["calibrate", "--disc", str(disc_photo), "--load-N", "100", "--diameter-mm", "40"]
+    argv += ["--thickness-mm", "6", *options, "--out", str(out)]
+    _refused(argv, capsys, words, out)
+
+
+@pytest.fixture
+def tiny_lib_folder(tiny_library):
+    return tiny_library.folder
+
+
+@pytest.mark.parametrize(
+    "origin, pixel_mm, words",
+    [
+        (("5000", "5000"), "0.25", ["--origin-px 5000 5000", "48 x 48"]),
+        (("-1e6", "1e6"), "0.25", ["--origin-px -1e+06 1e+06", "outside"]),
+        (("48", "10"), "0.25", ["--origin-px 48 10", "rows 0..47"]),
+    ],
+)
+def test_an_origin_off_the_image_is_refused(
+    tiny_lib_folder, tmp_path, capsys, origin, pixel_mm, words
+):
+    """invert --origin-px 5000 5000 used to return an indenter at (-619, 619) mm on a
+    20 mm sheet, marked reliable."""
+    image = tmp_path / "image.png"
+    iio.imwrite(image, _rings(48))
+    out = tmp_path / "inv"
+    argv = ["invert", str(image), "--library", str(tiny_lib_folder), "--pixel-mm", pixel_mm]
+    argv += ["--origin-px", *origin, "--method", "mono", "--out", str(out), "--quiet"]
+    _refused(argv, capsys, words, out)
+
+
+WHITE = {"lam": (620.0, 550.0, 460.0), "gains": (1.0, 1.0, 1.0)}
+SODIUM = {"lam": (589.0, 589.0, 589.0), "gains": (0.9, 1.0, 0.35)}
+
+
+def test_a_white_light_colour_photo_is_refused_by_the_mono_methods(tmp_path, capsys, tiny_library):
+    """A colour image of white-light fringes given to --method mono used to be averaged
+    into grey and read as wrong orders (and loads) marked reliable."""
+    image = tmp_path / "white.png"
+    iio.imwrite(image, _rings(48, **WHITE))
+    out = tmp_path / "an"
+    argv = ["analyze", str(image), "--method", "mono", "--out", str(out)]
+    _refused(argv, capsys, ["--method mono", "white.png", "channels disagree", "--method rgb"], out)
+    argv = ["invert", str(image), "--library", str(tiny_library.folder), "--pixel-mm", "0.25"]
+    argv += ["--method", "mono", "--out", str(out), "--quiet"]
+    _refused(argv, capsys, ["--method mono", "white.png", "channels disagree"], out)
+
+
+def test_a_colour_photo_of_monochromatic_light_is_read_as_its_strongest_channel(tmp_path):
+    """Sodium light on a colour camera: the channels are one pattern; analyze reads the
+    strongest (green here) and says so; the orders match the grey image's."""
+    import json
+
+    colour, grey = tmp_path / "sodium.png", tmp_path / "grey.png"
+    iio.imwrite(colour, _rings(64, **SODIUM))
+    iio.imwrite(grey, _rings(64, lam=(589.0,)))
+    runs = {}
+    for name, path in (("colour", colour), ("grey", grey)):
+        out = tmp_path / name
+        assert main(["analyze", str(path), "--method", "mono", "--out", str(out), "--quiet"]) in (
+            0,
+            1,
+        )
+        runs[name] = (np.load(out / "maps.npz"), json.loads((out / "summary.json").read_text()))
+    assert "read as its green channel" in runs["colour"][1]["warning"]
+    a, b = (runs[k][0]["fringe_order"] for k in ("colour", "grey"))
+    both = np.isfinite(a) & np.isfinite(b)
+    assert both.mean() > 0.5
+    assert np.abs(a - b)[both].max() < 0.05

@@ -134,7 +134,7 @@ def test_symmetry_choice_follows_positions_and_loads():
 
 
 def test_geometry_errors_are_config_errors():
-    with pytest.raises(ConfigError, match="outside the sheet"):
+    with pytest.raises(ConfigError, match="reaches off the 40 x 40 mm sheet"):
         build_inputs(effective_config({"indenter": [{"x_mm": 19.0}]}))
 
 

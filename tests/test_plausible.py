@@ -124,3 +124,34 @@ def test_a_colour_photo_of_monochromatic_light_is_read_as_its_strongest_channel(
     both = np.isfinite(a) & np.isfinite(b)
     assert both.mean() > 0.5
     assert np.abs(a - b)[both].max() < 0.05
+
+
+@pytest.mark.parametrize(
+    "sets, words",
+    [
+        (["indenter[0].x_mm=9"], ["indenter[0] at x_mm = 9", "off the 20 x 20 mm sheet"]),
+        (
+            ["indenter[0].x_mm=-1", "indenter[1].x_mm=1"],
+            ["indenter[0] and indenter[1] overlap", "2 mm apart"],
+        ),
+    ],
+)
+def test_predict_from_a_library_checks_the_heads_as_the_fem_does(
+    tiny_library, tmp_path, capsys, sets, words
+):
+    """predict --library used to synthesise heads off the sheet and heads overlapping,
+    which FEM predict refuses."""
+    from fringekit.config.files import load_config, to_toml
+
+    cfg = load_config(tiny_library.folder / "config.toml")
+    cfg["indenter"] = [dict(cfg["indenter"][0], x_mm=0.0, y_mm=0.0, load_N=[3.0])]
+    cfg["indenter"].append(dict(cfg["indenter"][0], x_mm=5.0))
+    path = tmp_path / "two.toml"
+    path.write_text(to_toml(cfg))
+    out = tmp_path / "pred"
+    argv = ["predict", str(path), "--library", str(tiny_library.folder), "--out", str(out)]
+    for s in sets:
+        argv += ["--set", s]
+    _refused(argv, capsys, words, out)
+    # the same config without the change is synthesised
+    assert main(argv[: argv.index("--set")] + ["--quiet"]) == 0

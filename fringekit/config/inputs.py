@@ -24,6 +24,7 @@ __all__ = [
     "OpticsSetup",
     "RunInputs",
     "build_inputs",
+    "check_layout",
     "choose_symmetry",
     "mesh_spec",
     "optics_setup",
@@ -89,12 +90,51 @@ def choose_symmetry(cfg: dict) -> str:
     return want
 
 
+def check_layout(cfg: dict) -> None:
+    """Refuse indenters whose heads reach off the sheet or overlap one another
+    (:class:`ConfigError` naming the config keys, in mm): the checks of FEM ``predict``'s
+    mesh, for every path that places heads (``predict --library`` too).
+
+    Examples
+    --------
+    >>> import fringekit
+    >>> cfg = fringekit.Config.reference().replace({"indenter[0].x_mm": 18.5}).data
+    >>> check_layout(cfg)
+    Traceback (most recent call last):
+    ...
+    fringekit.errors.ConfigError: indenter[0] at x_mm = 18.5, y_mm = 0 with diameter_mm = 3.5
+    reaches off the 40 x 40 mm sheet; allowed: |x_mm| + diameter_mm / 2 <= 20 and
+    |y_mm| + diameter_mm / 2 <= 20
+    """
+    sh, inds = cfg["sheet"], cfg["indenter"]
+    w, h = sh["width_mm"] / 2, sh["length_mm"] / 2
+    for i, d in enumerate(inds):
+        r = d["diameter_mm"] / 2
+        if abs(d["x_mm"]) + r > w or abs(d["y_mm"]) + r > h:
+            raise ConfigError(
+                f"indenter[{i}] at x_mm = {d['x_mm']:g}, y_mm = {d['y_mm']:g} with diameter_mm = "
+                f"{d['diameter_mm']:g} reaches off the {2 * w:g} x {2 * h:g} mm sheet; allowed: "
+                f"|x_mm| + diameter_mm / 2 <= {w:g} and |y_mm| + diameter_mm / 2 <= {h:g}"
+            )
+    for i, a in enumerate(inds):
+        for j in range(i + 1, len(inds)):
+            b = inds[j]
+            dist = math.hypot(a["x_mm"] - b["x_mm"], a["y_mm"] - b["y_mm"])
+            if dist < (a["diameter_mm"] + b["diameter_mm"]) / 2:
+                raise ConfigError(
+                    f"indenter[{i}] and indenter[{j}] overlap: their centres are {dist:.4g} mm "
+                    f"apart; allowed: at least the sum of their radii, "
+                    f"{(a['diameter_mm'] + b['diameter_mm']) / 2:g} mm"
+                )
+
+
 def mesh_spec(cfg: dict, symmetry: str | None = None) -> MeshSpec:
     """The :class:`meshes.MeshSpec` (SI) of an effective config.
 
     ``symmetry`` defaults to :func:`choose_symmetry`. Geometry errors (an indenter off
     the sheet, ...) become a :class:`ConfigError`.
     """
+    check_layout(cfg)
     sh, sub, m = cfg["sheet"], cfg["substrate"], cfg["mesh"]
     try:
         return MeshSpec(

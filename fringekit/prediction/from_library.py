@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from fringekit.config.files import ConfigError, to_toml
-from fringekit.config.inputs import optics_setup
+from fringekit.config.inputs import check_layout, optics_setup
 from fringekit.library.store import LoadedIndenter, check_sensor, load_library
 from fringekit.library.synth import synthesise
 from fringekit.optics import (
@@ -44,7 +44,9 @@ ACCURACY_NOTE = (
 
 def config_indenters(cfg: dict, lib) -> list[LoadedIndenter]:
     """The config's indenters at their final load state; loads the library cannot give
-    are a one-line ConfigError."""
+    are a one-line ConfigError, and so are heads off the sheet or overlapping (the checks
+    of FEM ``predict``)."""
+    check_layout(cfg)
     out = []
     for i, d in enumerate(cfg["indenter"]):
         if d["load_N"] is None:

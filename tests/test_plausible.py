@@ -155,3 +155,50 @@ def test_predict_from_a_library_checks_the_heads_as_the_fem_does(
     _refused(argv, capsys, words, out)
     # the same config without the change is synthesised
     assert main(argv[: argv.index("--set")] + ["--quiet"]) == 0
+
+
+def _with_no_data_disc(tmp_path, n=64, rad=6):
+    """Rings with predict's no-data fill (half scale in every channel) over the contact."""
+    img = _rings(n, **SODIUM)
+    r, c = np.mgrid[:n, :n]
+    disc = np.hypot(r - n / 2, c - n / 2) <= rad
+    img[disc] = 128
+    path = tmp_path / "with_disc.png"
+    iio.imwrite(path, img)
+    return path, disc
+
+
+@pytest.mark.parametrize("method", ["mono", "rgb"])
+def test_predicts_no_data_fill_is_not_read_as_data(tmp_path, method):
+    """analyze used to read predict's flat grey contact disc as a reliable plateau of
+    order 3.5 (65,404 of 65,536 pixels reliable on the reference image)."""
+    import json
+
+    path, disc = _with_no_data_disc(tmp_path)
+    out = tmp_path / "an"
+    assert main(["analyze", str(path), "--method", method, "--out", str(out), "--quiet"]) in (0, 1)
+    summary = json.loads((out / "summary.json").read_text())
+    maps = np.load(out / "maps.npz")
+    assert summary["no_data_px"] == int(disc.sum())
+    assert not maps["reliable"][disc].any()
+    assert summary["valid_pixels"] == disc.size - disc.sum()
+
+
+def test_a_mask_image_limits_the_region(tmp_path, capsys):
+    """--mask takes predict's mask.png (data where bright); one of another size is refused."""
+    import json
+
+    path, _ = _with_no_data_disc(tmp_path)
+    keep = np.zeros((64, 64), np.uint8)
+    keep[:, :32] = 255
+    iio.imwrite(tmp_path / "mask.png", keep)
+    out = tmp_path / "an"
+    argv = ["analyze", str(path), "--method", "mono", "--out", str(out), "--quiet"]
+    assert main([*argv, "--mask", str(tmp_path / "mask.png")]) in (0, 1)
+    assert not np.load(out / "maps.npz")["reliable"][:, 32:].any()
+    assert json.loads((out / "summary.json").read_text())["valid_pixels"] <= 64 * 32
+    iio.imwrite(tmp_path / "small_mask.png", keep[:32])
+    out2 = tmp_path / "an2"
+    capsys.readouterr()
+    argv = ["analyze", str(path), "--mask", str(tmp_path / "small_mask.png"), "--out", str(out2)]
+    _refused(argv, capsys, ["--mask", "small_mask.png", "32 x 64 px", "64 x 64 px"], out2)

@@ -86,6 +86,13 @@ def _region_options(an) -> None:
         metavar=("ROW", "COL", "R"),
         help="masked circle, e.g. the indenter",
     )
+    an.add_argument(
+        "--mask",
+        default=None,
+        metavar="PNG",
+        help="mask image of the images' size, data where bright (predict's mask.png); "
+        "predict's no-data fill is left out without it too",
+    )
     an.add_argument("--pixel-mm", type=positive, default=None, help="pixel pitch on the sheet (mm)")
     an.add_argument(
         "--roi-disc",
@@ -228,6 +235,7 @@ def run(args: argparse.Namespace) -> int:
         exclude_circles=[tuple(e) for e in args.exclude_circle or []],
         exclude_polygons=[tuple(map(tuple, p)) for p in args.exclude_polygon or []],
         disc_diameter_mm=args.roi_disc,
+        mask=args.mask,
     )
     options = {
         "phase": lambda: PhaseOptions(args.min_modulation, args.fold, args.reference),
@@ -248,7 +256,14 @@ def run(args: argparse.Namespace) -> int:
             f"--reference is for --method phase (six zero-load images); the {method} method "
             "has none (calibrate --disc takes a zero-load photo)"
         )
-    given = [*args.images, *(args.reference or []), args.dark, args.flat, args.colour_table]
+    given = [
+        *args.images,
+        *(args.reference or []),
+        args.dark,
+        args.flat,
+        args.colour_table,
+        args.mask,
+    ]
     with claim_output(out, command="analyze", inputs=[*given, args.points]) as work:
         an = analyze(
             args.images,

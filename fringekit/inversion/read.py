@@ -7,20 +7,15 @@ from pathlib import Path
 
 import colour as cs
 import numpy as np
-from scipy import ndimage
 
 from fringekit.analysis import grey_channel, load_image, load_six_step
 from fringekit.config.files import load_config
 from fringekit.errors import ConfigError
 from fringekit.measurement.mono import colour_as_grey
+from fringekit.measurement.regions import no_data_regions
 from fringekit.optics import PixelGrid
-from fringekit.output.figures import NO_DATA_IMAGE_LEVEL
 
-__all__ = ["NO_DATA_MIN_PX", "pixel_grid", "read_measurement", "sensor_config"]
-
-#: A region filled with the no-data level in every channel, at least this many pixels,
-#: is left out of the fit (the contact discs of ``predict`` images).
-NO_DATA_MIN_PX = 12
+__all__ = ["pixel_grid", "read_measurement", "sensor_config"]
 
 
 def _decode(frame, camera_name: str, colour: bool) -> np.ndarray:
@@ -28,17 +23,6 @@ def _decode(frame, camera_name: str, colour: bool) -> np.ndarray:
     if colour and camera_name == "CIE1931":
         return np.clip(cs.cctf_decoding(frame.data, function="sRGB"), 0.0, 1.0)
     return frame.data
-
-
-def _no_data(stack: np.ndarray) -> np.ndarray:
-    """(rows, cols) bool: regions at the no-data fill level in every channel."""
-    level = NO_DATA_IMAGE_LEVEL
-    hit = np.all(np.abs(stack - level) < 0.6 / 255, axis=-1)
-    lab, n = ndimage.label(hit)
-    if not n:
-        return hit
-    sizes = ndimage.sum(hit, lab, np.arange(1, n + 1))
-    return np.concatenate([[False], sizes >= NO_DATA_MIN_PX])[lab]
 
 
 def read_measurement(paths, method: str | None, camera_name: str):
@@ -70,7 +54,7 @@ def read_measurement(paths, method: str | None, camera_name: str):
             _decode(f, camera_name, method == "rgb").reshape(raw.shape) if method == "rgb" else raw
         )
         sat = f.saturated
-    nodata = _no_data(raw)
+    nodata = no_data_regions(raw)
     rows, cols = raw.shape[:2]
     usable = (~sat & ~nodata).ravel()
     return method, lin.reshape(rows * cols, -1), usable, nodata.ravel(), (rows, cols), note

@@ -57,6 +57,10 @@ class Region:
     disc_diameter_mm : float, optional
         Find a circular specimen of this diameter in the first image: it sets the circle,
         the pixel size and the origin.
+    mask : path, optional
+        A mask image of the images' size, data where it is bright (``predict``'s
+        ``mask.png``). Regions at the no-data level of fringekit's own images (``predict``'s
+        contact zones) are left out with or without it.
 
     Examples
     --------
@@ -70,6 +74,7 @@ class Region:
     exclude_circles: tuple = ()
     exclude_polygons: tuple = ()
     disc_diameter_mm: float | None = None
+    mask: str | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "exclude_circles", tuple(tuple(v) for v in self.exclude_circles))

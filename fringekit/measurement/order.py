@@ -247,6 +247,7 @@ def analyze(
         list(region.exclude_circles),
         region.polygon,
         [list(p) for p in region.exclude_polygons],
+        None if region.mask is None else os.fspath(region.mask),
     )
     order_at = [tuple(p) for p in order_at]
     if method == "phase":

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from scipy import ndimage
 
 from fringekit.analysis import (
     border_anchor,
@@ -13,21 +14,69 @@ from fringekit.analysis import (
     polygon_mask,
 )
 from fringekit.errors import InputError
+from fringekit.output.figures import NO_DATA_IMAGE_LEVEL
 
 __all__ = [
+    "NO_DATA_MIN_PX",
     "DISC_ROI_SHARE",
     "ORDER_AT_RADIUS_PX",
     "disc_region",
+    "mask_file",
+    "no_data_regions",
     "order_anchors",
     "order_at_anchor",
     "region_mask",
 ]
 
 
-def region_mask(shape, roi_circle, exclude, roi_polygon=None, exclude_polygons=()) -> np.ndarray:
+#: A region filled with the no-data level in every channel, at least this many pixels,
+#: is no data (the contact discs of ``predict``'s images; a real photograph's noise does
+#: not hold 12 pixels at one level in every channel).
+NO_DATA_MIN_PX = 12
+
+
+def no_data_regions(data: np.ndarray) -> np.ndarray:
+    """(rows, cols) bool: where an image (rows, cols[, channels]) in [0, 1] holds the
+    no-data level of fringekit's own images in every channel, in connected regions of at
+    least :data:`NO_DATA_MIN_PX` pixels (``predict`` fills its contact zones so).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.random.default_rng(0).uniform(0, 1, (32, 32))
+    >>> img[10:16, 10:16] = 0.5  # a 36-pixel disc of predict's fill
+    >>> int(no_data_regions(img).sum())
+    36
+    """
+    stack = np.asarray(data, float)
+    stack = stack.reshape(*stack.shape[:2], -1)
+    hit = np.all(np.abs(stack - NO_DATA_IMAGE_LEVEL) < 0.6 / 255, axis=-1)
+    lab, n = ndimage.label(hit)
+    if not n:
+        return hit
+    sizes = ndimage.sum(hit, lab, np.arange(1, n + 1))
+    return np.concatenate([[False], sizes >= NO_DATA_MIN_PX])[lab]
+
+
+def mask_file(path, shape) -> np.ndarray:
+    """(rows, cols) bool: the pixels a mask image (``--mask``, as ``predict``'s
+    ``mask.png``: data where it is bright, above half scale) marks as data."""
+    frame = load_image(path)
+    data = frame.data if frame.data.ndim == 2 else frame.data.mean(-1)
+    if data.shape != tuple(shape[:2]):
+        raise InputError(
+            f"--mask {path}: {data.shape[0]} x {data.shape[1]} px; allowed: the image's size, "
+            f"{shape[0]} x {shape[1]} px"
+        )
+    return data > 0.5
+
+
+def region_mask(
+    shape, roi_circle, exclude, roi_polygon=None, exclude_polygons=(), mask_path=None
+) -> np.ndarray:
     """The region of interest (circle and/or polygon; default the whole image) without
-    the excluded circles and polygons (cracks, labels, load points); errors name the
-    option when nothing is left."""
+    the excluded circles and polygons (cracks, labels, load points) and outside the mask
+    image's data (``--mask``); errors name the option when nothing is left."""
     rows, cols = shape[:2]
     named = [("--roi-circle", roi_circle)] if roi_circle is not None else []
     for name, (r, c, rad) in named + [("--exclude-circle", e) for e in exclude or ()]:
@@ -48,10 +97,12 @@ def region_mask(shape, roi_circle, exclude, roi_polygon=None, exclude_polygons=(
         mask = exclude_circle(mask, (r, c), rad)
     for poly in exclude_polygons or ():
         mask &= ~polygon_mask(shape[:2], poly)
+    if mask_path is not None:
+        mask &= mask_file(mask_path, shape)
     if not mask.any():
         raise InputError(
             "the region of interest holds no pixel (--roi-circle, --roi-rect or --roi-polygon "
-            "minus --exclude-circle and --exclude-polygon); allowed: a region inside the "
+            "minus --exclude-circle, --exclude-polygon and --mask); allowed: a region inside the "
             f"{shape[0]} x {shape[1]} image"
         )
     return mask

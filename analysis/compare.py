@@ -243,7 +243,10 @@ def compare_maps(
     pred = np.asarray(predicted, float)
     meas = np.asarray(measured, float)
     if pred.ndim != 2 or meas.ndim != 2:
-        raise ValueError("compare_maps needs two (rows, cols) fringe-order maps")
+        raise ValueError(
+            f"the fringe-order maps to compare have {pred.ndim} and {meas.ndim} dimensions; "
+            "allowed: two (rows, cols) maps"
+        )
     for name, v in (
         ("predicted_pixel_size", predicted_pixel_size),
         ("measured_pixel_size", measured_pixel_size),

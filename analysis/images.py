@@ -202,6 +202,13 @@ def _read_frame(path) -> Frame:
     return normalise(img, source=str(path))
 
 
+#: A dark frame brighter than the image by more than DARK_MARGIN of full scale (5 levels
+#: of 8 bits, beyond a camera's read noise at its black level) on more than this share of
+#: the pixels is not one: it would erase the image it is subtracted from.
+MAX_DARK_BRIGHTER = 0.5
+DARK_MARGIN = 0.02
+
+
 def _subtract_dark(frame: Frame, dark) -> Frame:
     """``frame`` minus the dark frame (clipped at 0); a uniform dark frame is valid, an
     empty (all-equal) result is not."""
@@ -218,6 +225,14 @@ def _subtract_dark(frame: Frame, dark) -> Frame:
             raise ValueError(
                 f"dark frame shape {d.data.shape} does not match image {frame.source} shape "
                 f"{frame.data.shape}"
+            )
+        brighter = float(np.mean(d.data > frame.data + DARK_MARGIN))
+        if brighter > MAX_DARK_BRIGHTER:
+            raise ValueError(
+                f"dark frame {d.source} is brighter than the image {frame.source} on "
+                f"{100 * brighter:.0f} % of the pixels (median {np.nanmedian(d.data):.3g} against "
+                f"{np.nanmedian(frame.data):.3g} of full scale); allowed: a frame taken with the "
+                "light off, darker than the image almost everywhere"
             )
         frame = Frame(
             np.clip(frame.data - d.data, 0.0, None), frame.saturated, frame.bit_depth, frame.source

@@ -36,7 +36,7 @@ def check_wavelengths(wavelengths) -> np.ndarray:
     bad = (lam < lo) | (lam > hi)
     if np.any(bad):
         raise ValueError(
-            f"wavelength = {lam[bad][0]!r} m is outside the visible range; allowed "
+            f"wavelength = {float(lam[bad][0]):g} m is outside the visible range; allowed "
             f"{VISIBLE_NM[0]:.0f}-{VISIBLE_NM[1]:.0f} nm (give metres, e.g. 575e-9)"
         )
     return lam

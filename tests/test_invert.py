@@ -526,3 +526,25 @@ def test_a_flagged_answer_is_fitted_again_from_unsheared_starts(test_library, mo
     bad = False
     invert_image(model)
     assert calls == [True]
+
+
+def test_a_tangential_ratio_beyond_the_library_is_named_as_such():
+    """The README's shear image (tangential = normal load) against a library of ratios up
+    to 0.4 used to be refused as needing 'a normal load beyond the library's largest': the
+    fit, held at the largest ratio, had made up the tangential fringes with normal load."""
+    from types import SimpleNamespace
+
+    from fringekit.inversion.verdict import InvertError, refuse
+
+    lib = SimpleNamespace(max_load_N=10.0, max_ratio=0.4)
+    both_at_edge = np.array([[0.0, 0.0, 10.0, 4.0, 0.0]])
+    with pytest.raises(
+        InvertError, match=r"tangential load ratio .* beyond the library's largest, 0.4"
+    ) as e:
+        refuse(both_at_edge, lib, 0.05)
+    assert "--shear-ratio" in str(e.value) and "not to be trusted" in str(e.value)
+    with pytest.raises(InvertError, match="normal load at or beyond the library's largest, 10 N"):
+        refuse(np.array([[0.0, 0.0, 10.0, 1.0, 0.0]]), lib, 0.05)
+    with pytest.raises(InvertError, match="not a number"):
+        refuse(np.array([[0.0, 0.0, 5.0, 1.0, 0.0]]), lib, np.inf)
+    refuse(np.array([[0.0, 0.0, 5.0, 1.0, 0.0]]), lib, 0.05)  # inside: no refusal

@@ -45,6 +45,7 @@ from fringekit.cli import (
 )
 from fringekit.cli.options import Parser
 from fringekit.errors import ComputeError, FringekitError, Interrupted
+from fringekit.output.folders import os_error_message
 
 __all__ = ["main"]
 
@@ -93,7 +94,10 @@ def main(argv: list[str] | None = None) -> int:
     except ComputeError as exc:
         print(f"fringekit {args.command}: failed: {exc}", file=sys.stderr)
         return 1
-    except (FringekitError, ValueError, OSError) as exc:
+    except OSError as exc:  # a disk or a permission: said without errno or hidden paths
+        print(f"fringekit {args.command}: error: {os_error_message(exc)}", file=sys.stderr)
+        return 2
+    except (FringekitError, ValueError) as exc:
         print(f"fringekit {args.command}: error: {exc}", file=sys.stderr)
         return 2
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from fringekit.cli.options import (
@@ -41,5 +42,10 @@ def run(args: argparse.Namespace) -> int:
             f"fringekit sweep {sweep['name']}: {res['cases']} cases ({res['run']} run, "
             f"{res['skipped']} already finished, {res['failed']} failed) in {res['time_s']:.1f} s;"
             f" table {res['table']}"
+        )
+    if res["failed"]:  # said even with --quiet: the exit status alone does not say why
+        sys.stderr.write(
+            f"fringekit sweep {sweep['name']}: {res['failed']} of {res['cases']} cases failed; "
+            f"each one's error is in the error column of {res['table']}\n"
         )
     return 1 if res["failed"] else 0

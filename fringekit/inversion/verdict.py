@@ -70,25 +70,38 @@ def residual_warnings(params: np.ndarray, residual_rms: np.ndarray) -> list[str]
 
 
 def refuse(q: np.ndarray, lib, total: float) -> None:
-    """An image the library cannot explain is refused, not returned."""
+    """An image the library cannot explain is refused, not returned. The tangential ratio
+    is named first: a fit held at the library's largest ratio makes up the missing
+    tangential fringes with normal load, so a ratio out of range also drives the normal
+    load to the library's edge."""
     for i, v in enumerate(q):
-        if v[2] >= AT_LARGEST * lib.max_load_N:
-            raise InvertError(
-                f"indenter {i + 1} at ({v[0]:.2f}, {v[1]:.2f}) mm needs a normal load at or "
-                f"beyond the library's largest, {lib.max_load_N:g} N; build a library with "
-                "larger --load-N"
-            )
+        where = f"indenter {i + 1} at ({v[0]:.2f}, {v[1]:.2f}) mm"
+        at_load = v[2] >= AT_LARGEST * lib.max_load_N
         ratio = np.hypot(v[3], v[4]) / max(v[2], 1e-12)
         if ratio >= AT_LARGEST * lib.max_ratio:  # the fit is held at the largest ratio
-            raise InvertError(
-                f"indenter {i + 1} at ({v[0]:.2f}, {v[1]:.2f}) mm needs a load at or beyond "
-                f"the library's range: {v[2]:.3g} N with a tangential load of {ratio:.2f} of it "
-                f"(the library goes to {lib.max_ratio:g}, up to {lib.max_load_N:g} N); build "
-                "a library with larger --shear-ratio or --load-N"
+            also = (
+                f"; its normal load, pushed to the library's largest ({lib.max_load_N:g} N) "
+                "to make up the missing tangential fringes, is not to be trusted either"
+                if at_load
+                else ""
             )
-    if total > MAX_RESIDUAL:
+            raise InvertError(
+                f"{where} needs a tangential load ratio (tangential / normal) beyond the "
+                f"library's largest, {lib.max_ratio:g} (the fit stops there, at {v[2]:.3g} N "
+                f"normal){also}; build a library with larger --shear-ratio"
+            )
+        if at_load:
+            raise InvertError(
+                f"{where} needs a normal load at or beyond the library's largest, "
+                f"{lib.max_load_N:g} N; build a library with larger --load-N"
+            )
+    if not np.isfinite(total) or total > MAX_RESIDUAL:
+        left = (
+            f"leaves a residual of {total:.2f} of the fringe amplitude"
+            if np.isfinite(total)
+            else "leaves a residual that is not a number"
+        )
         raise InvertError(
-            f"the library cannot explain this image: the fit leaves a residual of {total:.2f} "
-            f"of the fringe amplitude (at most {MAX_RESIDUAL} is accepted); check the sensor, "
-            "the pixel size, the origin and the method"
+            f"the library cannot explain this image: the fit {left} (at most {MAX_RESIDUAL} "
+            "is accepted); check the sensor, --pixel-mm, --origin-px and --method"
         )

@@ -72,6 +72,8 @@ def analyse_phase(
     nodata = no_data_regions(np.stack([f.data for f in frames], -1))
     mask = region_mask(frames[0].shape, *mask_args) & ~nodata
     res = six_step(frames, mask=mask, min_modulation=min_modulation)
+    if not res.valid.any():
+        raise InputError(_no_modulation(paths, frames, res.modulation[mask], min_modulation))
     if reference:
         ref = load_six_step(reference[0] if len(reference) == 1 else reference, dark=dark)
         if ref[0].shape != frames[0].shape:
@@ -119,6 +121,26 @@ def analyse_phase(
         )
     part["no_data_px"] = int(nodata.sum())
     return fo.order, fo.reliable, maps, part, mask
+
+
+def _no_modulation(paths, frames, modulation, min_modulation) -> str:
+    """Why six phase-stepped images give no pixel to unwrap: the same image twice, or
+    no fringe modulation anywhere in the region."""
+    names = [str(p) for p in paths] if len(paths) == 6 else [f"step {k + 1}" for k in range(6)]
+    for i in range(6):
+        for j in range(i + 1, 6):
+            if np.array_equal(frames[i].data, frames[j].data):
+                return (
+                    f"the phase method's images {i + 1} and {j + 1} ({names[i]}, {names[j]}) are "
+                    "identical, so no pixel is modulated; allowed: six images of the six "
+                    "polariscope arrangements, in order"
+                )
+    top = float(np.max(modulation)) if modulation.size else 0.0
+    return (
+        f"no pixel in the region is modulated across the six images (largest modulation "
+        f"{top:.3g}); allowed: at least --min-modulation {min_modulation:g} (check the images "
+        "are the six polariscope arrangements, in order)"
+    )
 
 
 def analyse_rgb(paths, dark, mask_args, *, colour_table=None, chart=None, seeds=(), window=0.25):

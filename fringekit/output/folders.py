@@ -33,7 +33,7 @@ from pathlib import Path
 from fringekit.errors import InputError
 from fringekit.output.versions import package_version
 
-__all__ = ["MARKER", "OutputClaim", "atomic_write", "claim_output"]
+__all__ = ["MARKER", "OutputClaim", "atomic_write", "claim_output", "os_error_message"]
 
 #: The file in every output folder that says which command's run wrote it.
 MARKER = ".fringekit-run.json"
@@ -231,6 +231,31 @@ class OutputClaim:
             k += 1
             path = dest.with_name(f"{dest.name}-{k}")
         return path
+
+
+#: A run's hidden working name: ``.<name>.<pid>-<hex>.part`` (a folder) or
+#: ``.<stem>.<pid>-<hex>.part<suffix>`` (a file of :func:`atomic_write`).
+_WORKING = re.compile(r"\.([^/\\]+?)\.\d+-[0-9a-f]{8}\.part(\.[^/\\]*)?(?=$|[/\\])")
+
+
+def os_error_message(exc: OSError) -> str:
+    """An operating-system error as one line a user can act on: the path the user will
+    see (a run's hidden working folders and files named by their final names), without
+    the errno number.
+
+    Examples
+    --------
+    >>> exc = PermissionError(13, "Permission denied", "/data/.out.4711-0a1b2c3d.part/maps.npz")
+    >>> os_error_message(exc)
+    '/data/out/maps.npz: Permission denied'
+    >>> os_error_message(OSError(28, "No space left on device"))
+    'No space left on device'
+    """
+    what = exc.strerror or str(exc)
+    if exc.filename is None:
+        return what
+    path = _WORKING.sub(lambda m: m.group(1) + (m.group(2) or ""), os.fspath(exc.filename))
+    return f"{path}: {what}"
 
 
 def _tag() -> str:

@@ -37,6 +37,14 @@ def test_a_damaged_mesh_cache_entry_is_rebuilt(small_meshes, cache_dir, tmp_path
     assert build_mesh(spec, cache_dir=root).same_as(mesh)  # the entry was rewritten whole
 
 
+def test_a_mesh_cache_entry_of_another_spec_is_meshed_again(small_meshes, cache_dir, tmp_path):
+    half, quarter = small_meshes["half"].spec, small_meshes["quarter"].spec
+    root = tmp_path / "cache"
+    shutil.copytree(cache_dir / "meshes", root / "meshes")
+    shutil.copyfile(cache_path(half, root), cache_path(quarter, root))
+    assert build_mesh(quarter, cache_dir=root).same_as(small_meshes["quarter"])
+
+
 def _solve(mesh, root, load=1.0):
     return solve_cached(
         mesh,

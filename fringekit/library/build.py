@@ -40,6 +40,7 @@ from fringekit.library.store import (
     diameter_id,
     field_file,
     load_library,
+    manifest_checksum,
     sensor_key,
     sha256,
 )
@@ -391,5 +392,7 @@ def _assemble(cfg, out: Path, tasks, diameters, loads, ratios, lat, mesh, build_
         "build_s": build_s,
         "versions": run_versions(),
     }
+    manifest = json.loads(json.dumps(manifest))  # as it reads back: lists, not tuples
+    manifest["manifest_sha256"] = manifest_checksum(manifest)
     atomic_write(out / "manifest.json", json.dumps(manifest, indent=1))
     return manifest

@@ -15,7 +15,7 @@ import pytest
 from library_fixtures import fem_config, fem_order, outside, sensor_config
 
 from fringekit.config.inputs import optics_setup
-from fringekit.errors import LibraryError
+from fringekit.errors import ConfigError, LibraryError
 from fringekit.library.store import LoadedIndenter, load_library
 from fringekit.library.synth import synthesise
 from fringekit.optics import OpticalMap
@@ -111,6 +111,19 @@ def test_an_edited_manifest_is_refused(tiny_library, tmp_path, edit):
     msg = str(info.value)
     assert "\n" not in msg and msg.startswith(f"--library {lib}: "), msg
     assert all(w in msg for w in words), msg
+
+
+@pytest.mark.parametrize("ratios", [[0.0, 1.5], [0.0, 0.4, 1.01]])
+def test_a_ratio_beyond_the_library_range_is_refused_before_solving(tmp_path, ratios):
+    """Ratio 1.5 solved for 122 s, then crashed on a folded contact surface."""
+    from fringekit.library.build import build_library
+
+    with pytest.raises(ConfigError) as info:
+        build_library("small", tmp_path / "lib", loads=[4, 8], ratios=ratios, progress=False)
+    msg = str(info.value)
+    assert msg.startswith("--shear-ratio 0 ") and "allowed range [0, 1]" in msg, msg
+    assert f"{ratios[-1]:g} is not allowed" in msg and "\n" not in msg
+    assert not (tmp_path / "lib").exists()
 
 
 def test_the_chain_of_a_build_and_of_a_resumed_one():

@@ -3,12 +3,12 @@
 The line search (:func:`fea.newton.line_search`) never accepts an iterate with
 det F <= 0 at a quadrature point, but a quadratic tet can fold between its four
 quadrature points: at a corner or mid-edge node det F may be negative while the
-quadrature points stay positive, and a sheet sheared far beyond its range (a library's
-tangential ratio 1.5) folded its contact surface over that way; the optics then failed
-on the folded surface ("Triangulation is invalid") after the whole solve. Every converged
-state is therefore checked at the quadrature points and at the ten nodes of every element
-(:func:`inverted_elements`), and an inverted one is a :class:`~fea.solver.SolverError`
-instead of a state.
+quadrature points stay positive. A state folded so is no physical state, and what comes
+after the solve fails on it far from its cause (a library build with tangential ratio 1.5
+crashed in the optics with "Triangulation is invalid" on its contact surface after 122 s,
+issue 36). Every converged state is therefore checked at the quadrature points and at the
+ten nodes of every element (:func:`inverted_elements`), and an inverted one is a
+:class:`~fea.solver.SolverError` instead of a state.
 """
 
 from __future__ import annotations

@@ -58,6 +58,11 @@ WARN_CHI2 = 4.0
 #: Radii (mm) at which the order is sampled; beyond the 8 N contact radius (1.2 mm).
 RADII_MM = (1.5, 2.0, 3.0, 4.0, 6.0)
 CAL_VERSION = 2  # 2: feature names carry their units (radius_mm_fringe_k, ...)
+#: The exponents b of F = a feature^b a calibration may hold: Hertz gives 3/2 (orders)
+#: and 3 (radii). Near 0 the load no longer depends on the feature (b = 1e-300 gave the
+#: load a from any map, one with no fringes too); a fit outside is not kept, a file
+#: holding one is refused.
+EXPONENT_RANGE = (0.2, 10.0)
 
 
 def radial_profile(order, pixel_size, centre_rc):
@@ -203,6 +208,8 @@ def _power_fit(loads, values):
         return None  # nothing to fit: fewer than 3 states, or feature or load constant
     x, y = np.log(values[ok]), np.log(loads[ok])
     (b, loga), cov = np.polyfit(x, y, 1, cov="unscaled")
+    if not EXPONENT_RANGE[0] <= b <= EXPONENT_RANGE[1]:
+        return None  # the load does not follow the feature as a power law does
     resid = y - (loga + b * x)
     dof = max(ok.sum() - 2, 1)
     s2 = float(resid @ resid / dof)
@@ -518,3 +525,22 @@ def _check_fits(cal: dict, path) -> None:
                         f"{path}: {group}.{name}.{k} = {v!r} is not allowed; a calibration "
                         "coefficient must be a finite number"
                     )
+            if group == "normal_fits":
+                _check_power_law(fit, f"{path}: {group}.{name}")
+
+
+def _check_power_law(fit: dict, where: str) -> None:
+    """A fitted F = a v^b that gives a load from a feature: a > 0, b in EXPONENT_RANGE,
+    sigma_logF >= 0."""
+    lo, hi = EXPONENT_RANGE
+    if not lo <= fit["b"] <= hi:
+        raise ValueError(
+            f"{where}.b = {fit['b']:g} is not allowed; allowed range [{lo:g}, {hi:g}] (an "
+            "exponent near 0 gives the same load from any map; run fringekit calibrate again)"
+        )
+    for k, ok in (("a", fit["a"] > 0), ("sigma_logF", fit["sigma_logF"] >= 0)):
+        if not ok:
+            raise ValueError(
+                f"{where}.{k} = {fit[k]:g} is not allowed; allowed range "
+                f"{'(0' if k == 'a' else '[0'}, inf) (run fringekit calibrate again)"
+            )

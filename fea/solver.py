@@ -29,6 +29,7 @@ from fringekit.errors import ComputeError, Interrupted
 from fringekit.meshes import Mesh
 
 from .analytic import depth_guess, dimitriadis_force, hertz_force
+from .inversion import inverted_elements
 from .linsolve import LinearSolver
 from .materials import POLYCARBONATE_DEFAULT, SHEET_DEFAULT, Material
 from .model import Model, State
@@ -272,6 +273,13 @@ def solve(
                     f"({_reached(model, float(k), k)}), at {_reached(model, s_done, k)}",
                     solutions,
                 ) from None
+            inverted = inverted_elements(mesh.points, mesh.cells, st.u)
+            if inverted:  # a fold between quadrature points (fea.inversion): no state
+                raise SolverError(
+                    f"load state {k} of {S} ({_reached(model, float(k), k)}) converged to an "
+                    f"inverted state: {inverted}; the load is beyond what the mesh can carry",
+                    solutions,
+                )
             sol = make_solution(model, st, s_done, iter_log, stats, run.cache)
             _keep(kept, model, st, k, parents)
             solutions.append(sol)

@@ -3,7 +3,11 @@
 Re-rendering optics with other polariscope, light or camera settings must not re-solve
 (issue 6): :func:`solve_cached` hashes everything the states depend on (mesh spec, mesher
 salt, materials, indenters, contact and Newton settings, this module's format version)
-and stores the converged states next to the mesh cache.
+and stores the converged states next to the mesh cache. Each entry holds its whole key
+and the inputs it was hashed from; an entry read under another key (a file copied or
+renamed onto this key's name) is not used: it is logged with its path and solved again,
+as a damaged entry is (a cache holds derived data the solver can always make again, so a
+wrong entry is replaced rather than refused).
 """
 
 from __future__ import annotations
@@ -26,25 +30,45 @@ from .problem import ContactSettings, Indenter, SolverSettings
 from .solution import IndenterState, Solution
 from .solver import SolveStats, solve
 
-__all__ = ["save_solutions", "load_solutions", "solution_key", "solve_cached"]
+__all__ = [
+    "KeyMismatch",
+    "save_solutions",
+    "load_solutions",
+    "solution_inputs",
+    "solution_key",
+    "solve_cached",
+]
 
 log = logging.getLogger("fringekit.fea")
 
 #: Bump when the stored arrays or the solver's converged answer change meaning.
-STORE_VERSION = 1
+#: 2: every entry holds its key and the inputs it was hashed from.
+STORE_VERSION = 2
 
 _IND_ARRAYS = ("centre", "force", "points", "pressure")
 _IND_SCALARS = ("radius", "depth", "contact_radius", "max_penetration")
 
 
-def save_solutions(path: str | os.PathLike, solutions: Sequence[Solution]) -> Path:
+class KeyMismatch(ValueError):
+    """A cache entry holds the states of other inputs than its key's."""
+
+
+def save_solutions(
+    path: str | os.PathLike, solutions: Sequence[Solution], *, key: str = "", inputs: str = ""
+) -> Path:
     """Write the states of one load path to ``path`` (.npz, written atomically).
 
     The mesh is not stored; :func:`load_solutions` takes it back as an argument.
+    ``key`` and ``inputs`` (:func:`solution_key` and the JSON it hashes) are stored with
+    the states, so a reader can check the entry is the one it asked for.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    arrays: dict[str, np.ndarray] = {"n_states": np.array(len(solutions))}
+    arrays: dict[str, np.ndarray] = {
+        "n_states": np.array(len(solutions)),
+        "key": np.array(key),
+        "inputs": np.array(inputs),
+    }
     for k, s in enumerate(solutions):
         p = f"s{k}_"
         arrays[p + "displacement"] = s.displacement
@@ -71,9 +95,19 @@ def save_solutions(path: str | os.PathLike, solutions: Sequence[Solution]) -> Pa
     return path
 
 
-def load_solutions(path: str | os.PathLike, mesh: Mesh) -> list[Solution]:
-    """Read what :func:`save_solutions` wrote; ``mesh`` must be the mesh it was solved on."""
+def load_solutions(path: str | os.PathLike, mesh: Mesh, *, key: str = "") -> list[Solution]:
+    """Read what :func:`save_solutions` wrote; ``mesh`` must be the mesh it was solved on.
+
+    With ``key``, the entry must have been written under that key (else
+    :class:`KeyMismatch`, a ValueError).
+    """
     with np.load(path, allow_pickle=False) as z:
+        if key and str(z["key"]) != key:
+            stored = str(z["key"])[:16] or "none"
+            raise KeyMismatch(
+                f"it holds the states of other inputs (its key {stored}..., this solve's "
+                f"{key[:16]}...)"
+            )
         n = int(z["n_states"])
         out = []
         for k in range(n):
@@ -108,14 +142,15 @@ def _material_dict(m: Material) -> dict:
     return {"type": type(m).__name__, **dataclasses.asdict(m)}
 
 
-def solution_key(
+def solution_inputs(
     mesh: Mesh,
     indenters: Sequence[Indenter],
     materials: dict[int, Material],
     contact: ContactSettings,
     settings: SolverSettings,
 ) -> str:
-    """SHA-256 over everything the converged states depend on."""
+    """Everything the converged states depend on, as canonical JSON (what
+    :func:`solution_key` hashes)."""
     if mesh.spec is None:
         raise ValueError("solve_cached needs a mesh built from a MeshSpec (mesh.spec is None)")
     payload = {
@@ -133,7 +168,18 @@ def solution_key(
             if k not in ("backend", "precision")
         },  # the backend and precision change round-off, not the answer
     }
-    text = json.dumps(payload, sort_keys=True, default=repr)
+    return json.dumps(payload, sort_keys=True, default=repr)
+
+
+def solution_key(
+    mesh: Mesh,
+    indenters: Sequence[Indenter],
+    materials: dict[int, Material],
+    contact: ContactSettings,
+    settings: SolverSettings,
+) -> str:
+    """SHA-256 over everything the converged states depend on."""
+    text = solution_inputs(mesh, indenters, materials, contact, settings)
     return hashlib.sha256(text.encode()).hexdigest()
 
 
@@ -157,19 +203,22 @@ def solve_cached(
     path : where the states are (or would be) cached
     """
     root = Path(cache_dir) if cache_dir is not None else default_cache_dir()
-    key = solution_key(mesh, indenters, materials, contact, settings)
+    inputs = solution_inputs(mesh, indenters, materials, contact, settings)
+    key = hashlib.sha256(inputs.encode()).hexdigest()
     path = root / "solutions" / f"{key[:32]}.npz"
     if use_cache and path.exists():
         try:
-            sols = load_solutions(path, mesh)
+            sols = load_solutions(path, mesh, key=key)
             log.info("solution cache hit: %s", path)
             return sols, None, path
+        except KeyMismatch as exc:  # another solve's states under this name: solve again
+            log.warning("solution cache %s is not this solve's: %s; solving again", path, exc)
         except UNREADABLE as exc:  # a stale, truncated or empty file: solve again
             log.warning("solution cache %s is unreadable (%s); solving again", path, exc)
     sols, stats = solve(
         mesh, indenters, materials=materials, contact=contact, settings=settings, progress=progress
     )
     if use_cache:
-        save_solutions(path, sols)
+        save_solutions(path, sols, key=key, inputs=inputs)
         log.info("solution cached: %s", path)
     return sols, stats, path

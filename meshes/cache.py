@@ -143,8 +143,11 @@ def build_mesh(
     if use_cache and path.exists():
         try:
             mesh = load_npz(path)
-            log.info("mesh cache hit: %s", path)
-            return mesh
+            if mesh.spec is not None and mesh.spec.to_dict() == spec.to_dict():
+                log.info("mesh cache hit: %s", path)
+                return mesh
+            # another spec's mesh under this name (a copied or renamed file): mesh again
+            log.warning("mesh cache %s holds the mesh of another spec; meshing again", path)
         except UNREADABLE as exc:  # truncated, empty or foreign: mesh again, overwrite it
             log.warning("mesh cache %s is unreadable (%s); meshing again", path, exc)
     mesh = mesh_uncached(spec, num_threads=num_threads)

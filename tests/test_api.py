@@ -313,6 +313,14 @@ def test_numpy_numbers_are_config_values_and_messages_show_no_repr():
         (lambda: fringekit.MonoOptions(smooth_px=-1), ["--smooth-px -1"]),
         (lambda: fringekit.RGBOptions(window=0), ["--window 0", "> 0"]),
         (lambda: fringekit.analyze("a.png", pixel_mm=-0.1), ["--pixel-mm -0.1"]),
+        (
+            lambda: fringekit.analyze("a.png", fringe_value_N_per_m=386, thickness_mm=1e-300),
+            ["thickness_mm = 1e-300", "[0.01, 100] mm", "sheet.thickness_mm"],
+        ),
+        (
+            lambda: fringekit.analyze("a.png", fringe_value_N_per_m=1e300, thickness_mm=3),
+            ["fringe_value_N_per_m = 1e+300", "(0, 1e+08] N/m", "optics.f_sigma_N_per_m"],
+        ),
         (lambda: fringekit.Region(exclude_polygons=[[(1, 1)]]), ["--exclude-polygon 1,1"]),
     ],
 )

@@ -37,10 +37,18 @@ def test_a_damaged_mesh_cache_entry_is_rebuilt(small_meshes, cache_dir, tmp_path
     assert build_mesh(spec, cache_dir=root).same_as(mesh)  # the entry was rewritten whole
 
 
-def _solve(mesh, root):
+def test_a_mesh_cache_entry_of_another_spec_is_meshed_again(small_meshes, cache_dir, tmp_path):
+    half, quarter = small_meshes["half"].spec, small_meshes["quarter"].spec
+    root = tmp_path / "cache"
+    shutil.copytree(cache_dir / "meshes", root / "meshes")
+    shutil.copyfile(cache_path(half, root), cache_path(quarter, root))
+    assert build_mesh(quarter, cache_dir=root).same_as(small_meshes["quarter"])
+
+
+def _solve(mesh, root, load=1.0):
     return solve_cached(
         mesh,
-        [Indenter(normal_force=(1.0,))],
+        [Indenter(normal_force=(load,))],
         materials={0: SHEET_DEFAULT, 1: POLYCARBONATE_DEFAULT},
         contact=ContactSettings(),
         settings=SolverSettings(),
@@ -64,6 +72,26 @@ def test_a_damaged_solution_cache_entry_is_solved_again(small_meshes, tmp_path, 
     assert again[0].indenters[0].depth == pytest.approx(sols[0].indenters[0].depth, rel=1e-8)
     _, stats3, _ = _solve(mesh, root)
     assert stats3 is None  # and the rewritten entry reads back
+
+
+def test_an_entry_under_another_key_is_solved_again(small_meshes, tmp_path, caplog):
+    """The 0.5 N states copied onto the 1 N entry's name are not read as 1 N (they gave
+    the 4 N answer for an 8 N config): the entry's stored key differs, so it is logged
+    with its path and solved again, and the rewritten entry reads back."""
+    mesh = small_meshes["quarter"]
+    root = tmp_path / "cache"
+    low, _, low_path = _solve(mesh, root, 0.5)
+    high, _, high_path = _solve(mesh, root, 1.0)
+    assert low_path != high_path
+    shutil.copyfile(low_path, high_path)
+    with caplog.at_level(logging.WARNING, logger="fringekit.fea"):
+        again, stats, _ = _solve(mesh, root, 1.0)
+    assert str(high_path) in caplog.text and "not this solve's" in caplog.text
+    assert stats is not None  # solved, not read
+    fz = again[0].indenters[0].force[2]
+    assert fz == pytest.approx(high[0].indenters[0].force[2], rel=1e-6)
+    assert fz != pytest.approx(low[0].indenters[0].force[2], rel=0.1)
+    assert _solve(mesh, root, 1.0)[1] is None
 
 
 def test_concurrent_writers_of_one_entry_leave_a_whole_file(small_meshes, tmp_path):

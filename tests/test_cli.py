@@ -19,6 +19,7 @@ from fringekit.config.files import (
     to_toml,
 )
 from fringekit.config.inputs import build_inputs, choose_symmetry
+from fringekit.meshes import read_vtu
 from fringekit.prediction.pipeline import used_config
 
 # The small block of conftest.py (12 x 12 mm, 3 mm sheet on 4 mm PC, coarse sizes), a
@@ -537,8 +538,8 @@ def test_sweep_killed_then_resumed_matches_an_uninterrupted_run(tiny_run, cache_
     assert "sheet.E_MPa = -1.0" in capsys.readouterr().err
 
 
-def test_mesh_command(tmp_path, cache_dir, capsys):
-    args = [
+def _mesh_args(cache_dir, out):
+    return [
         "mesh",
         "--width-mm",
         "12",
@@ -555,13 +556,35 @@ def test_mesh_command(tmp_path, cache_dir, capsys):
         "--cache-dir",
         str(cache_dir),
         "--out",
-        str(tmp_path / "m"),
+        str(out),
     ]
-    assert main(args) == 0
+
+
+def test_mesh_command(tmp_path, cache_dir, capsys):
+    assert main(_mesh_args(cache_dir, tmp_path / "m")) == 0
     s = json.loads((tmp_path / "m" / "mesh_summary.json").read_text())
     assert s["quality"]["n_cells"] > 0 and (tmp_path / "m" / "mesh.vtu").stat().st_size > 0
     assert main(["mesh", "--thickness-mm", "-1", "--out", str(tmp_path / "n")]) == 2
-    assert "sheet.thickness_mm = -1.0" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "--thickness-mm: -1 is not allowed" in err and "sheet.thickness_mm" in err
+
+
+def test_mesh_command_on_a_rigid_base(tmp_path, cache_dir):
+    """No substrate (substrate.thickness_mm = 0, as predict accepts): no interface facets,
+    written to VTU and read back (it failed with "Array 'facets:interface' cannot have
+    shape (0, 2)" before 31a8631)."""
+    out = tmp_path / "m"
+    args = _mesh_args(cache_dir, out)
+    args[args.index("--substrate-mm") + 1] = "0"
+    assert main(args) == 0
+    s = json.loads((out / "mesh_summary.json").read_text())
+    assert (
+        s["facet_sets"]["interface"] == 0
+        and s["mesh_spec_SI"]["layers"]["substrate_thickness"] == 0
+    )
+    back = read_vtu(out / "mesh.vtu")
+    assert back.n_cells == s["quality"]["n_cells"] and len(back.facets["interface"]) == 0
+    assert set(back.facets) == set(s["facet_sets"])
 
 
 def test_predict_with_the_polycarbonate_in_the_light_path(tiny_run, capsys):

@@ -24,6 +24,7 @@ from fringekit.fea import (
 from fringekit.fea.assembly import Pattern, body_state, cell_dofs
 from fringekit.fea.contact import sphere_contact
 from fringekit.fea.element import reference_gradients, tet10_shape
+from fringekit.fea.inversion import TET10_NODES, det_f, inverted_elements
 from fringekit.meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh, mirror
 
 SHEET = NeoHookean.from_E_nu(4e6, 0.49)
@@ -658,3 +659,34 @@ def test_branching_load_path_equals_the_straight_paths(coarse):
         assert got.indenters[0].force == pytest.approx(want.indenters[0].force, rel=1e-9)
     with pytest.raises(ValueError, match="parents = "):
         solve(mesh, [tree], contact=stick, parents=(0, 2, 1, 3))
+
+
+def _moved(node: int, du_mm) -> np.ndarray:
+    u = np.zeros((10, 3))
+    u[node] = np.asarray(du_mm) * 1e-3
+    return u
+
+
+#: Displacements of one 1 mm quadratic tet -> where its smallest det F is ("" = none).
+INVERSIONS = {
+    "unloaded": (np.zeros((10, 3)), ""),
+    "stretched": (TET10_NODES * 1e-3 * [0.0, 0.0, 1.0], ""),
+    "through its opposite face": (TET10_NODES * 1e-3 * [0.0, 0.0, -1.5], "a quadrature point"),
+    # a mid-edge node pushed 0.3 mm along its edge: det F 0.46 at every quadrature
+    # point (the line search accepts it), -0.2 at a corner
+    "folded between its quadrature points": (_moved(4, [0.3, 0.0, 0.0]), "a node"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(INVERSIONS))
+def test_an_inverted_element_is_found_at_its_quadrature_points_and_nodes(case):
+    u, where = INVERSIONS[case]
+    X, cells = TET10_NODES * 1e-3, np.arange(10)[None]
+    text = inverted_elements(X, cells, u)
+    if not where:
+        assert text == ""
+        return
+    assert text.startswith("1 of 1 elements inverted (det F = -") and f"at {where}" in text
+    assert "\n" not in text
+    J = det_f(X, cells, u)[0]
+    assert (J[:4].min() > 0.4) == (where == "a node")  # the quadrature points alone pass it

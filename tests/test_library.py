@@ -15,6 +15,7 @@ import pytest
 from library_fixtures import fem_config, fem_order, outside, sensor_config
 
 from fringekit.config.inputs import optics_setup
+from fringekit.errors import ConfigError, LibraryError
 from fringekit.library.store import LoadedIndenter, load_library
 from fringekit.library.synth import synthesise
 from fringekit.optics import OpticalMap
@@ -67,6 +68,62 @@ def test_manifest_resume_and_checksums(tiny_library, capsys):
     assert {n: f["sha256"] for n, f in m2.manifest["files"].items()} == before
     written = json.loads((tiny_library.folder / "manifest.json").read_text())
     assert written["files"] == m2.manifest["files"]
+
+
+def _set_top_load(m):
+    m["grid"]["load_N"][-1] = 6.0  # gave Fz 4.28 N for 2.89 N
+
+
+def _set_diameter(m):
+    next(iter(m["files"].values()))["diameter_mm"] = 5.0  # gave a 5 mm head
+
+
+def _set_format_1(m):
+    m["format"] = "fringekit-library/1"
+    del m["manifest_sha256"]
+
+
+#: Edits of manifest.json -> words of the one-line refusal.
+MANIFEST_EDITS = {
+    "top load": (_set_top_load, ["manifest.json", "checksum", "edited"]),
+    "diameter": (_set_diameter, ["manifest.json", "checksum", "edited"]),
+    "format 1": (
+        _set_format_1,
+        ["fringekit-library/1", "rebuild it: fringekit library build", "--load-N 2 4"],
+    ),
+}
+
+
+@pytest.mark.parametrize("edit", sorted(MANIFEST_EDITS))
+def test_an_edited_manifest_is_refused(tiny_library, tmp_path, edit):
+    """The manifest's own metadata (grid, diameters, lattice) is covered by a checksum of
+    its canonical JSON, as the field files are by theirs; laid out anew it still reads."""
+    lib = tmp_path / "lib"
+    shutil.copytree(tiny_library.folder, lib)
+    manifest = json.loads((lib / "manifest.json").read_text())
+    (lib / "manifest.json").write_text(json.dumps(manifest, indent=4, sort_keys=True))
+    assert load_library(lib).max_load_N == 4.0
+    change, words = MANIFEST_EDITS[edit]
+    change(manifest)
+    (lib / "manifest.json").write_text(json.dumps(manifest, indent=1))
+    with pytest.raises(LibraryError) as info:
+        load_library(lib)
+    msg = str(info.value)
+    assert "\n" not in msg and msg.startswith(f"--library {lib}: "), msg
+    assert all(w in msg for w in words), msg
+
+
+@pytest.mark.parametrize("ratios", [[0.0, 1.5], [0.0, 0.4, 1.01]])
+def test_a_ratio_beyond_the_library_range_is_refused_before_solving(tmp_path, ratios):
+    """Ratio 1.5 solved for 122 s, then crashed on a folded contact surface."""
+    from fringekit.library.build import build_library
+
+    with pytest.raises(ConfigError) as info:
+        build_library("small", tmp_path / "lib", loads=[4, 8], ratios=ratios, progress=False)
+    msg = str(info.value)
+    assert msg.startswith("--shear-ratio 0 ") and "allowed range [0, 1]" in msg, msg
+    assert f"{ratios[-1]:g} is not allowed" in msg and "\n" not in msg
+    assert not (tmp_path / "lib").exists()
 
 
 def test_the_chain_of_a_build_and_of_a_resumed_one():

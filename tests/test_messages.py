@@ -4,13 +4,18 @@ comes before anything is written."""
 
 from __future__ import annotations
 
+import itertools
 import re
 
 import imageio.v3 as iio
 import numpy as np
 import pytest
 
+from fringekit.analysis import calibrate_from_maps, fringe_features, save_calibration
 from fringekit.cli import main
+from fringekit.config.files import load_config
+from fringekit.errors import ConfigError
+from fringekit.sweep.run import case_id, expand_cases
 
 REPR = re.compile(r"np\.\w+\(|PosixPath\(|WindowsPath\(|load_six_step|compare_maps")
 
@@ -134,3 +139,146 @@ def test_an_os_error_names_the_users_path_not_the_hidden_working_folder(
     assert err.endswith(f"{out / 'maps.npz'}: Permission denied"), err
     assert ".part" not in err and "Errno" not in err and "\n" not in err
     assert not out.exists()
+
+
+def test_a_sweep_name_that_leaves_the_output_folder_is_refused(tmp_path, capsys, monkeypatch):
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    sweep = work / "escape.toml"
+    sweep.write_text('name = "../../escaped"\n[grid]\n"sheet.E_MPa" = [3.0, 4.0]\n')
+    words = ["escape.toml", 'name = "../../escaped"', "plain folder name"]
+    _refused(["sweep", str(sweep), "--quiet"], capsys, words, tmp_path / "escaped")
+    assert sorted(p.name for p in work.iterdir()) == ["escape.toml"]
+
+
+#: A long load path first: every case's overrides share their first 60 characters, the
+#: part of the id that is not a hash.
+LONG_PATH = [0.5 * k for k in range(1, 13)]
+
+
+def _grid_case(e, g, f):
+    return {
+        "indenter.load_N": LONG_PATH,
+        "sheet.E_MPa": e,
+        "mesh.growth": g,
+        "optics.f_sigma_N_per_m": f,
+    }
+
+
+def test_two_cases_whose_ids_collided_are_two_cases():
+    """A pair of a 10^6-case grid (100 values of each of three keys) that 32 bits of hash
+    gave one id, reported as a case repeating an earlier one; a real repeat still is."""
+    a, b = _grid_case(1.04, 1.9, 1.06), _grid_case(1.06, 1.14, 1.64)
+    cases = expand_cases(load_config("small"), [a, b])
+    assert len({c["id"] for c in cases}) == 2
+    with pytest.raises(ConfigError, match="case 2 .* repeats an earlier case"):
+        expand_cases(load_config("small"), [a, b, dict(a)])
+
+
+@pytest.mark.slow
+def test_the_case_ids_of_a_million_case_grid_are_distinct():
+    """Every id of that 10^6-case grid, without solving (about 50 s on a loaded CI core;
+    32 bits of hash gave about a hundred pairs of cases one id)."""
+    values = [round(1 + 0.01 * k, 2) for k in range(100)]
+    grid = itertools.product(values, values, values)
+    assert len({case_id(_grid_case(*v)) for v in grid}) == 10**6
+
+
+#: Out-of-range numbers given as options -> words of the refusal: the option, the value
+#: and the range, which is the config key's where the option sets one (the schema's).
+OUT_OF_RANGE = [
+    (
+        ["analyze", "{img}", "--f-sigma-N-per-m", "1e300", "--thickness-mm", "3"],
+        ["--f-sigma-N-per-m: 1e300", "(0, 1e+08] N/m", "config key optics.f_sigma_N_per_m"],
+    ),
+    (
+        ["analyze", "{img}", "--f-sigma-N-per-m", "386", "--thickness-mm", "1e-300"],
+        ["--thickness-mm: 1e-300", "[0.01, 100] mm", "config key sheet.thickness_mm"],
+    ),
+    (
+        ["analyze", "{img}", "--method", "rgb", "--exposure", "1e9"],
+        ["--exposure: 1e9", "(0, 1000]", "config key optics.exposure"],
+    ),
+    (
+        ["analyze", "{img}", "--pixel-mm", "1e-300"],
+        ["--pixel-mm: 1e-300", "[0.0001, 10] mm"],
+    ),
+    (
+        ["calibrate", "--disc", "{img}", "--load-N", "100", "--diameter-mm", "40"]
+        + ["--thickness-mm", "6", "--wavelength-nm", "1e9"],
+        ["--wavelength-nm: 1e9", "[360, 830] nm", "config key optics.wavelength_nm"],
+    ),
+    (
+        ["calibrate", "--disc", "{img}", "--load-N", "1e9", "--diameter-mm", "40"],
+        ["--load-N: 1e9", "(0, 10000] N", "config key indenter.load_N"],
+    ),
+    (
+        ["calibrate", "--disc", "{img}", "--load-N", "100", "--diameter-mm", "1e-300"],
+        ["--diameter-mm: 1e-300", "[1, 500] mm"],
+    ),
+    (
+        ["library", "build", "small", "--load-N", "0", "4"],
+        ["--load-N: 0", "(0, 10000] N", "config key indenter.load_N"],
+    ),
+    (
+        ["library", "build", "small", "--shear-ratio", "0", "1.5"],
+        ["--shear-ratio: 1.5", "allowed range [0, 1]"],
+    ),
+    (
+        ["library", "build", "small", "--diameter-mm", "1e5"],
+        ["--diameter-mm: 1e5", "(0, 100] mm", "config key indenter.diameter_mm"],
+    ),
+    (
+        ["mesh", "--h-contact-mm", "1e9"],
+        ["--h-contact-mm: 1e9", "(0, 50] mm", "config key mesh.h_contact_mm"],
+    ),
+    (
+        ["compare", "{img}", "{img}", "--rotation-deg", "1e9"],
+        ["--rotation-deg: 1e9", "[-360, 360] deg"],
+    ),
+    (
+        ["invert", "{img}", "--library", "{img}", "--pixel-mm", "20"],
+        ["--pixel-mm: 20", "[0.0001, 10] mm"],
+    ),
+]
+
+
+@pytest.mark.parametrize(("argv", "words"), OUT_OF_RANGE, ids=lambda v: " ".join(v)[:40])
+def test_an_out_of_range_option_is_refused_with_its_range(argv, words, image, tmp_path, capsys):
+    out = tmp_path / "out"
+    argv = [a.replace("{img}", str(image)) for a in argv] + ["--out", str(out)]
+    _refused(argv, capsys, words, out)
+
+
+def _calibration(path, **fit):
+    """A calibration file of the synthetic Hertz-like maps, one fit's coefficients set."""
+    r_mm = np.hypot(*np.mgrid[-60:61, -60:61]) * 0.1
+
+    def order_map(load):
+        return (load / 8) ** (2 / 3) * 3.0 * np.exp(-((r_mm / 2.5) ** 2))
+
+    loads = [2.0, 4.0, 8.0, 12.0]
+    cal = calibrate_from_maps(
+        loads, np.zeros((4, 2)), [fringe_features(order_map(f), 1e-4, (60, 60)) for f in loads]
+    )
+    cal["normal_fits"]["order_at_2mm"].update(fit)
+    save_calibration(cal, path)
+    np.savez(path.with_name("maps.npz"), fringe_order=order_map(6.0), pixel_size_m=np.array(1e-4))
+    return path
+
+
+#: A fitted relation's coefficients -> words of the refusal (file and key, value, range).
+DEGENERATE_FITS = [
+    ({"b": 1e-300}, ["normal_fits.order_at_2mm.b = 1e-300", "[0.2, 10]"]),
+    ({"b": -1.5}, ["normal_fits.order_at_2mm.b = -1.5", "[0.2, 10]"]),
+    ({"a": 0.0}, ["normal_fits.order_at_2mm.a = 0", "(0, inf)"]),
+]
+
+
+@pytest.mark.parametrize(("fit", "words"), DEGENERATE_FITS, ids=str)
+def test_a_calibration_with_a_degenerate_fit_is_refused(fit, words, tmp_path, capsys):
+    cal = _calibration(tmp_path / "calibration.json", **fit)
+    out = tmp_path / "out"
+    argv = ["estimate", str(tmp_path / "maps.npz"), "--calibration", str(cal)]
+    _refused(argv + ["--centre", "60", "60", "--out", str(out)], capsys, [str(cal), *words], out)

@@ -9,11 +9,15 @@ import sys
 from pathlib import Path
 
 from fringekit.cli.options import (
+    DISC_DIAMETER_MM,
+    MAX_ORDER,
+    PIXEL_MM,
+    SMOOTH_PX,
+    WINDOW,
     finite,
     fraction,
-    nonnegative,
+    in_range,
     pixel,
-    positive,
 )
 from fringekit.errors import InputError
 from fringekit.measurement import (
@@ -45,7 +49,7 @@ def _mono_options(g) -> None:
     )
     g.add_argument(
         "--smooth-px",
-        type=nonnegative,
+        type=in_range(SMOOTH_PX),
         default=0.5,
         help="(mono) Gaussian smoothing before normalising (px)",
     )
@@ -93,10 +97,12 @@ def _region_options(an) -> None:
         help="mask image of the images' size, data where bright (predict's mask.png); "
         "predict's no-data fill is left out without it too",
     )
-    an.add_argument("--pixel-mm", type=positive, default=None, help="pixel pitch on the sheet (mm)")
+    an.add_argument(
+        "--pixel-mm", type=in_range(PIXEL_MM), default=None, help="pixel pitch on the sheet (mm)"
+    )
     an.add_argument(
         "--roi-disc",
-        type=positive,
+        type=in_range(DISC_DIAMETER_MM),
         default=None,
         metavar="DIAMETER_MM",
         help="find the circular specimen of this diameter in the (first) image: "
@@ -137,10 +143,10 @@ def _rgb_options(g) -> None:
     )
     g.add_argument("--light", default="LED", help="(rgb) light of the synthetic chart")
     g.add_argument("--camera", default="CIE1931", help="(rgb) camera of the synthetic chart")
-    g.add_argument("--max-order", type=positive, default=4.0, help="(rgb) chart range")
+    g.add_argument("--max-order", type=in_range(MAX_ORDER), default=4.0, help="(rgb) chart range")
     g.add_argument(
         "--exposure",
-        type=positive,
+        type=in_range("optics.exposure"),
         default=0.9,
         help="(rgb) chart exposure, as in predict's optics.exposure",
     )
@@ -152,7 +158,9 @@ def _rgb_options(g) -> None:
         metavar=("ROW", "COL", "N"),
         help="(rgb) pixel of known order: refined search from it",
     )
-    g.add_argument("--window", type=positive, default=0.25, help="(rgb) refined window (fringe)")
+    g.add_argument(
+        "--window", type=in_range(WINDOW), default=0.25, help="(rgb) refined window (fringe)"
+    )
 
 
 def add_parser(sub) -> None:
@@ -207,8 +215,18 @@ def add_parser(sub) -> None:
         action="store_true",
         help="exit 1 when less than half of the region of interest is reliable",
     )
-    an.add_argument("--f-sigma-N-per-m", type=positive, default=None)
-    an.add_argument("--thickness-mm", type=positive, default=None)
+    an.add_argument(
+        "--f-sigma-N-per-m",
+        type=in_range("optics.f_sigma_N_per_m"),
+        default=None,
+        help="material fringe value: with --thickness-mm, a stress map",
+    )
+    an.add_argument(
+        "--thickness-mm",
+        type=in_range("sheet.thickness_mm"),
+        default=None,
+        help="sheet thickness (mm): with --f-sigma-N-per-m, a stress map",
+    )
     an.add_argument("--quiet", action="store_true")
     an.set_defaults(func=run)
 

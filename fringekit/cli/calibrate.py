@@ -13,9 +13,12 @@ from fringekit.calibrate.disc import is_photo, run_disc_photos
 from fringekit.calibrate.estimate import run_disc
 from fringekit.calibrate.load import default_calibration_config, run_calibrate
 from fringekit.cli.options import (
+    DISC_DIAMETER_MM,
+    PIXEL_MM,
+    RADIUS_PX,
     finite,
+    in_range,
     overrides,
-    positive,
     run_options,
 )
 from fringekit.errors import InputError
@@ -48,15 +51,22 @@ def add_parser(sub) -> None:
     ca.add_argument(
         "--load-N",
         nargs="+",
-        type=positive,
+        type=in_range("indenter.load_N", positive=True),
         default=None,
         help="(disc) diametral load of each photograph (N)",
     )
-    ca.add_argument("--diameter-mm", type=positive, default=None, help="(disc) diameter")
-    ca.add_argument("--thickness-mm", type=positive, default=None, help="(disc) thickness")
+    ca.add_argument(
+        "--diameter-mm", type=in_range(DISC_DIAMETER_MM), default=None, help="(disc) diameter"
+    )
+    ca.add_argument(
+        "--thickness-mm",
+        type=in_range("sheet.thickness_mm"),
+        default=None,
+        help="(disc) thickness",
+    )
     ca.add_argument(
         "--wavelength-nm",
-        type=positive,
+        type=in_range("optics.wavelength_nm"),
         default=None,
         help="(disc) wavelength of the light, recorded with f_sigma",
     )
@@ -73,11 +83,11 @@ def add_parser(sub) -> None:
         help="(disc) polariscope field of the photographs",
     )
     ca.add_argument("--dark", default=None, help="(disc) dark frame subtracted from every photo")
-    ca.add_argument("--pixel-mm", type=positive, default=None)
+    ca.add_argument("--pixel-mm", type=in_range(PIXEL_MM), default=None)
     ca.add_argument("--centre", nargs=2, type=finite, metavar=("ROW", "COL"))
     ca.add_argument(
         "--radius-px",
-        type=positive,
+        type=in_range(RADIUS_PX),
         default=None,
         help="(disc) disc radius in the photographs (px)",
     )

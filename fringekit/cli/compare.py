@@ -8,8 +8,10 @@ import argparse
 from pathlib import Path
 
 from fringekit.cli.options import (
+    PIXEL_MM,
+    ROTATION_DEG,
     finite,
-    positive,
+    in_range,
 )
 from fringekit.measurement.compare import run_compare
 
@@ -21,10 +23,10 @@ def add_parser(sub) -> None:
     co.add_argument("prediction", help="predict output folder or maps.npz")
     co.add_argument("measurement", help="analyze output folder or maps.npz")
     co.add_argument("--out", default=None, help="output folder (default fringekit-out/compare)")
-    co.add_argument("--predicted-pixel-mm", type=positive, default=None)
-    co.add_argument("--measured-pixel-mm", type=positive, default=None)
+    co.add_argument("--predicted-pixel-mm", type=in_range(PIXEL_MM), default=None)
+    co.add_argument("--measured-pixel-mm", type=in_range(PIXEL_MM), default=None)
     co.add_argument("--centre-measured", nargs=2, type=finite, metavar=("ROW", "COL"))
-    co.add_argument("--rotation-deg", type=finite, default=0.0)
+    co.add_argument("--rotation-deg", type=in_range(ROTATION_DEG), default=0.0)
     co.add_argument("--quiet", action="store_true")
     co.set_defaults(func=run)
 

@@ -9,8 +9,9 @@ import sys
 
 from fringekit.calibrate.estimate import run_estimate
 from fringekit.cli.options import (
+    PIXEL_MM,
     finite,
-    positive,
+    in_range,
 )
 
 __all__ = ["add_parser", "run"]
@@ -20,7 +21,7 @@ def add_parser(sub) -> None:
     es = sub.add_parser("estimate", help="load (and shear) from a fringe-order map")
     es.add_argument("maps", help="maps.npz, or a fringekit analyze / predict output folder")
     es.add_argument("--calibration", required=True, help="calibration.json from calibrate")
-    es.add_argument("--pixel-mm", type=positive, default=None)
+    es.add_argument("--pixel-mm", type=in_range(PIXEL_MM), default=None)
     es.add_argument(
         "--centre",
         nargs=2,

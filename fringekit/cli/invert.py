@@ -9,8 +9,9 @@ import sys
 from pathlib import Path
 
 from fringekit.cli.options import (
+    PIXEL_MM,
     finite,
-    positive,
+    in_range,
 )
 from fringekit.inversion.run import run_invert
 
@@ -29,7 +30,10 @@ def add_parser(sub) -> None:
         help="default: rgb for a colour image, mono for grey, phase for six",
     )
     iv.add_argument(
-        "--pixel-mm", type=positive, default=None, help="pixel pitch on the sheet (mm), required"
+        "--pixel-mm",
+        type=in_range(PIXEL_MM),
+        default=None,
+        help="pixel pitch on the sheet (mm), required",
     )
     iv.add_argument(
         "--origin-px",

@@ -7,11 +7,11 @@ from pathlib import Path
 
 from fringekit import __version__
 from fringekit.cli.options import (
+    SHEAR_RATIO,
     at_least_one,
     at_least_zero,
-    nonnegative,
+    in_range,
     overrides,
-    positive,
 )
 from fringekit.library.build import DEFAULT_LOADS_N, DEFAULT_RATIOS, build_library
 
@@ -38,21 +38,21 @@ def add_parser(sub) -> None:
     b.add_argument(
         "--diameter-mm",
         nargs="+",
-        type=positive,
+        type=in_range("indenter.diameter_mm"),
         default=None,
         help="indenter diameters (default: the config's)",
     )
     b.add_argument(
         "--load-N",
         nargs="+",
-        type=positive,
+        type=in_range("indenter.load_N", positive=True),
         default=None,
         help="normal loads of the grid (default 0.25..12 N, 14 values)",
     )
     b.add_argument(
         "--shear-ratio",
         nargs="+",
-        type=nonnegative,
+        type=in_range(SHEAR_RATIO),
         default=None,
         help="tangential/normal ratios from 0 (default 0 0.2 0.4 0.6 0.8)",
     )

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from fringekit import __version__
 from fringekit.cli.options import (
-    finite,
+    in_range,
     overrides,
 )
 from fringekit.config.files import apply_overrides
@@ -61,7 +61,9 @@ def add_parser(sub) -> None:
     for opt, keys in MESH_OPTIONS.items():
         if opt != "symmetry":
             flag = "--" + opt.replace("_", "-")
-            m.add_argument(flag, type=finite, default=None, help="sets " + " and ".join(keys))
+            m.add_argument(
+                flag, type=in_range(keys[0]), default=None, help="sets " + " and ".join(keys)
+            )
     m.add_argument("--out", default=None, help="output folder (default fringekit-out/<case>)")
     m.add_argument("--cache-dir", default=None, help="mesh cache root")
     m.add_argument("--no-cache", action="store_true", help="always regenerate the mesh")

@@ -10,19 +10,32 @@ finite number > 0``.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import re
 import sys
+from collections.abc import Callable
 
-from fringekit.config.files import apply_overrides, load_config, tomllib
+from fringekit.config.files import apply_overrides, check_number, load_config, tomllib
+from fringekit.config.schema import Key, schema_key
 from fringekit.errors import ConfigError
+from fringekit.library.build import MAX_RATIO
 
 __all__ = [
+    "DISC_DIAMETER_MM",
+    "MAX_ORDER",
+    "PIXEL_MM",
+    "RADIUS_PX",
+    "ROTATION_DEG",
+    "SHEAR_RATIO",
+    "SMOOTH_PX",
+    "WINDOW",
     "Parser",
     "at_least_one",
     "at_least_zero",
     "finite",
     "fraction",
+    "in_range",
     "nonnegative",
     "overrides",
     "pixel",
@@ -96,6 +109,52 @@ def fraction(text: str) -> float:
     if not 0 <= v <= 1:
         raise argparse.ArgumentTypeError(f"{text} is not allowed; give a number in [0, 1]")
     return v
+
+
+#: The ranges of the options that set no config key (docs/cli.md lists them). An option
+#: that sets a config key takes that key's range from the schema (:func:`in_range`).
+PIXEL_MM = Key(
+    None,
+    "pixel pitch on the sheet: 0.1 um (below any lens's resolution) to 10 mm",
+    "mm",
+    lo=1e-4,
+    hi=10,
+)
+DISC_DIAMETER_MM = Key(None, "diameter of a calibration disc", "mm", lo=1, hi=500)
+RADIUS_PX = Key(None, "disc radius in a photograph", "px", lo=2, hi=1e5)
+ROTATION_DEG = Key(None, "rotation of a measured map", "deg", lo=-360, hi=360)
+MAX_ORDER = Key(None, "highest fringe order of a colour chart", "", lo=0, hi=100, lo_open=True)
+WINDOW = Key(None, "refined window of a colour match (fringe)", "", lo=0, hi=10, lo_open=True)
+SMOOTH_PX = Key(None, "Gaussian smoothing", "px", lo=0, hi=100)
+#: A library's tangential / normal load ratios (library build).
+SHEAR_RATIO = Key(None, "tangential over normal load of a library", "", lo=0, hi=MAX_RATIO)
+
+
+def in_range(key: str | Key, *, positive: bool = False) -> Callable[[str], float]:
+    """An option's type: a number in the range of config key ``key`` (its
+    :class:`~fringekit.config.schema.Key` in the schema: options and configs share one
+    range), or of a Key made for an option that sets no config key. ``positive`` leaves
+    out 0 (a load of a grid, say).
+
+    A value outside reads ``argument --thickness-mm: 1e-300 is not allowed; allowed range
+    [0.01, 100] mm (the range of config key sheet.thickness_mm)``.
+    """
+    k = schema_key(key) if isinstance(key, str) else key
+    if positive and k.lo == 0:
+        k = dataclasses.replace(k, lo_open=True)
+    source = f" (the range of config key {key})" if isinstance(key, str) else ""
+
+    def parse(text: str) -> float:
+        v = _number(text)
+        try:
+            return check_number(text, v, k)
+        except ConfigError:
+            raise argparse.ArgumentTypeError(
+                f"{text} is not allowed; {k.allowed()}{source}"
+            ) from None
+
+    parse.__name__ = key if isinstance(key, str) else k.help
+    return parse
 
 
 def _whole(text: str, minimum: int) -> int:

@@ -37,6 +37,7 @@ __all__ = [
     "SCHEMA",
     "INDENTER_SCHEMA",
     "apply_overrides",
+    "check_number",
     "effective_config",
     "load_config",
     "normal_path",
@@ -55,11 +56,6 @@ def _bad(key: str, value, allowed: str) -> ConfigError:
     return ConfigError(f"{key} = {_shown(value)} is not allowed; {allowed}")
 
 
-def _range_text(k: Key) -> str:
-    lo = "(" if k.lo_open else "["
-    return f"allowed range {lo}{k.lo:g}, {k.hi:g}]" + (f" {k.unit}" if k.unit else "")
-
-
 def _number(name: str, v, k: Key, integer: bool = False) -> float | int:
     if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
         raise _bad(name, v, f"give a number{' (integer)' if integer else ''}")
@@ -70,8 +66,14 @@ def _number(name: str, v, k: Key, integer: bool = False) -> float | int:
     if k.choices is not None and v not in k.choices:
         raise _bad(name, v, f"allowed values {list(k.choices)}")
     if k.lo is not None and (v < k.lo or (k.lo_open and v == k.lo) or v > k.hi):
-        raise _bad(name, v, _range_text(k))
+        raise _bad(name, v, k.allowed())
     return int(v) if integer else float(v)
+
+
+def check_number(name: str, value, key: Key) -> float | int:
+    """``value`` checked against the type and range of ``key`` (a :class:`Key` of the
+    schema, or one made for an option); a :class:`ConfigError` naming ``name``."""
+    return _number(name, value, key, integer=key.kind == "int")
 
 
 def _check(name: str, v, k: Key):

@@ -19,7 +19,7 @@ from typing import Any
 
 from fringekit.errors import ConfigError
 
-__all__ = ["BUILTIN_CASES", "ConfigError", "INDENTER_SCHEMA", "Key", "SCHEMA"]
+__all__ = ["BUILTIN_CASES", "ConfigError", "INDENTER_SCHEMA", "Key", "SCHEMA", "schema_key"]
 
 
 @dataclass(frozen=True)
@@ -34,6 +34,15 @@ class Key:
     hi: float | None = None
     lo_open: bool = False
     choices: tuple | None = None
+
+    def allowed(self) -> str:
+        """What is allowed, in words: ``allowed range (0, 100] mm`` (or the choices)."""
+        if self.choices is not None:
+            return f"allowed values {list(self.choices)}"
+        lo = "(" if self.lo_open else "["
+        return f"allowed range {lo}{self.lo:g}, {self.hi:g}]" + (
+            f" {self.unit}" if self.unit else ""
+        )
 
 
 def _f(default, help, unit="", lo=None, hi=None, lo_open=False):
@@ -76,7 +85,12 @@ SCHEMA: dict[str, Any] = {
     "case": Key("reference", "case name: the output folder is <out>/<case>", kind="str"),
     "sheet": {
         "thickness_mm": _f(
-            3.0, "photoelastic sheet thickness (seed paper: 3 mm)", "mm", 0, 100, True
+            3.0,
+            "photoelastic sheet thickness (seed paper: 3 mm; from a 10 um film, which keeps "
+            "a stress from an order finite)",
+            "mm",
+            0.01,
+            100,
         ),
         "width_mm": _f(40.0, "sheet size along x (assumed 40 mm)", "mm", 1, 2000),
         "length_mm": _f(40.0, "sheet size along y", "mm", 1, 2000),
@@ -233,6 +247,14 @@ SCHEMA: dict[str, Any] = {
         ),
     },
 }
+
+
+def schema_key(name: str) -> Key:
+    """The :class:`Key` of a dotted config key: ``"sheet.thickness_mm"``,
+    ``"indenter.load_N"`` (a KeyError for an unknown one)."""
+    table, _, key = name.partition(".")
+    return INDENTER_SCHEMA[key] if table == "indenter" else SCHEMA[table][key]
+
 
 _REFERENCE: dict[str, Any] = {"case": "reference"}
 _SHEAR: dict[str, Any] = {

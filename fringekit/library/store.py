@@ -3,7 +3,10 @@
 Folder layout (written by :mod:`fringekit.library.build`)::
 
     manifest.json       format, sensor config, grid, lattice, mesh settings, versions,
-                        the sha256 of every field file
+                        the sha256 of every field file, and ``manifest_sha256``: the
+                        sha256 of the manifest's own canonical JSON
+                        (:func:`manifest_checksum`), so an edited grid or diameter is
+                        refused like an edited field file
     config.toml         the sensor config the library was built for
     fields_dXXXX.npz    one per indenter diameter (XXXX = diameter in um):
                         AB (nF, nS, R, F, S, 2) float32  polar slab pairs (Pa m),
@@ -41,11 +44,14 @@ __all__ = [
     "diameter_id",
     "field_file",
     "load_library",
+    "manifest_checksum",
     "sensor_key",
     "sha256",
 ]
 
-FORMAT = "fringekit-library/1"
+#: 2: the manifest holds a checksum of its own (1: of the field files only; refused with
+#: the command that rebuilds it).
+FORMAT = "fringekit-library/2"
 #: The arrays of a field file (module docstring).
 FIELD_KEYS = ("AB", "valid", "contact_radius_m", "centre_m", "force_N")
 
@@ -65,6 +71,15 @@ def sha256(path: Path) -> str:
         for block in iter(lambda: f.read(1 << 20), b""):
             h.update(block)
     return h.hexdigest()
+
+
+def manifest_checksum(manifest: dict) -> str:
+    """The sha256 of a manifest's canonical JSON (sorted keys, no spaces), leaving out its
+    own ``manifest_sha256``: how it reads back from ``manifest.json``, whatever the
+    layout of the file."""
+    body = {k: v for k, v in manifest.items() if k != "manifest_sha256"}
+    text = json.dumps(body, sort_keys=True, separators=(",", ":"), ensure_ascii=True)
+    return hashlib.sha256(text.encode()).hexdigest()
 
 
 def sensor_key(cfg: dict) -> dict:
@@ -245,6 +260,44 @@ def _bad(folder: Path, what: str) -> LibraryError:
     return LibraryError(f"--library {folder}: {what}")
 
 
+def _rebuild(folder: Path, manifest: dict) -> str:
+    """The command that builds a library of ``folder``'s sensor and grid anew."""
+    command = f"fringekit library build {folder / 'config.toml'} --out {folder}-new"
+    try:
+        g = manifest["grid"]
+        words = {
+            "diameter-mm": g["diameters_mm"],
+            "load-N": g["load_N"],
+            "shear-ratio": g["shear_ratio"],
+        }
+        for option, values in words.items():
+            command += f" --{option} " + " ".join(f"{float(v):g}" for v in values)
+        return command + f" --slabs {int(manifest['lattice']['n_slabs'])}"
+    except (KeyError, TypeError, ValueError):  # a damaged manifest: the sensor's defaults
+        return command
+
+
+def _check_manifest(folder: Path, manifest: dict) -> None:
+    """The format, and the manifest's checksum of itself (an edited grid, diameter or
+    lattice would give other loads and heads than the fields were solved for)."""
+    fmt = manifest.get("format")
+    if fmt == "fringekit-library/1":
+        raise _bad(
+            folder,
+            "built by an earlier fringekit (format fringekit-library/1: its manifest.json "
+            f"has no checksum of its own, so edits to it go unnoticed); rebuild it: "
+            f"{_rebuild(folder, manifest)}",
+        )
+    if fmt != FORMAT:
+        raise _bad(folder, f"format {fmt!r} is not {FORMAT!r}")
+    if manifest.get("manifest_sha256") != manifest_checksum(manifest):
+        raise _bad(
+            folder,
+            "manifest.json does not match its own checksum (manifest_sha256): it was "
+            "edited after the build (corrupt library; restore the file or rebuild it)",
+        )
+
+
 def load_library(folder) -> Library:
     """Read and check a library folder; every defect is one :class:`LibraryError` line."""
     folder = Path(folder)
@@ -257,8 +310,12 @@ def load_library(folder) -> Library:
         )
     try:
         manifest = json.loads(mf.read_text())
-        if manifest.get("format") != FORMAT:
-            raise _bad(folder, f"format {manifest.get('format')!r} is not {FORMAT!r}")
+    except ValueError as exc:
+        raise _bad(folder, f"manifest.json is corrupt ({exc})") from None
+    if not isinstance(manifest, dict):
+        raise _bad(folder, "manifest.json is corrupt (not a JSON object)")
+    _check_manifest(folder, manifest)
+    try:
         lat = manifest["lattice"]
         lattice = PolarLattice(
             r=np.array(lat["r_mm"]) * 1e-3,

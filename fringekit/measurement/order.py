@@ -17,7 +17,9 @@ import numpy as np
 import tifffile
 
 from fringekit.analysis import load_image, principal_stress_difference
-from fringekit.errors import InputError
+from fringekit.config.files import check_number
+from fringekit.config.schema import schema_key
+from fringekit.errors import ConfigError, InputError
 from fringekit.measurement.methods import analyse_phase, analyse_rgb
 from fringekit.measurement.mono import analyse_mono
 from fringekit.measurement.options import MonoOptions, PhaseOptions, Region, RGBOptions
@@ -226,6 +228,7 @@ def analyze(
             f"--pixel-mm {pixel_mm} is not allowed; give the pixel pitch on the sheet (mm, > 0), "
             "or 0 for pixels"
         )
+    _check_stress_inputs(fringe_value_N_per_m, thickness_mm)
     method = choose_method(method, paths)
     opts = options if options is not None else _OPTIONS[method]()
     if not isinstance(opts, _OPTIONS[method]):
@@ -233,8 +236,6 @@ def analyze(
             f"options {type(opts).__name__} are not for --method {method}; give "
             f"{_OPTIONS[method].__name__}"
         )
-    if (fringe_value_N_per_m is None) != (thickness_mm is None):
-        raise InputError("give both the fringe value and the thickness for stress, or neither")
     region = Region() if region is None else region
     circle, pixel_size = region.circle, pixel_mm * 1e-3
     disc = None
@@ -272,3 +273,20 @@ def analyze(
     summary.update(counts(order, reliable, mask, part))
     summary.update(pixel_size_mm=pixel_size * 1e3, origin_px=[float(v) for v in origin])
     return Analysis(method, maps, region, mask, pixel_size * 1e3, origin, summary)
+
+
+def _check_stress_inputs(fringe_value_N_per_m, thickness_mm) -> None:
+    """Both or neither, each in its config key's range (a 1e-300 mm sheet gave a stress
+    map of inf)."""
+    if (fringe_value_N_per_m is None) != (thickness_mm is None):
+        raise InputError("give both the fringe value and the thickness for stress, or neither")
+    if fringe_value_N_per_m is None:
+        return
+    for name, value, key in (
+        ("fringe_value_N_per_m", fringe_value_N_per_m, "optics.f_sigma_N_per_m"),
+        ("thickness_mm", thickness_mm, "sheet.thickness_mm"),
+    ):
+        try:
+            check_number(name, value, schema_key(key))
+        except ConfigError as exc:
+            raise InputError(f"{exc} (the range of config key {key})") from None

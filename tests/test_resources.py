@@ -1,0 +1,93 @@
+"""Resources and hangs (issue 36): requests whose arrays need more memory than a machine
+has are refused before any work, naming the option, its value and the estimate; invert
+reports its stages, keeps to a time budget and refuses a pixel pitch its fringes
+contradict before fitting.
+
+The memory cases ask for petabytes or terabytes (no machine the tests run on has them),
+so they do not depend on the machine; the time budget reads an injected clock at its
+safe points only, so it does not depend on the machine's speed either.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+from library_fixtures import TINY, sensor_config
+
+import fringekit
+from fringekit.cli import main
+from fringekit.config.inputs import optics_setup
+from fringekit.inversion.model import ImageModel
+from fringekit.library.store import LoadedIndenter
+from fringekit.optics import Camera, write_image
+from fringekit.prediction.render import no_data_fill
+
+REPR = re.compile(r"np\.\w+\(|PosixPath\(|WindowsPath\(|Traceback")
+#: The tiny library's images: 48 px over 12 mm.
+PITCH_MM = 0.25
+
+
+@pytest.fixture(scope="module")
+def image(tiny_library, tmp_path_factory):
+    """A grey (dark-field) library image of one sheared indenter at PITCH_MM per pixel."""
+    opt = optics_setup(sensor_config(**TINY))
+    n = opt.grid.n_pixels
+    blank = ImageModel.build(
+        tiny_library, opt.grid, "mono", np.zeros((n, 1)), np.ones(n, bool), opt
+    )
+    lin, outside = blank.linear([LoadedIndenter(-1.0e-3, 0.5e-3, 3.5e-3, 0.5, -0.4, 3.0)])
+    img = Camera(sensitivities="mono").encode((0.8 * lin + 0.02).reshape(opt.grid.shape))
+    path = tmp_path_factory.mktemp("image") / "one.png"
+    write_image(path, no_data_fill(img, outside.reshape(img.shape)))
+    return path
+
+
+def _refused(argv, capsys, words, out):
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0, err
+    assert all(w in err for w in words), err
+    assert not REPR.search(err), err
+    assert not out.exists()
+    return err
+
+
+MEMORY = [
+    # (argv after the command's inputs, words the one line must hold)
+    (["analyze", "{image}", "--method", "mono", "--smooth-px", "1e12"], ["--smooth-px 1e+12"]),
+    (["library", "build", "small", "--slabs", "1000000000"], ["--slabs 1000000000", "states"]),
+    (["mesh", "small", "--h-contact-mm", "0.0001"], ["mesh.h_contact_mm = 0.0001", "tets"]),
+    (
+        [
+            "predict",
+            "small",
+            *("--set", "mesh.symmetry=full"),
+            *("--set", "optics.pixels=4096", "--set", "optics.samples_per_ray=4096"),
+            *("--set", "optics.include_substrate=true"),
+            *("--set", "optics.substrate_samples_per_ray=4096"),
+        ],
+        ["optics.pixels = 4096", "optics.samples_per_ray = 4096", "ray samples"],
+    ),
+]
+
+
+@pytest.mark.parametrize("argv,words", MEMORY, ids=[m[0][0] for m in MEMORY])
+def test_a_request_larger_than_memory_is_refused_before_work(
+    argv, words, image, tiny_library, tmp_path, capsys
+):
+    out = tmp_path / "out"
+    argv = [a.format(image=image, library=tiny_library.folder) for a in argv]
+    err = _refused([*argv, "--out", str(out)], capsys, [*words, "needs about"], out)
+    assert re.search(r"needs about [\d.]+ [TPE]iB .*this machine has [\d.]+ \w+ free", err), err
+
+
+def test_the_estimates_follow_the_sizes():
+    from fringekit._memory import check_memory, gaussian_bytes, size_text
+
+    assert gaussian_bytes(2.0) == 3 * 17 * 8  # 2 * 8 + 1 taps
+    assert size_text(17.5 * 2**40) == "17.5 TiB"
+    check_memory(2.0**30, "a grid", "--x 1", free=2**31)  # fits: nothing to say
+    with pytest.raises(fringekit.InputError, match=r"^--x 1 needs about 1 GiB for a grid"):
+        check_memory(2.0**30, "a grid", "--x 1", free=2**20)

@@ -10,6 +10,7 @@ safe points only, so it does not depend on the machine's speed either.
 
 from __future__ import annotations
 
+import json
 import re
 
 import numpy as np
@@ -57,6 +58,10 @@ def _refused(argv, capsys, words, out):
 MEMORY = [
     # (argv after the command's inputs, words the one line must hold)
     (["analyze", "{image}", "--method", "mono", "--smooth-px", "1e12"], ["--smooth-px 1e+12"]),
+    (
+        ["invert", "{image}", "--library", "{library}", "--pixel-mm", "1e-12"],
+        ["--pixel-mm 1e-12", "detection"],
+    ),
     (["library", "build", "small", "--slabs", "1000000000"], ["--slabs 1000000000", "states"]),
     (["mesh", "small", "--h-contact-mm", "0.0001"], ["mesh.h_contact_mm = 0.0001", "tets"]),
     (
@@ -91,3 +96,63 @@ def test_the_estimates_follow_the_sizes():
     check_memory(2.0**30, "a grid", "--x 1", free=2**31)  # fits: nothing to say
     with pytest.raises(fringekit.InputError, match=r"^--x 1 needs about 1 GiB for a grid"):
         check_memory(2.0**30, "a grid", "--x 1", free=2**20)
+
+
+class Ticks:
+    """A clock that advances one second each time it is read."""
+
+    def __init__(self):
+        self.t = -1.0
+
+    def __call__(self) -> float:
+        self.t += 1.0
+        return self.t
+
+
+# (budget in ticks, the stage after which the fit stops): the clock is read once when
+# the budget starts and once at the end of each stage
+BUDGETS = [(0.0, "detection"), (1.5, "start scan"), (2.5, "far fit"), (3.5, "near fit")]
+
+
+@pytest.mark.parametrize("max_seconds,stage", BUDGETS)
+def test_the_time_budget_stops_after_a_stage_and_flags_the_answer(
+    image, tiny_library, max_seconds, stage
+):
+    lines = []
+    inv = fringekit.invert(
+        image,
+        tiny_library,
+        pixel_mm=PITCH_MM,
+        max_seconds=max_seconds,
+        clock=Ticks(),
+        progress=True,
+        echo=lines.append,
+    )
+    s = inv.summary
+    assert s["stopped_after"] == stage and s["reliable"] == [False], s
+    assert not inv.table()["reliable"].any()
+    assert any(
+        f"--max-seconds {max_seconds:g} ran out after the {stage}" in w for w in s["warnings"]
+    )
+    assert any(line.startswith(f"invert: {stage}") for line in lines), lines
+    fz = inv.table()["Fz_N"]
+    assert len(fz) == 1 and (np.isnan(fz[0]) if stage == "detection" else abs(fz[0] - 3) < 1)
+
+
+def test_invert_reports_its_stages_and_a_spent_budget_exits_1_with_the_answer(
+    image, tiny_library, tmp_path, capsys
+):
+    out = tmp_path / "out"
+    base = ["invert", str(image), "--library", str(tiny_library.folder), "--out", str(out)]
+    assert main([*base, "--pixel-mm", str(PITCH_MM)]) == 0
+    said = capsys.readouterr()
+    for stage in ("detection", "start scan", "far fit", "near fit", "basin search"):
+        assert f"invert: {stage}" in said.out, said.out
+    assert json.loads((out / "summary.json").read_text())["stopped_after"] is None
+    assert main([*base, "--pixel-mm", str(PITCH_MM), "--max-seconds", "0", "--quiet"]) == 1
+    said = capsys.readouterr()
+    assert said.out == "" and "--max-seconds 0 ran out after the detection" in said.err
+    s = json.loads((out / "summary.json").read_text())
+    assert s["stopped_after"] == "detection" and s["reliable"] == [False]
+    assert (out / "loads.csv").read_text().count("\n") == 2  # the header and the candidate
+    assert (out / "fit.png").exists()

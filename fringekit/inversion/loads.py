@@ -26,9 +26,12 @@ from pathlib import Path
 
 import numpy as np
 
+from fringekit._memory import check_memory
 from fringekit.config.files import load_config
 from fringekit.config.inputs import optics_setup
 from fringekit.errors import ConfigError
+from fringekit.inversion.budget import DEFAULT_MAX_SECONDS, Budget
+from fringekit.inversion.detect import SMOOTH_MM, detection_bytes
 from fringekit.inversion.figure import fit_figure
 from fringekit.inversion.fit import InvertResult, invert_image
 from fringekit.inversion.model import ImageModel
@@ -88,7 +91,8 @@ class Inversion:
     def table(self) -> dict[str, np.ndarray]:
         """The loads as columns named :data:`LOAD_COLUMNS` (mm and N), one row per
         indenter; ``reliable`` (bool) says where the residual near the indenter is
-        small enough to stand behind its load."""
+        small enough to stand behind its load (never, when the time budget stopped the
+        fit: ``result.stopped``)."""
         r = self.result
         p, s = r.params, r.sd
         cols = (
@@ -106,7 +110,7 @@ class Inversion:
             r.residual_rms,
         )
         out = {k: np.asarray(v, float) for k, v in zip(LOAD_COLUMNS, cols, strict=True)}
-        out["reliable"] = np.asarray(r.residual_rms) <= WARN_RESIDUAL
+        out["reliable"] = (np.asarray(r.residual_rms) <= WARN_RESIDUAL) & (r.stopped is None)
         return out
 
     def write(self, folder: str | os.PathLike) -> Path:
@@ -125,6 +129,22 @@ class Inversion:
         return out
 
 
+def _check_numbers(pixel_mm, max_seconds) -> None:
+    """Refuse a missing or non-positive ``pixel_mm`` and a negative ``max_seconds``."""
+    if pixel_mm is None:
+        raise ConfigError(
+            "--pixel-mm is required: the pixel pitch on the sheet (mm), as "
+            "predict's optics.field_of_view_mm / optics.pixels"
+        )
+    if not np.isfinite(pixel_mm) or pixel_mm <= 0:
+        raise ConfigError(
+            f"--pixel-mm {pixel_mm} is not allowed: give the pixel pitch on the sheet (mm, "
+            "> 0), as predict's optics.field_of_view_mm / optics.pixels"
+        )
+    if not max_seconds >= 0:  # NaN too
+        raise ConfigError(f"--max-seconds {max_seconds} is not allowed; give seconds >= 0")
+
+
 def _library(library: Library | str | os.PathLike) -> Library:
     return library if isinstance(library, Library) else load_library(library)
 
@@ -137,8 +157,10 @@ def invert(
     origin_px: tuple[float, float] | None = None,
     method: str | None = None,
     sensor: str | os.PathLike | None = None,
+    max_seconds: float = DEFAULT_MAX_SECONDS,
     progress: bool = False,
     echo=print,
+    clock=time.monotonic,
 ) -> Inversion:
     """Every indenter's position and load vector from one image (or six phase steps).
 
@@ -158,10 +180,18 @@ def invert(
     sensor : path, optional
         The sensor's config (a TOML file or a ``predict`` folder); default the config of a
         ``predict`` folder the image lies in, else the library's own.
+    max_seconds : float
+        The time budget (s; default 600): once spent, the fit stops at the end of its
+        stage and the answer is that stage's, every indenter flagged not reliable
+        (``summary["stopped_after"]`` names the stage; after detection only the
+        positions are known, the loads are NaN). ``math.inf``: no budget.
     progress : bool
-        One line per stage through ``echo``.
+        One line per stage (detection, start scan, far fit, near fit, each round of the
+        basin search and of the model selection) through ``echo``.
     echo : callable
         Where the stage lines go.
+    clock : callable
+        Seconds, read at the end of each stage only (the budget's clock).
 
     Returns
     -------
@@ -190,16 +220,9 @@ def invert(
     (1, True, True)
     """
     t0 = time.perf_counter()
-    if pixel_mm is None:
-        raise ConfigError(
-            "--pixel-mm is required: the pixel pitch on the sheet (mm), as "
-            "predict's optics.field_of_view_mm / optics.pixels"
-        )
-    if not np.isfinite(pixel_mm) or pixel_mm <= 0:
-        raise ConfigError(
-            f"--pixel-mm {pixel_mm} is not allowed: give the pixel pitch on the sheet (mm, "
-            "> 0), as predict's optics.field_of_view_mm / optics.pixels"
-        )
+    _check_numbers(pixel_mm, max_seconds)
+    say = echo if progress else (lambda s: None)
+    budget = Budget(max_seconds, say=say, clock=clock)  # the whole run's
     paths = [images] if isinstance(images, (str, os.PathLike)) else list(images)
     lib = _library(library)
     cfg, where = sensor_config(sensor, paths)
@@ -216,6 +239,13 @@ def invert(
     method, measured, usable, nodata, shape = read_measurement(
         paths, method, optics.camera.sensitivities
     )
+    check_memory(
+        detection_bytes(shape, pixel_mm),
+        f"detection's smoothing over {SMOOTH_MM} mm ({SMOOTH_MM / (2 * pixel_mm):.3g} px)",
+        f"--pixel-mm {pixel_mm:g}",
+        hint="give the pixel pitch on the sheet (mm)",
+        error=ConfigError,
+    )
     o = cfg["optics"]
     model = ImageModel.build(
         lib,
@@ -228,16 +258,18 @@ def invert(
         white_light_wavelengths=o["white_light_wavelengths"],
         nodata=nodata,
     )
-    say = echo if progress else (lambda s: None)
     say(
         f"invert: {method}, {shape[0]} x {shape[1]} px, library {lib.folder} "
         f"({len(lib.load_N) - 1} loads x {len(lib.shear_ratio)} ratios)"
     )
-    res = invert_image(model)
+    res = invert_image(model, budget=budget)
+    warnings += _stopped_warnings(res, max_seconds)
     warnings += residual_warnings(res.params, res.residual_rms)
+    cut = f"cut short after the {res.stopped}" if res.stopped else None
     say(
-        f"invert: {len(res.params)} indenter(s), residual {res.residual:.3f} of the fringe "
-        f"amplitude, {time.perf_counter() - t0:.1f} s"
+        f"invert: {len(res.params)} indenter(s), "
+        + (cut or f"residual {res.residual:.3f} of the fringe amplitude")
+        + f", {time.perf_counter() - t0:.1f} s"
     )
     summary = {
         "method": method,
@@ -253,7 +285,24 @@ def invert(
         "gains": [float(g) for g in res.gains],
         "offsets": [float(o) for o in res.offsets],
         "warnings": warnings,
-        "reliable": [bool(r <= WARN_RESIDUAL) for r in res.residual_rms],
+        "reliable": [bool(r <= WARN_RESIDUAL and res.stopped is None) for r in res.residual_rms],
+        "max_seconds": max_seconds if np.isfinite(max_seconds) else None,
+        "stopped_after": res.stopped,
         "times_s": {**res.times_s, "total_s": time.perf_counter() - t0},
     }
     return Inversion(method, res, model, summary)
+
+
+def _stopped_warnings(res: InvertResult, max_seconds: float) -> list[str]:
+    """The warning of an answer the time budget cut short (none for a finished fit)."""
+    if res.stopped is None:
+        return []
+    what = (
+        "only the positions are known (the loads are NaN)"
+        if res.stopped == "detection"
+        else "the loads are that stage's, not a converged fit"
+    )
+    return [
+        f"--max-seconds {max_seconds:g} ran out after the {res.stopped}: {what}; every "
+        "indenter is flagged not reliable (give a larger --max-seconds)"
+    ]

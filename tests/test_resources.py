@@ -98,6 +98,24 @@ def test_the_estimates_follow_the_sizes():
         check_memory(2.0**30, "a grid", "--x 1", free=2**20)
 
 
+def test_a_scale_the_fringes_contradict_is_refused_before_the_fit(
+    image, tiny_library, tmp_path, capsys
+):
+    """An image at 0.25 mm per pixel, inverted at 2 (and at 0.03): refused in one line
+    naming --pixel-mm, its value and the pitch the fringes suggest (the fit ran on past
+    120 s at 2 before); the right pitch passes the check."""
+    out = tmp_path / "out"
+    base = ["invert", str(image), "--library", str(tiny_library.folder), "--out", str(out)]
+    for wrong in ("2", "0.03"):
+        argv = [*base, "--pixel-mm", wrong, "--max-seconds", "60"]
+        err = _refused(argv, capsys, [f"--pixel-mm {wrong} contradicts the fringes"], out)
+        lo, hi = map(float, re.search(r"at about ([\d.]+)-([\d.]+) mm per pixel", err).groups())
+        assert lo / 1.5 <= PITCH_MM <= hi * 1.5, err  # a coarse measure: within 1.5 times
+    inv = fringekit.invert(image, tiny_library, pixel_mm=PITCH_MM)
+    lo, hi = inv.summary["scale_check"]["pixel_mm_range"]
+    assert lo / 1.5 <= PITCH_MM <= hi * 1.5 and len(inv.table()["Fz_N"]) == 1
+
+
 class Ticks:
     """A clock that advances one second each time it is read."""
 
@@ -146,7 +164,7 @@ def test_invert_reports_its_stages_and_a_spent_budget_exits_1_with_the_answer(
     base = ["invert", str(image), "--library", str(tiny_library.folder), "--out", str(out)]
     assert main([*base, "--pixel-mm", str(PITCH_MM)]) == 0
     said = capsys.readouterr()
-    for stage in ("detection", "start scan", "far fit", "near fit", "basin search"):
+    for stage in ("scale check", "detection", "start scan", "far fit", "near fit", "basin search"):
         assert f"invert: {stage}" in said.out, said.out
     assert json.loads((out / "summary.json").read_text())["stopped_after"] is None
     assert main([*base, "--pixel-mm", str(PITCH_MM), "--max-seconds", "0", "--quiet"]) == 1

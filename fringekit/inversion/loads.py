@@ -31,11 +31,12 @@ from fringekit.config.files import load_config
 from fringekit.config.inputs import optics_setup
 from fringekit.errors import ConfigError
 from fringekit.inversion.budget import DEFAULT_MAX_SECONDS, Budget
-from fringekit.inversion.detect import SMOOTH_MM, detection_bytes
+from fringekit.inversion.detect import SMOOTH_MM, detection_bytes, noise_sd
 from fringekit.inversion.figure import fit_figure
 from fringekit.inversion.fit import InvertResult, invert_image
 from fringekit.inversion.model import ImageModel
 from fringekit.inversion.read import pixel_grid, read_measurement, sensor_config
+from fringekit.inversion.scale import check_scale
 from fringekit.inversion.verdict import WARN_RESIDUAL, residual_warnings
 from fringekit.library.store import Library, check_sensor, load_library
 from fringekit.output.folders import atomic_write
@@ -203,7 +204,8 @@ def invert(
     ConfigError, LibraryError
         A bad option, image or library (before the fit).
     InvertError
-        An image the library cannot explain (fringes no load in its range makes).
+        An image the library cannot explain (fringes no load in its range makes), or
+        whose fringe spacing contradicts ``pixel_mm`` (before the fit).
 
     Examples
     --------
@@ -262,6 +264,10 @@ def invert(
         f"invert: {method}, {shape[0]} x {shape[1]} px, library {lib.folder} "
         f"({len(lib.load_N) - 1} loads x {len(lib.shear_ratio)} ratios)"
     )
+    scale = check_scale(model, pixel_mm, noise_sd(model))
+    if scale is not None:
+        lo, hi = scale["pixel_mm_range"]
+        say(f"invert: scale check: the fringes suggest {lo:.3g}-{hi:.3g} mm per pixel")
     res = invert_image(model, budget=budget)
     warnings += _stopped_warnings(res, max_seconds)
     warnings += residual_warnings(res.params, res.residual_rms)
@@ -288,6 +294,7 @@ def invert(
         "reliable": [bool(r <= WARN_RESIDUAL and res.stopped is None) for r in res.residual_rms],
         "max_seconds": max_seconds if np.isfinite(max_seconds) else None,
         "stopped_after": res.stopped,
+        "scale_check": scale,
         "times_s": {**res.times_s, "total_s": time.perf_counter() - t0},
     }
     return Inversion(method, res, model, summary)

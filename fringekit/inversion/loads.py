@@ -286,7 +286,7 @@ def invert(
         "origin_px": list(origin_px) if origin_px is not None else None,
         "n_indenters": int(len(res.params)),
         "iterations": int(res.iterations),
-        "residual": res.residual,
+        "residual": res.residual if np.isfinite(res.residual) else None,  # None: no fit
         "noise_sd": res.noise,
         "gains": [float(g) for g in res.gains],
         "offsets": [float(o) for o in res.offsets],

@@ -12,7 +12,9 @@ from fringekit.cli.options import (
     PIXEL_MM,
     finite,
     in_range,
+    nonnegative,
 )
+from fringekit.inversion.budget import DEFAULT_MAX_SECONDS
 from fringekit.inversion.run import run_invert
 
 __all__ = ["add_parser", "run"]
@@ -49,7 +51,15 @@ def add_parser(sub) -> None:
         help="the image's sensor: a config file or a predict output folder "
         "(default: config.toml of the predict folder holding the image)",
     )
-    iv.add_argument("--quiet", action="store_true")
+    iv.add_argument(
+        "--max-seconds",
+        type=nonnegative,
+        default=DEFAULT_MAX_SECONDS,
+        help="time budget (s): the fit stops at the end of the stage that spends it and "
+        "writes that stage's answer, every indenter flagged, exit status 1 "
+        f"(default {DEFAULT_MAX_SECONDS:g})",
+    )
+    iv.add_argument("--quiet", action="store_true", help="no stage lines")
     iv.set_defaults(func=run)
 
 
@@ -62,10 +72,11 @@ def run(args: argparse.Namespace) -> int:
         pixel_mm=args.pixel_mm,
         origin_px=args.origin_px,
         sensor=args.sensor,
+        max_seconds=args.max_seconds,
         progress=not args.quiet,
     )
     for w in s["warnings"]:
         print(f"fringekit invert: warning: {w}", file=sys.stderr)
     if not args.quiet:
         print(f"fringekit invert: {s['n_indenters']} indenter(s) -> {args.out}/loads.csv")
-    return 0
+    return 1 if s["stopped_after"] else 0  # cut short: the computation did not finish

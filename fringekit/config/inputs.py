@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fringekit.config.files import ConfigError, normal_path
+from fringekit.config.memory import check_mesh_memory, check_ray_memory
 from fringekit.fea import ContactSettings, Indenter, Material, SolverSettings, material_from_dict
 from fringekit.meshes import IndenterSite, Layers, MeshSpec, Sizing
 from fringekit.optics import Camera, PixelGrid, StressOpticLaw
@@ -132,12 +133,13 @@ def mesh_spec(cfg: dict, symmetry: str | None = None) -> MeshSpec:
     """The :class:`meshes.MeshSpec` (SI) of an effective config.
 
     ``symmetry`` defaults to :func:`choose_symmetry`. Geometry errors (an indenter off
-    the sheet, ...) become a :class:`ConfigError`.
+    the sheet, ...) and a mesh too large for the memory free
+    (:func:`fringekit.config.memory.check_mesh_memory`) become a :class:`ConfigError`.
     """
     check_layout(cfg)
     sh, sub, m = cfg["sheet"], cfg["substrate"], cfg["mesh"]
     try:
-        return MeshSpec(
+        spec = MeshSpec(
             layers=Layers(
                 sheet_thickness=sh["thickness_mm"] * MM,
                 substrate_thickness=sub["thickness_mm"] * MM,
@@ -160,6 +162,8 @@ def mesh_spec(cfg: dict, symmetry: str | None = None) -> MeshSpec:
         )
     except ValueError as exc:  # geometry errors speak SI; say which config part it is
         raise ConfigError(f"geometry: {exc}") from None
+    check_mesh_memory(cfg, spec)
+    return spec
 
 
 def _indenters(cfg: dict, symmetry: str) -> tuple[Indenter, ...]:
@@ -286,9 +290,11 @@ def build_inputs(cfg: dict) -> RunInputs:
     Raises
     ------
     ConfigError
-        A geometry or optics value the stages reject, named by its config key.
+        A geometry or optics value the stages reject, or a mesh or ray samples larger
+        than the memory free, named by its config keys.
     """
     spec = mesh_spec(cfg)
+    check_ray_memory(cfg, spec.symmetry)
     c, s = cfg["contact"], cfg["solver"]
     contact = ContactSettings(
         friction=math.inf if c["friction"] == "stick" else c["friction"],

@@ -14,10 +14,20 @@ import numpy as np
 from scipy import ndimage
 from skimage.feature import peak_local_max
 
+from fringekit._memory import gaussian_bytes
 from fringekit.analysis import image_noise_sd as image_noise
 from fringekit.inversion.model import ImageModel
 
-__all__ = ["DETECT_DIP", "DETECT_REL", "DETECT_SNR", "MIN_SEPARATION_MM", "detect", "noise_sd"]
+__all__ = [
+    "DETECT_DIP",
+    "DETECT_REL",
+    "DETECT_SNR",
+    "MIN_SEPARATION_MM",
+    "SMOOTH_MM",
+    "detect",
+    "detection_bytes",
+    "noise_sd",
+]
 
 DETECT_SNR = 30.0
 DETECT_REL = 0.04
@@ -26,6 +36,8 @@ DETECT_DIP = 0.2
 #: Candidates closer than this (mm) are one (discs; a fringe-energy peak must also be a
 #: sphere diameter from every disc and stronger peak: two spheres' axes cannot be closer).
 MIN_SEPARATION_MM = 2.0
+#: The gradient energy is smoothed over this distance (mm, the Gaussian's sd).
+SMOOTH_MM = 0.6
 
 
 def _energy(model: ImageModel, smooth_px: float) -> np.ndarray:
@@ -48,6 +60,15 @@ def _energy(model: ImageModel, smooth_px: float) -> np.ndarray:
         e = np.where(holes, np.concatenate([[0.0], top])[lab], e)
     w = ndimage.gaussian_filter(np.where(good | holes, 1.0, 0.0), smooth_px)
     return ndimage.gaussian_filter(e, smooth_px) / np.maximum(w, 1e-6)
+
+
+def detection_bytes(shape: tuple[int, int], pixel_mm: float) -> float:
+    """Memory (bytes) of :func:`detect` on every 2nd pixel of an image of ``shape`` at
+    ``pixel_mm``: the Gaussian smoothing of the gradient energy over SMOOTH_MM
+    (:func:`fringekit._memory.gaussian_bytes`) and 8 float64 images (the energy, its two
+    gradients, the weights and their smoothed copies)."""
+    n = (shape[0] // 2 + 1) * (shape[1] // 2 + 1)
+    return gaussian_bytes(SMOOTH_MM / (2 * pixel_mm), n) + 8 * 8 * n
 
 
 def noise_sd(model: ImageModel) -> float:
@@ -90,7 +111,7 @@ def detect(model: ImageModel, noise: float, exclude=()) -> np.ndarray:
     taken = np.reshape(np.asarray(exclude, float), (-1, 2))
     discs = _far_from(_discs(model), taken)
     taken = np.concatenate([taken, discs])
-    e = _energy(model, smooth_px=0.6 / px)
+    e = _energy(model, smooth_px=SMOOTH_MM / px)
     floor = DETECT_SNR * noise**2 * model.measured.shape[1]
     peaks = peak_local_max(
         e,

@@ -22,9 +22,12 @@ def _shown(model, values: np.ndarray) -> np.ndarray:
 
 def fit_figure(path, model, res) -> None:
     """Three panels in sensor mm, indenters marked, tangential loads as arrows."""
-    fitted, _, _, outside = model.fitted(unpack(res.params.ravel(), list(res.diameters)))
-    if not len(res.params):
+    known = bool(len(res.params)) and bool(np.all(np.isfinite(res.params)))
+    if known:
+        fitted, _, _, outside = model.fitted(unpack(res.params.ravel(), list(res.diameters)))
+    else:  # no indenter, or positions only (a time budget spent at detection)
         fitted = np.full_like(model.measured, np.median(model.measured))
+        outside = np.ones(len(model.measured), bool)
     resid = np.where((model.usable & outside)[:, None], model.measured - fitted, np.nan)
     origin = tuple(float(v) for v in model.grid.xy_to_pixel(0.0, 0.0))
     ext = sensor_extent(model.grid.shape, model.grid.pixel_size, origin)
@@ -36,7 +39,7 @@ def fit_figure(path, model, res) -> None:
         ("fitted (library)", fitted / top),
         ("residual", resid / top),
     )
-    scale = max(float(np.max(np.abs(res.params[:, 2]))) if len(res.params) else 1.0, 1e-9)
+    scale = max(float(np.max(np.abs(res.params[:, 2]))) if known else 1.0, 1e-9)
     for ax, (title, v) in zip(axes, panels, strict=True):
         img = _shown(model, v)
         if title == "residual":
@@ -49,6 +52,8 @@ def fit_figure(path, model, res) -> None:
             ax.imshow(np.clip(img, 0, 1), extent=ext, cmap="gray", vmin=0, vmax=1)
         for v_ in res.params:
             ax.plot(v_[0], v_[1], "+", color="yellow", ms=8)
+            if not known:
+                continue
             ax.arrow(
                 v_[0],
                 v_[1],

@@ -30,12 +30,14 @@
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.optimize import least_squares
 
+from fringekit.inversion.budget import Budget
 from fringekit.inversion.detect import detect, noise_sd
 from fringekit.inversion.hop import hop
 from fringekit.inversion.model import N_PARAMS, ImageModel, range_penalty, unpack
@@ -84,7 +86,9 @@ START_LOADS = 16
 class InvertResult:
     """Fitted indenters: params (n, 5) x, y (mm), Fz, Fx, Fy (N); sd (n, 5); diameters
     (n,) (m); residual_rms (n,) near each indenter, in fringe amplitudes; gains and
-    offsets per channel; noise sd; iterations; total residual; times."""
+    offsets per channel; noise sd; iterations; total residual; times; ``stopped``: the
+    stage after which the time budget ran out (the answer is that stage's, not a
+    converged fit), None when the fit finished."""
 
     params: np.ndarray
     sd: np.ndarray
@@ -96,6 +100,7 @@ class InvertResult:
     iterations: int
     residual: float
     times_s: dict = field(default_factory=dict)
+    stopped: str | None = None
 
 
 def subsample(model: ImageModel, k: int) -> ImageModel:
@@ -223,30 +228,35 @@ def _prune(p: np.ndarray, sd: np.ndarray, diam: list, lib) -> tuple[np.ndarray, 
     return q[kept].ravel(), [diam[i] for i in kept], kept
 
 
-def fit_all(model, fine, p, diam, noise, its, anchors=None):
+def fit_all(model, fine, p, diam, noise, its, anchors=None, budget=None):
     """Fit the far field on ``model`` (every 4th pixel), then every pixel of ``fine``
     (every 2nd), both with the axes held near their start, then search each indenter's
     tangential basin (:func:`hop`) and fit again, free, while one moves (HOP_ROUNDS at
     most), or once when the start fit stopped at FIT_NFEV before converging (the result
     is then a converged fit, not a cut-short one). A start fit that holds an axis at its
     box's edge (:func:`at_box_edge`) is followed at once by a free fit, so that the search
-    scans about the axes the image puts there. Returns (p, result, iterations)."""
+    scans about the axes the image puts there. Each stage is a safe point of ``budget``
+    (:class:`~fringekit.inversion.budget.Budget`). Returns (p, result, iterations)."""
+    budget = budget or Budget(math.inf)
     if not diam:
         return p, None, its
     res = None
     exact = _exact(fine)
-    for m, ftol in ((_far(model), FAR_FTOL), (exact, FIT_FTOL)):
+    for name, m, ftol in (("far fit", _far(model), FAR_FTOL), ("near fit", exact, FIT_FTOL)):
         res = fit_indenters(m, p, diam, noise, box=START_BOX_MM, ftol=ftol)
         pinned = at_box_edge(res.x, p)
         p, its = res.x, its + res.nfev
+        if budget.spent(name, f"{len(diam)} indenter(s), {res.nfev} evaluations"):
+            return p, res, its
     if pinned:  # an axis held at the box's edge: the minimum lies beyond it
         p, res, its = _refit(exact, p, diam, noise, its)
     short = res.status == 0  # the start fit stopped at FIT_NFEV, not converged
-    for _ in range(HOP_ROUNDS):
+    for round_ in range(HOP_ROUNDS):
         p, changed = hop(exact, p, diam, noise, anchors)
         if changed or short:
             p, res, its = _refit(exact, p, diam, noise, its)
-        if not changed:
+        moved = f"{changed} indenter(s) moved to another basin"
+        if budget.spent(f"basin search, round {round_ + 1}", moved) or not changed:
             break
         short = False
     return p, res, its
@@ -280,7 +290,7 @@ def _refit(exact: ImageModel, p, diam, noise, its):
     return res.x, res, its + res.nfev
 
 
-def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
+def invert_image(model: ImageModel, *, max_rounds: int = 2, budget=None) -> InvertResult:
     """Detect and fit every indenter of ``model``'s measured image (full resolution).
 
     The candidates start from scanned loads (:func:`_start`); when that leaves an
@@ -290,16 +300,23 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
     colour image the scanned starts led to three flagged heads (Fz 10 % and 9 % off)
     where the unsheared ones find all four; on its six-head grey image the scanned
     starts find all six where the unsheared ones flag four.
+
+    ``budget`` (:class:`~fringekit.inversion.budget.Budget`, default none) reports the
+    stages; when it is spent the answer is that of the last stage, ``stopped`` set.
     """
     t0 = time.perf_counter()
+    budget = budget or Budget(math.inf)
     noise = noise_sd(model)
     coarse, fine = subsample(model, 4), subsample(model, 2)
     pos = detect(fine, noise)
     t_detect = time.perf_counter() - t0
-    p, diam, res, its = select_indenters(model, coarse, fine, pos, noise, True, max_rounds)
+    if budget.spent("detection", f"{len(pos)} candidate(s)"):
+        return _positions_only(pos, noise, t0, t_detect, budget.stopped)
+    p, diam, res, its = select_indenters(model, coarse, fine, pos, noise, True, max_rounds, budget)
     verdict = _verdict(fine, p, diam) if diam else None
-    if verdict is not None and np.any(verdict[0] > WARN_RESIDUAL):
-        alt = select_indenters(model, coarse, fine, pos, noise, False, max_rounds)
+    if verdict is not None and np.any(verdict[0] > WARN_RESIDUAL) and not budget.stopped:
+        budget.say("invert: an indenter is flagged: fitting again from starts without shear")
+        alt = select_indenters(model, coarse, fine, pos, noise, False, max_rounds, budget)
         its += alt[3]
         other = _verdict(fine, alt[0], alt[1]) if alt[1] else None
         if other is not None and (np.sum(other[0] > WARN_RESIDUAL), other[1]) < (
@@ -316,19 +333,24 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
             f"range (up to {model.lib.max_load_N:g} N) fits; check the sensor, the pixel "
             "size and the method, or build a library with larger --load-N"
         )
-    return _finish(model, p, diam, res, verdict, noise, its, t0, t_detect)
+    times = (t0, t_detect)
+    return _finish(model, p, diam, res, verdict, noise, its, times, budget.stopped)
 
 
-def select_indenters(model, coarse, fine, pos, noise, sheared: bool, max_rounds: int):
+def select_indenters(model, coarse, fine, pos, noise, sheared: bool, max_rounds: int, budget=None):
     """Start, fit and model selection (module docstring, steps 2-4) from detected
-    positions ``pos`` (mm): (p, diameters, the last fit's result, evaluations)."""
+    positions ``pos`` (mm): (p, diameters, the last fit's result, evaluations); each stage
+    a safe point of ``budget``."""
+    budget = budget or Budget(math.inf)
     p, diam = _start(coarse, pos, sheared)
+    if budget.spent("start scan", f"{len(diam)} start(s)"):
+        return p, diam, None, 0
     anchors = _axes(p).copy()  # where detection put the axes
     its, res = 0, None
     dropped = np.zeros((0, 2))  # where candidates were fitted and dropped (mm)
     for round_ in range(max_rounds + 1):  # model selection rounds (at most a few)
-        p, res, its = fit_all(coarse, fine, p, diam, noise, its, anchors)
-        if res is None or round_ == max_rounds:
+        p, res, its = fit_all(coarse, fine, p, diam, noise, its, anchors, budget)
+        if res is None or round_ == max_rounds or budget.stopped:
             break
         sd = parameter_sd(res, int(np.count_nonzero(res.fun)))
         p2, diam2, kept = _prune(p, sd, diam, model.lib)
@@ -339,6 +361,9 @@ def select_indenters(model, coarse, fine, pos, noise, sheared: bool, max_rounds:
         # a dropped candidate's residual peak is not detected again: on the coarse bench
         # one at the image's edge was added, fitted to 0.3 N and dropped twice
         new = detect(resid, noise, exclude=np.concatenate([_axes(p2), dropped]))
+        found = f"{len(diam) - len(diam2)} dropped, {len(new)} added"
+        if budget.spent(f"model selection, round {round_ + 1}", found):
+            break
         if not len(new):
             if len(diam2) < len(diam):  # only dropped: the others are searched already
                 p, res, its = _refit(_exact(fine), p2, diam2, noise, its)
@@ -347,7 +372,7 @@ def select_indenters(model, coarse, fine, pos, noise, sheared: bool, max_rounds:
         pn, dn = _start(coarse, new, sheared)
         p, diam = np.concatenate([p2, pn]), diam2 + dn
         anchors = np.concatenate([anchors[kept], _axes(pn)])
-    if res is not None:  # the last fit may have let two indenters meet
+    if res is not None and not budget.stopped:  # the last fit may have let two meet
         sd = parameter_sd(res, int(np.count_nonzero(res.fun)))
         p2, diam2, _ = _prune(p, sd, diam, model.lib)
         if len(diam2) < len(diam):  # the basins are searched already
@@ -371,37 +396,38 @@ def _verdict(fine: ImageModel, p, diam):
     return rms, float(np.sqrt(np.nanmean(r**2)) / amp), gains, offs
 
 
-def _finish(model, p, diam, res, verdict, noise, its, t0, t_detect) -> InvertResult:
-    """The result of the fit ``res`` of ``p`` with its :func:`_verdict`, or refusal."""
+def _positions_only(pos, noise, t0, t_detect, stopped) -> InvertResult:
+    """The answer of a budget spent at detection: the candidates' positions (mm), their
+    loads, diameters and residuals unknown (NaN)."""
+    n = len(pos)
+    q = np.column_stack([np.reshape(pos, (n, 2)), np.full((n, N_PARAMS - 2), np.nan)])
+    nan = np.full(n, np.nan)
+    times = {"detect_s": t_detect, "total_s": time.perf_counter() - t0}
+    empty = np.zeros(0)
+    return InvertResult(
+        q, np.full_like(q, np.nan), nan, nan, empty, empty, noise, 0, np.nan, times, stopped
+    )
+
+
+def _finish(model, p, diam, res, verdict, noise, its, times, stopped=None) -> InvertResult:
+    """The result of the fit ``res`` of ``p`` with its :func:`_verdict`, or refusal; an
+    answer cut short by the time budget (``stopped``, the last stage) is not refused
+    (every indenter of it is flagged), and without a fit its sd are NaN."""
+    t0, t_detect = times
     lib = model.lib
     n = len(diam)
+    times_s = {"detect_s": t_detect, "total_s": time.perf_counter() - t0}
     if n == 0:
-        return InvertResult(
-            np.zeros((0, N_PARAMS)),
-            np.zeros((0, N_PARAMS)),
-            np.zeros(0),
-            np.zeros(0),
-            np.zeros(0),
-            np.zeros(0),
-            noise,
-            its,
-            0.0,
-            times_s={"detect_s": t_detect, "total_s": time.perf_counter() - t0},
-        )
-    used = int(np.count_nonzero(res.fun))
-    sd = parameter_sd(res, used).reshape(n, N_PARAMS)
+        z = np.zeros((0, N_PARAMS))
+        e = np.zeros(0)
+        return InvertResult(z, z, e, e, e, e, noise, its, 0.0, times_s, stopped)
     q = p.reshape(n, N_PARAMS)
+    if res is None:
+        sd = np.full((n, N_PARAMS), np.nan)
+    else:
+        sd = parameter_sd(res, int(np.count_nonzero(res.fun))).reshape(n, N_PARAMS)
     rms, total, gains, offs = verdict
-    refuse(q, lib, total)
-    return InvertResult(
-        q,
-        sd,
-        np.array(diam),
-        rms,
-        gains,
-        offs,
-        noise,
-        its,
-        total,
-        times_s={"detect_s": t_detect, "total_s": time.perf_counter() - t0},
-    )
+    if stopped is None:
+        refuse(q, lib, total)
+    diam = np.array(diam)
+    return InvertResult(q, sd, diam, rms, gains, offs, noise, its, total, times_s, stopped)

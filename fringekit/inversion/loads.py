@@ -26,13 +26,17 @@ from pathlib import Path
 
 import numpy as np
 
+from fringekit._memory import check_memory
 from fringekit.config.files import load_config
 from fringekit.config.inputs import optics_setup
 from fringekit.errors import ConfigError
+from fringekit.inversion.budget import DEFAULT_MAX_SECONDS, Budget
+from fringekit.inversion.detect import SMOOTH_MM, detection_bytes, noise_sd
 from fringekit.inversion.figure import fit_figure
 from fringekit.inversion.fit import InvertResult, invert_image
 from fringekit.inversion.model import ImageModel
 from fringekit.inversion.read import pixel_grid, read_measurement, sensor_config
+from fringekit.inversion.scale import check_scale
 from fringekit.inversion.verdict import WARN_RESIDUAL, residual_warnings
 from fringekit.library.store import Library, check_sensor, load_library
 from fringekit.output.folders import atomic_write
@@ -88,7 +92,8 @@ class Inversion:
     def table(self) -> dict[str, np.ndarray]:
         """The loads as columns named :data:`LOAD_COLUMNS` (mm and N), one row per
         indenter; ``reliable`` (bool) says where the residual near the indenter is
-        small enough to stand behind its load, and the indenter lies on the sheet."""
+        small enough to stand behind its load, and the indenter lies on the sheet (never,
+        when the time budget stopped the fit: ``result.stopped``)."""
         r = self.result
         p, s = r.params, r.sd
         cols = (
@@ -138,6 +143,32 @@ def _off_sheet(xy_mm: np.ndarray, sheet_mm) -> np.ndarray:
     return np.any(np.abs(np.asarray(xy_mm, float).reshape(-1, 2)) > half, axis=1)
 
 
+def _off_sheet_warnings(params: np.ndarray, off: np.ndarray, sheet_mm) -> list[str]:
+    """One warning per indenter found off the sheet (flagged not reliable)."""
+    return [
+        f"indenter {i + 1} at ({params[i, 0]:.2f}, {params[i, 1]:.2f}) mm lies off the "
+        f"{sheet_mm[0]:g} x {sheet_mm[1]:g} mm sheet: not reliable (check --pixel-mm and "
+        "--origin-px)"
+        for i in np.flatnonzero(off)
+    ]
+
+
+def _check_numbers(pixel_mm, max_seconds) -> None:
+    """Refuse a missing or non-positive ``pixel_mm`` and a negative ``max_seconds``."""
+    if pixel_mm is None:
+        raise ConfigError(
+            "--pixel-mm is required: the pixel pitch on the sheet (mm), as "
+            "predict's optics.field_of_view_mm / optics.pixels"
+        )
+    if not np.isfinite(pixel_mm) or pixel_mm <= 0:
+        raise ConfigError(
+            f"--pixel-mm {pixel_mm} is not allowed: give the pixel pitch on the sheet (mm, "
+            "> 0), as predict's optics.field_of_view_mm / optics.pixels"
+        )
+    if not max_seconds >= 0:  # NaN too
+        raise ConfigError(f"--max-seconds {max_seconds} is not allowed; give seconds >= 0")
+
+
 def _library(library: Library | str | os.PathLike) -> Library:
     return library if isinstance(library, Library) else load_library(library)
 
@@ -150,8 +181,10 @@ def invert(
     origin_px: tuple[float, float] | None = None,
     method: str | None = None,
     sensor: str | os.PathLike | None = None,
+    max_seconds: float = DEFAULT_MAX_SECONDS,
     progress: bool = False,
     echo=print,
+    clock=time.monotonic,
 ) -> Inversion:
     """Every indenter's position and load vector from one image (or six phase steps).
 
@@ -171,10 +204,18 @@ def invert(
     sensor : path, optional
         The sensor's config (a TOML file or a ``predict`` folder); default the config of a
         ``predict`` folder the image lies in, else the library's own.
+    max_seconds : float
+        The time budget (s; default 600): once spent, the fit stops at the end of its
+        stage and the answer is that stage's, every indenter flagged not reliable
+        (``summary["stopped_after"]`` names the stage; after detection only the
+        positions are known, the loads are NaN). ``math.inf``: no budget.
     progress : bool
-        One line per stage through ``echo``.
+        One line per stage (detection, start scan, far fit, near fit, each round of the
+        basin search and of the model selection) through ``echo``.
     echo : callable
         Where the stage lines go.
+    clock : callable
+        Seconds, read at the end of each stage only (the budget's clock).
 
     Returns
     -------
@@ -186,7 +227,8 @@ def invert(
     ConfigError, LibraryError
         A bad option, image or library (before the fit).
     InvertError
-        An image the library cannot explain (fringes no load in its range makes).
+        An image the library cannot explain (fringes no load in its range makes), or
+        whose fringe spacing contradicts ``pixel_mm`` (before the fit).
 
     Examples
     --------
@@ -203,16 +245,9 @@ def invert(
     (1, True, True)
     """
     t0 = time.perf_counter()
-    if pixel_mm is None:
-        raise ConfigError(
-            "--pixel-mm is required: the pixel pitch on the sheet (mm), as "
-            "predict's optics.field_of_view_mm / optics.pixels"
-        )
-    if not np.isfinite(pixel_mm) or pixel_mm <= 0:
-        raise ConfigError(
-            f"--pixel-mm {pixel_mm} is not allowed: give the pixel pitch on the sheet (mm, "
-            "> 0), as predict's optics.field_of_view_mm / optics.pixels"
-        )
+    _check_numbers(pixel_mm, max_seconds)
+    say = echo if progress else (lambda s: None)
+    budget = Budget(max_seconds, say=say, clock=clock)  # the whole run's
     paths = [images] if isinstance(images, (str, os.PathLike)) else list(images)
     lib = _library(library)
     cfg, where = sensor_config(sensor, paths)
@@ -231,6 +266,13 @@ def invert(
     )
     if note:
         warnings.append(note)
+    check_memory(
+        detection_bytes(shape, pixel_mm),
+        f"detection's smoothing over {SMOOTH_MM} mm ({SMOOTH_MM / (2 * pixel_mm):.3g} px)",
+        f"--pixel-mm {pixel_mm:g}",
+        hint="give the pixel pitch on the sheet (mm)",
+        error=ConfigError,
+    )
     o = cfg["optics"]
     sheet_mm = (cfg["sheet"]["width_mm"], cfg["sheet"]["length_mm"])
     model = ImageModel.build(
@@ -244,23 +286,24 @@ def invert(
         white_light_wavelengths=o["white_light_wavelengths"],
         nodata=nodata,
     )
-    say = echo if progress else (lambda s: None)
     say(
         f"invert: {method}, {shape[0]} x {shape[1]} px, library {lib.folder} "
         f"({len(lib.load_N) - 1} loads x {len(lib.shear_ratio)} ratios)"
     )
-    res = invert_image(model)
+    scale = check_scale(model, pixel_mm, noise_sd(model))
+    if scale is not None:
+        lo, hi = scale["pixel_mm_range"]
+        say(f"invert: scale check: the fringes suggest {lo:.3g}-{hi:.3g} mm per pixel")
+    res = invert_image(model, budget=budget)
+    warnings += _stopped_warnings(res, max_seconds)
     warnings += residual_warnings(res.params, res.residual_rms)
     off = _off_sheet(res.params[:, :2], sheet_mm)
-    warnings += [
-        f"indenter {i + 1} at ({res.params[i, 0]:.2f}, {res.params[i, 1]:.2f}) mm lies off the "
-        f"{sheet_mm[0]:g} x {sheet_mm[1]:g} mm sheet: not reliable (check --pixel-mm and "
-        "--origin-px)"
-        for i in np.flatnonzero(off)
-    ]
+    warnings += _off_sheet_warnings(res.params, off, sheet_mm)
+    cut = f"cut short after the {res.stopped}" if res.stopped else None
     say(
-        f"invert: {len(res.params)} indenter(s), residual {res.residual:.3f} of the fringe "
-        f"amplitude, {time.perf_counter() - t0:.1f} s"
+        f"invert: {len(res.params)} indenter(s), "
+        + (cut or f"residual {res.residual:.3f} of the fringe amplitude")
+        + f", {time.perf_counter() - t0:.1f} s"
     )
     summary = {
         "method": method,
@@ -271,14 +314,33 @@ def invert(
         "origin_px": list(origin_px) if origin_px is not None else None,
         "n_indenters": int(len(res.params)),
         "iterations": int(res.iterations),
-        "residual": res.residual,
+        "residual": res.residual if np.isfinite(res.residual) else None,  # None: no fit
         "noise_sd": res.noise,
         "gains": [float(g) for g in res.gains],
         "offsets": [float(o) for o in res.offsets],
         "warnings": warnings,
         "reliable": [
-            bool(r <= WARN_RESIDUAL and not o) for r, o in zip(res.residual_rms, off, strict=True)
+            bool(r <= WARN_RESIDUAL and not o and res.stopped is None)
+            for r, o in zip(res.residual_rms, off, strict=True)
         ],
+        "max_seconds": max_seconds if np.isfinite(max_seconds) else None,
+        "stopped_after": res.stopped,
+        "scale_check": scale,
         "times_s": {**res.times_s, "total_s": time.perf_counter() - t0},
     }
     return Inversion(method, res, model, summary)
+
+
+def _stopped_warnings(res: InvertResult, max_seconds: float) -> list[str]:
+    """The warning of an answer the time budget cut short (none for a finished fit)."""
+    if res.stopped is None:
+        return []
+    what = (
+        "only the positions are known (the loads are NaN)"
+        if res.stopped == "detection"
+        else "the loads are that stage's, not a converged fit"
+    )
+    return [
+        f"--max-seconds {max_seconds:g} ran out after the {res.stopped}: {what}; every "
+        "indenter is flagged not reliable (give a larger --max-seconds)"
+    ]

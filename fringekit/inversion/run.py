@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 
+from fringekit.inversion.budget import DEFAULT_MAX_SECONDS
 from fringekit.inversion.loads import invert
 from fringekit.output.folders import claim_output
 
@@ -24,10 +25,13 @@ def run_invert(
     pixel_mm=None,
     origin_px=None,
     sensor=None,
+    max_seconds=DEFAULT_MAX_SECONDS,
     progress=True,
     echo=print,
 ) -> dict:
-    """Invert one image (or six) against a library; write ``out``; return the summary."""
+    """Invert one image (or six) against a library; write ``out``; return the summary
+    (``stopped_after`` set when the time budget cut the fit short: the folder holds that
+    answer, flagged)."""
     paths = [images] if isinstance(images, (str, os.PathLike)) else list(images)
     inputs = [*paths, getattr(library, "folder", library), sensor]
     with claim_output(out, command="invert", inputs=inputs) as work:
@@ -38,6 +42,7 @@ def run_invert(
             origin_px=origin_px,
             method=method,
             sensor=sensor,
+            max_seconds=max_seconds,
             progress=progress,
             echo=echo,
         )

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from fringekit._cluster import run_tasks
+from fringekit._memory import check_memory
 from fringekit.config.files import to_toml
 from fringekit.config.model import as_config
 from fringekit.errors import ComputeError, ConfigError
@@ -90,6 +91,23 @@ def _finished(path: Path, settings: dict) -> bool:
             return json.loads(str(z["settings"])) == settings
     except (OSError, ValueError, KeyError):
         return False
+
+
+def library_bytes(cfg: dict, n_diameters: int, n_loads: int, n_ratios: int, n_slabs: int):
+    """Memory (bytes) of a library's largest arrays and what they are, before any solve:
+    the larger of one state's sampling on the lattice (R x F rays x S slabs x 72 bytes:
+    the slab pairs a, b and their polar A, B in float64, their stack and its filled copy
+    of two float64 each, the float32 result) and the assembled library (every diameter,
+    load including zero, and ratio: R x F x S x 2 float32)."""
+    lat = library_lattice(cfg, 1)
+    rays = lat.shape[0] * lat.shape[1]
+    state = 72.0 * rays * n_slabs
+    stored = 8.0 * rays * n_slabs * n_diameters * (n_loads + 1) * n_ratios
+    grid = f"{lat.shape[0]} x {lat.shape[1]} rays x {n_slabs} slabs"
+    if state >= stored:
+        return state, f"one state on the lattice ({grid})"
+    states = n_diameters * (n_loads + 1) * n_ratios
+    return stored, f"the library's {states} states ({grid} each)"
 
 
 def _check_grid(loads, ratios, diameters) -> None:
@@ -190,6 +208,8 @@ def build_library(
         else {float(d) for d in diameters}
     )
     _check_grid(loads, ratios, diameters)
+    need, what = library_bytes(cfg, len(diameters), len(loads), len(ratios), n_slabs)
+    check_memory(need, what, f"--slabs {n_slabs}", hint="give fewer --slabs (default 16)")
     if cfg["optics"]["include_substrate"]:
         raise ConfigError(
             "optics.include_substrate = true is not supported by a library "

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fringekit._memory import check_memory, gaussian_bytes
 from fringekit.errors import InputError
 
 __all__ = [
@@ -204,3 +205,9 @@ class MonoOptions:
             raise InputError(f"--field {self.field} is not allowed; use dark or bright")
         if not (np.isfinite(self.smooth_px) and self.smooth_px >= 0):
             raise InputError(f"--smooth-px {self.smooth_px} is not allowed; give a number >= 0")
+        check_memory(
+            gaussian_bytes(self.smooth_px),
+            f"the smoothing kernel ({2 * int(4 * self.smooth_px + 0.5) + 1:.3g} taps)",
+            f"--smooth-px {self.smooth_px:g}",
+            hint="give a smoothing of a few pixels",
+        )

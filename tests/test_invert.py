@@ -507,9 +507,9 @@ def test_a_flagged_answer_is_fitted_again_from_unsheared_starts(test_library, mo
     real = inv.select_indenters
     calls = []
 
-    def select(model, coarse, fine, pos, noise, sheared, max_rounds):
+    def select(model, coarse, fine, pos, noise, sheared, *rest):
         calls.append(sheared)
-        p, diam, res, its = real(model, coarse, fine, pos, noise, sheared, max_rounds)
+        p, diam, res, its = real(model, coarse, fine, pos, noise, sheared, *rest)
         if sheared and bad:
             p = p.copy()
             p[2] *= 0.7

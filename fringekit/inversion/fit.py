@@ -22,8 +22,9 @@
    one than two spheres can (a diameter), is dropped; a residual peak that
    passes the detection test away from the others adds one; then the fit is repeated.
 5. **Uncertainty and refusal.** 1-sigma from the Jacobian at the solution scaled by the
-   residual variance (pixels are treated as independent, so spatially correlated model
-   error makes these optimistic); a load at the edge of the library's range, or a
+   residual variance and by the residual's correlation area (neighbouring pixels err
+   together), with a model-error floor added (:mod:`fringekit.inversion.uncertainty`); a
+   load at the edge of the library's range, or a
    residual above ``MAX_RESIDUAL`` of the fringe amplitude, or fringes that no load in
    range explains, are refused rather than returned.
 """
@@ -40,7 +41,8 @@ from fringekit.inversion.detect import detect, noise_sd
 from fringekit.inversion.hop import hop
 from fringekit.inversion.model import N_PARAMS, ImageModel, range_penalty, unpack
 from fringekit.inversion.start import scan_start
-from fringekit.inversion.verdict import AT_LARGEST, WARN_RESIDUAL, InvertError, parameter_sd, refuse
+from fringekit.inversion.uncertainty import parameter_sd, stated_sd
+from fringekit.inversion.verdict import AT_LARGEST, WARN_RESIDUAL, InvertError, refuse
 from fringekit.optics import PixelGrid
 
 __all__ = [
@@ -82,9 +84,11 @@ START_LOADS = 16
 
 @dataclass(frozen=True)
 class InvertResult:
-    """Fitted indenters: params (n, 5) x, y (mm), Fz, Fx, Fy (N); sd (n, 5); diameters
-    (n,) (m); residual_rms (n,) near each indenter, in fringe amplitudes; gains and
-    offsets per channel; noise sd; iterations; total residual; times."""
+    """Fitted indenters: params (n, 5) x, y (mm), Fz, Fx, Fy (N); sd (n, 5) their stated
+    1-sigma (:func:`~fringekit.inversion.uncertainty.stated_sd`); diameters (n,) (m);
+    residual_rms (n,) near each indenter, in fringe amplitudes; gains and offsets per
+    channel; noise sd; iterations; total residual; times; correlation_px, the residual
+    image's correlation area (pixels of the fitted, every-2nd-pixel grid)."""
 
     params: np.ndarray
     sd: np.ndarray
@@ -96,6 +100,7 @@ class InvertResult:
     iterations: int
     residual: float
     times_s: dict = field(default_factory=dict)
+    correlation_px: float = 1.0
 
 
 def subsample(model: ImageModel, k: int) -> ImageModel:
@@ -316,7 +321,7 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2) -> InvertResult:
             f"range (up to {model.lib.max_load_N:g} N) fits; check the sensor, the pixel "
             "size and the method, or build a library with larger --load-N"
         )
-    return _finish(model, p, diam, res, verdict, noise, its, t0, t_detect)
+    return _finish(fine, p, diam, res, verdict, noise, its, t0, t_detect)
 
 
 def select_indenters(model, coarse, fine, pos, noise, sheared: bool, max_rounds: int):
@@ -330,7 +335,7 @@ def select_indenters(model, coarse, fine, pos, noise, sheared: bool, max_rounds:
         p, res, its = fit_all(coarse, fine, p, diam, noise, its, anchors)
         if res is None or round_ == max_rounds:
             break
-        sd = parameter_sd(res, int(np.count_nonzero(res.fun)))
+        sd = parameter_sd(res.jac, res.fun, int(np.count_nonzero(res.fun)))
         p2, diam2, kept = _prune(p, sd, diam, model.lib)
         gone = np.setdiff1d(np.arange(len(diam)), kept)
         dropped = np.concatenate([dropped, _axes(p, gone), anchors[gone]])  # fitted, detected
@@ -348,7 +353,7 @@ def select_indenters(model, coarse, fine, pos, noise, sheared: bool, max_rounds:
         p, diam = np.concatenate([p2, pn]), diam2 + dn
         anchors = np.concatenate([anchors[kept], _axes(pn)])
     if res is not None:  # the last fit may have let two indenters meet
-        sd = parameter_sd(res, int(np.count_nonzero(res.fun)))
+        sd = parameter_sd(res.jac, res.fun, int(np.count_nonzero(res.fun)))
         p2, diam2, _ = _prune(p, sd, diam, model.lib)
         if len(diam2) < len(diam):  # the basins are searched already
             p, res, its = _refit(_exact(fine), p2, diam2, noise, its)
@@ -371,9 +376,10 @@ def _verdict(fine: ImageModel, p, diam):
     return rms, float(np.sqrt(np.nanmean(r**2)) / amp), gains, offs
 
 
-def _finish(model, p, diam, res, verdict, noise, its, t0, t_detect) -> InvertResult:
-    """The result of the fit ``res`` of ``p`` with its :func:`_verdict`, or refusal."""
-    lib = model.lib
+def _finish(fine, p, diam, res, verdict, noise, its, t0, t_detect) -> InvertResult:
+    """The result of the fit ``res`` of ``p`` on ``fine`` (every 2nd pixel) with its
+    :func:`_verdict` and stated sd (:func:`stated_sd`), or refusal."""
+    lib = fine.lib
     n = len(diam)
     if n == 0:
         return InvertResult(
@@ -388,9 +394,8 @@ def _finish(model, p, diam, res, verdict, noise, its, t0, t_detect) -> InvertRes
             0.0,
             times_s={"detect_s": t_detect, "total_s": time.perf_counter() - t0},
         )
-    used = int(np.count_nonzero(res.fun))
-    sd = parameter_sd(res, used).reshape(n, N_PARAMS)
     q = p.reshape(n, N_PARAMS)
+    sd, area = stated_sd(res.jac, res.fun, (*fine.grid.shape, fine.measured.shape[1]), q)
     rms, total, gains, offs = verdict
     refuse(q, lib, total)
     return InvertResult(
@@ -404,4 +409,5 @@ def _finish(model, p, diam, res, verdict, noise, its, t0, t_detect) -> InvertRes
         its,
         total,
         times_s={"detect_s": t_detect, "total_s": time.perf_counter() - t0},
+        correlation_px=area,
     )

@@ -1,4 +1,5 @@
-"""The verdict on an inversion: uncertainties, refusals and flags.
+"""The verdict on an inversion: refusals and flags (the uncertainties are
+:mod:`fringekit.inversion.uncertainty`'s).
 
 An image the library cannot explain is refused (:class:`InvertError`, exit 2, one line)
 rather than answered: an indenter at the edge of the library's range (the fit is held
@@ -17,7 +18,6 @@ __all__ = [
     "InvertError",
     "MAX_RESIDUAL",
     "WARN_RESIDUAL",
-    "parameter_sd",
     "refuse",
     "residual_warnings",
 ]
@@ -44,18 +44,6 @@ class InvertError(RefusedError):
     >>> issubclass(fringekit.InvertError, fringekit.RefusedError)
     True
     """
-
-
-def parameter_sd(res, n_used: int) -> np.ndarray:
-    """1-sigma of the parameters from the Jacobian and the residual variance."""
-    J = res.jac
-    dof = max(n_used - J.shape[1], 1)
-    s2 = float(np.sum(res.fun**2)) / dof
-    try:
-        cov = np.linalg.pinv(J.T @ J) * s2
-    except np.linalg.LinAlgError:
-        return np.full(J.shape[1], np.nan)
-    return np.sqrt(np.clip(np.diag(cov), 0.0, None))
 
 
 def residual_warnings(params: np.ndarray, residual_rms: np.ndarray) -> list[str]:

@@ -1,0 +1,214 @@
+"""The stated uncertainty of an inversion: 1-sigma that covers the error.
+
+The joint fit's residual is not white noise: where the library's image differs from the
+sensor's (a coarser mesh, interpolation between its loads, the camera's 8 bits) it
+differs over whole fringes, so neighbouring pixels err together. Treating the pixels as
+independent stated 1-sigma 10-30 times smaller than the errors on the coarse bench's
+FEM images. Two terms correct it:
+
+1. :func:`correlation_area`: the residual image's correlation area ``A`` (pixels), so
+   that the fit has about ``N / A`` independent pixels rather than ``N``; the
+   independent-pixel covariance is scaled by ``A``.
+2. a model-error floor per parameter (:data:`MODEL_SD`), calibrated on the FEM images
+   of ``bench/invert.py``: the part of the library's error that the fit absorbs into the
+   parameters and so leaves no trace in the residual.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fringekit.inversion.model import N_PARAMS
+
+__all__ = ["MODEL_SD", "RHO_STOP", "correlation_area", "parameter_sd", "stated_sd"]
+
+#: The model-error floor: 1-sigma of x and y (mm), and of Fz, Fx and Fy as fractions of
+#: the indenter's Fz, added in quadrature to the correlated-noise sd (none yet).
+MODEL_SD = np.array([0.0, 0.0, 0.0, 0.0, 0.0])
+
+#: The autocorrelation is integrated out to the first radius where its radial mean falls
+#: to this fraction of its value at lag 0: the sample autocorrelation of N / A
+#: independent values is noisy by about sqrt(A / N) at each lag, and a Gaussian
+#: autocorrelation loses this fraction of its area.
+RHO_STOP = 0.05
+
+
+def correlation_area(field, mask=None) -> float:
+    """Correlation area (pixels) of a residual image: how many pixels count as one.
+
+    The integral of the residual's normalised autocorrelation over the lags (the 2-D
+    form of the integral time scale), so that ``N`` pixels carry ``N / A`` independent
+    values: the effective number of observations of Bayley and Hammersley (1946, "The
+    'effective' number of independent observations in an autocorrelated time series",
+    J. R. Stat. Soc. Suppl. 8, 184-197), ``N_eff = N / sum_h rho(h)``. The
+    autocorrelation is that of the masked image, each lag divided by its number of
+    pixel pairs (Padfield 2012, "Masked object registration in the Fourier domain",
+    IEEE Trans. Image Process. 21, 2706-2718), by zero-padded FFTs. The channels are
+    summed first, so that channels that err together count as one (three colour
+    channels of one misfit fringe are not three observations). The sum of a sample
+    autocorrelation over every lag is zero (the mean is removed), so the integral is
+    taken over the lags out to the first radius (in whole pixels) at which the radial
+    mean of the autocorrelation falls to :data:`RHO_STOP` of its value at lag 0: on
+    fields of known autocorrelation (white noise filtered by Gaussians of 1.5-3 pixels,
+    256 x 256) this gave 0.89-1.07 of the exact area, 0.96 on average.
+
+    Parameters
+    ----------
+    field : (rows, cols) or (rows, cols, C) array_like
+        The residual image (any unit; C channels).
+    mask : (rows, cols) bool array_like, optional
+        The pixels that hold residuals; default every pixel.
+
+    Returns
+    -------
+    float
+        The correlation area in pixels of the image's grid, between 1 (independent
+        pixels) and the number of pixels in the mask.
+
+    Examples
+    --------
+    White noise has a correlation area of one pixel; the same noise averaged over 3 x 3
+    pixels has one of about 9 (the exact value for a box filter of width w is w**2):
+
+    >>> import numpy as np
+    >>> from scipy import ndimage
+    >>> noise = np.random.default_rng(0).normal(size=(200, 200))
+    >>> round(correlation_area(noise), 1)
+    1.0
+    >>> round(correlation_area(ndimage.uniform_filter(noise, 3, mode="wrap")))
+    9
+    """
+    f = np.asarray(field, float)
+    f = f[..., None] if f.ndim == 2 else f
+    m = np.ones(f.shape[:2], bool) if mask is None else np.asarray(mask, bool)
+    n = int(m.sum())
+    if n < 2:
+        return 1.0
+    f = np.where(m[..., None], f - f[m].mean(axis=0), 0.0)
+    var = float(np.sum(f**2)) / n  # the channels' variances, summed
+    if var == 0.0:
+        return 1.0
+    rows, cols = m.shape
+    shape = (2 * rows, 2 * cols)  # zero padding: linear, not circular, correlation
+    s = np.fft.rfft2(f.sum(axis=-1), shape)
+    w = np.fft.rfft2(m.astype(float), shape)
+    acov = np.fft.irfft2(s * np.conj(s), shape)
+    pairs = np.rint(np.fft.irfft2(w * np.conj(w), shape))
+    ok = pairs >= 0.25 * n  # lags with few pairs are noise
+    rho = np.where(ok, acov / np.maximum(pairs, 1.0) / var, 0.0)
+    dy = np.fft.fftfreq(shape[0], 1.0 / shape[0])
+    dx = np.fft.fftfreq(shape[1], 1.0 / shape[1])
+    ring = np.rint(np.hypot(dy[:, None], dx[None, :])).astype(int)
+    counts = np.bincount(ring[ok], minlength=ring.max() + 1)
+    profile = np.bincount(ring[ok], rho[ok], minlength=ring.max() + 1)
+    profile = profile / np.maximum(counts, 1)
+    stop = np.flatnonzero((profile <= RHO_STOP * profile[0]) | (counts == 0))
+    first = int(stop[stop > 0][0]) if np.any(stop > 0) else len(profile)
+    area = float(np.sum(rho[ok & (ring <= first)]))
+    return float(np.clip(area, 1.0, n))
+
+
+def parameter_sd(jac, residual, n_used: int) -> np.ndarray:
+    """1-sigma of the parameters as if the residuals were independent.
+
+    The Gauss-Newton covariance ``s2 (J^T J)^-1`` with ``s2`` the residual variance on
+    ``n_used - K`` degrees of freedom. Model selection asks it whether an indenter's
+    fringes stand out of the noise at all (its Fz above 3 sd); the stated uncertainty is
+    :func:`stated_sd`, which starts from it.
+
+    Parameters
+    ----------
+    jac : (M, K) array
+        The Jacobian of the residuals at the solution.
+    residual : (M,) array
+        The residuals at the solution (zero where nothing was fitted).
+    n_used : int
+        The number of residuals fitted.
+
+    Returns
+    -------
+    (K,) array
+        1-sigma of each parameter, in the parameters' units (NaN when the Jacobian has
+        no pseudo-inverse).
+
+    Examples
+    --------
+    A straight line through four points: the slope's sd is that of ordinary least
+    squares, ``sqrt(s2 / sum((x - mean x)**2))`` on two degrees of freedom:
+
+    >>> import numpy as np
+    >>> x = np.array([0.0, 1.0, 2.0, 3.0])
+    >>> J = np.stack([x, np.ones(4)], axis=1)
+    >>> r = np.array([0.1, -0.1, -0.1, 0.1])
+    >>> np.round(parameter_sd(J, r, 4), 4)
+    array([0.0632, 0.1183])
+    """
+    J = np.asarray(jac, float)
+    dof = max(n_used - J.shape[1], 1)
+    s2 = float(np.sum(np.asarray(residual, float) ** 2)) / dof
+    try:
+        cov = np.linalg.pinv(J.T @ J) * s2
+    except np.linalg.LinAlgError:
+        return np.full(J.shape[1], np.nan)
+    return np.sqrt(np.clip(np.diag(cov), 0.0, None))
+
+
+def stated_sd(jac, residual, shape, params, model_sd=MODEL_SD) -> tuple[np.ndarray, float]:
+    """The stated 1-sigma of every indenter's parameters, and the residual's correlation
+    area.
+
+    The independent-pixel sd (:func:`parameter_sd`) scaled by the square root of the
+    residual image's correlation area (:func:`correlation_area`: ``N / A`` independent
+    pixels, not ``N``), and the model-error floor ``model_sd`` added in quadrature.
+
+    Parameters
+    ----------
+    jac : (M, 5 n) array
+        The Jacobian of the residuals at the solution.
+    residual : (M,) array
+        The residuals at the solution: first the image's ``rows * cols * C`` (pixel by
+        pixel, the channels innermost; zero where not fitted), then any penalty terms.
+    shape : (rows, cols, C)
+        The fitted image's grid and channels.
+    params : (n, 5) array
+        x, y (mm), Fz, Fx, Fy (N) of each indenter.
+    model_sd : (5,) array
+        The floor: 1-sigma of x and y (mm), and of Fz, Fx and Fy as fractions of Fz.
+
+    Returns
+    -------
+    sd : (n, 5) array
+        1-sigma of x, y (mm), Fz, Fx, Fy (N).
+    area : float
+        The residual's correlation area (pixels of the fitted grid).
+
+    Examples
+    --------
+    One indenter fitted to residuals that err in blocks of 2 x 2 pixels: a correlation
+    area of about 4 pixels, and every sd twice the independent-pixel one:
+
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(1)
+    >>> r = np.kron(rng.normal(size=(64, 64)), np.ones((2, 2))).ravel()
+    >>> J = rng.normal(size=(128 * 128, 5))
+    >>> p = np.array([[0.0, 0.0, 2.0, 0.5, 0.0]])
+    >>> sd, area = stated_sd(J, r, (128, 128, 1), p, model_sd=np.zeros(5))
+    >>> round(area, 1), np.round(sd / parameter_sd(J, r, 128 * 128), 2)
+    (4.1, array([[2.03, 2.03, 2.03, 2.03, 2.03]]))
+
+    With the floor, a 2 N indenter's Fz sd is at least ``model_sd[2] * 2`` N:
+
+    >>> sd, _ = stated_sd(J, r, (128, 128, 1), p, model_sd=np.array([0.05, 0.05, 0.1, 0, 0]))
+    >>> bool(sd[0, 2] >= 0.2), bool(sd[0, 0] >= 0.05)
+    (True, True)
+    """
+    rows, cols, C = shape
+    r = np.asarray(residual, float)
+    image = r[: rows * cols * C].reshape(rows, cols, C)
+    mask = np.any(image != 0.0, axis=-1)
+    area = correlation_area(image, mask)
+    q = np.asarray(params, float).reshape(-1, N_PARAMS)
+    sd = parameter_sd(jac, r, int(np.count_nonzero(r))).reshape(q.shape) * np.sqrt(area)
+    scale = np.concatenate([np.ones((len(q), 2)), np.repeat(q[:, 2:3], 3, axis=1)], axis=1)
+    floor = np.asarray(model_sd, float) * scale
+    return np.sqrt(sd**2 + floor**2), area

@@ -58,6 +58,28 @@ def test_a_tiny_library_image_gives_back_its_parameters(tiny_library, method):
     assert np.all(np.abs(res.params[0] - _truth([ind])[0]) <= 1e-3 * scale), res.params
 
 
+def test_the_terminal_loads_csv_and_summary_give_one_residual(tiny_library, tmp_path, capsys):
+    """One residual figure, residual_rms, under one name: the terminal's line, the
+    loads.csv column and summary.json's list are the same numbers (the terminal used to
+    print the whole image's residual, 0.042, beside a residual_rms of 0.146)."""
+    from library_fixtures import TINY
+
+    ind = LoadedIndenter(-1.0e-3, 0.5e-3, 3.5e-3, 0.5, -0.4, 3.0)
+    model = _model(tiny_library, "mono", [ind], cfg=sensor_config(**TINY))
+    img = Camera(sensitivities="mono").encode(model.measured.reshape(*model.grid.shape))
+    write_image(tmp_path / "one.png", no_data_fill(img, model.usable.reshape(img.shape)))
+    out = tmp_path / "inv"
+    args = ["invert", str(tmp_path / "one.png"), "--library", str(tiny_library.folder)]
+    assert main([*args, "--out", str(out), "--pixel-mm", "0.25", "--method", "mono"]) == 0
+    said = [ln for ln in capsys.readouterr().out.splitlines() if "residual" in ln]
+    (row,) = _loads(out / "loads.csv")
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["residual_rms"] == pytest.approx([row[-1]], rel=1e-5)
+    assert "residual" not in summary
+    assert len(said) == 1 and f"residual_rms {row[-1]:.3f} " in said[0], said
+    assert summary["residual_correlation_px"] >= 1.0
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("method, n", [("mono", 2), ("phase", 2), ("rgb", 1)])
 def test_a_library_image_gives_back_its_parameters(test_library, method, n):

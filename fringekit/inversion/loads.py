@@ -7,11 +7,18 @@ holds them as a table and writes them.
 - ``loads.csv``: one row per indenter, exactly the columns :data:`LOAD_COLUMNS`: the
   axis position at first touch (mm, the frame of ``predict``: x to the right, y up, origin
   at ``origin_px``), sphere diameter, the force the indenter exerts on the sheet (N;
-  Fz > 0 presses, Fx/Fy in the sense of a config's ``shear_N``), their 1-sigma and the
-  RMS residual within 3 mm of the indenter (fraction of the fitted fringe amplitude);
+  Fz > 0 presses, Fx/Fy in the sense of a config's ``shear_N``), their 1-sigma and
+  ``residual_rms``;
 - ``summary.json``: method, image, library, sensor check, noise, gains, iterations,
-  residual, warnings and times;
-- ``fit.png``: measured, fitted and residual images, with arrows for the tangential loads.
+  ``residual_rms`` (one per indenter, as in ``loads.csv``), the residual's correlation
+  area (pixels of the fitted, every-2nd-pixel grid), warnings and times;
+- ``fit.png``: measured, fitted and residual images, with arrows for the tangential
+  loads; the residual in fringe amplitudes, each indenter's ``residual_rms`` on it.
+
+``residual_rms`` is the one residual figure of ``invert`` (the terminal, ``loads.csv``,
+``summary.json`` and ``fit.png`` all show it): per indenter, the RMS of measured minus
+fitted intensity over the fitted pixels within ``WINDOW_MM`` (3 mm) of its axis, as a
+fraction of the fitted fringe amplitude (the mean gain of the channels).
 """
 
 from __future__ import annotations
@@ -30,7 +37,7 @@ from fringekit.config.files import load_config
 from fringekit.config.inputs import optics_setup
 from fringekit.errors import ConfigError
 from fringekit.inversion.figure import fit_figure
-from fringekit.inversion.fit import InvertResult, invert_image
+from fringekit.inversion.fit import WINDOW_MM, InvertResult, invert_image
 from fringekit.inversion.model import ImageModel
 from fringekit.inversion.read import pixel_grid, read_measurement, sensor_config
 from fringekit.inversion.verdict import WARN_RESIDUAL, residual_warnings
@@ -235,9 +242,10 @@ def invert(
     )
     res = invert_image(model)
     warnings += residual_warnings(res.params, res.residual_rms)
+    rms = ", ".join(f"{r:.3f}" for r in res.residual_rms)
     say(
-        f"invert: {len(res.params)} indenter(s), residual {res.residual:.3f} of the fringe "
-        f"amplitude, {time.perf_counter() - t0:.1f} s"
+        f"invert: {len(res.params)} indenter(s), residual_rms {rms or '-'} (within "
+        f"{WINDOW_MM:g} mm of each, of the fringe amplitude), {time.perf_counter() - t0:.1f} s"
     )
     summary = {
         "method": method,
@@ -248,7 +256,8 @@ def invert(
         "origin_px": list(origin_px) if origin_px is not None else None,
         "n_indenters": int(len(res.params)),
         "iterations": int(res.iterations),
-        "residual": res.residual,
+        "residual_rms": [float(r) for r in res.residual_rms],
+        "residual_correlation_px": float(res.correlation_px),
         "noise_sd": res.noise,
         "gains": [float(g) for g in res.gains],
         "offsets": [float(o) for o in res.offsets],

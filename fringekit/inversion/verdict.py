@@ -3,8 +3,10 @@
 
 An image the library cannot explain is refused (:class:`InvertError`, exit 2, one line)
 rather than answered: an indenter at the edge of the library's range (the fit is held
-there, not converged), or a residual above MAX_RESIDUAL of the fringe amplitude. An
-indenter whose residual near it is above WARN_RESIDUAL is returned but flagged.
+there, not converged), or an RMS residual over the whole fitted image above
+MAX_RESIDUAL of the fringe amplitude. An indenter whose ``residual_rms`` (the RMS
+residual within ``fringekit.inversion.fit.WINDOW_MM`` of it, the figure ``invert``
+reports) is above WARN_RESIDUAL is returned but flagged.
 """
 
 from __future__ import annotations
@@ -49,8 +51,8 @@ class InvertError(RefusedError):
 def residual_warnings(params: np.ndarray, residual_rms: np.ndarray) -> list[str]:
     """One warning per indenter whose residual near it is above WARN_RESIDUAL."""
     return [
-        f"indenter {i + 1} at ({v[0]:.2f}, {v[1]:.2f}) mm is not reliable: the residual near "
-        f"it is {r:.2f} of the fringe amplitude (above {WARN_RESIDUAL}); the fit may explain a "
+        f"indenter {i + 1} at ({v[0]:.2f}, {v[1]:.2f}) mm is not reliable: its residual_rms "
+        f"is {r:.2f} of the fringe amplitude (above {WARN_RESIDUAL}); the fit may explain a "
         "neighbour's fringes with its load"
         for i, (v, r) in enumerate(zip(params, residual_rms, strict=True))
         if r > WARN_RESIDUAL
@@ -76,7 +78,8 @@ def refuse(q: np.ndarray, lib, total: float) -> None:
             )
     if total > MAX_RESIDUAL:
         raise InvertError(
-            f"the library cannot explain this image: the fit leaves a residual of {total:.2f} "
-            f"of the fringe amplitude (at most {MAX_RESIDUAL} is accepted); check the sensor, "
-            "the pixel size, the origin and the method"
+            f"the library cannot explain this image: the fit leaves an RMS residual of "
+            f"{total:.2f} of the fringe amplitude over the whole image (at most "
+            f"{MAX_RESIDUAL} is accepted); check the sensor, the pixel size, the origin and "
+            "the method"
         )

@@ -77,7 +77,6 @@ def test_the_terminal_loads_csv_and_summary_give_one_residual(tiny_library, tmp_
     assert summary["residual_rms"] == pytest.approx([row[-1]], rel=1e-5)
     assert "residual" not in summary
     assert len(said) == 1 and f"residual_rms {row[-1]:.3f} " in said[0], said
-    assert summary["residual_correlation_px"] >= 1.0
 
 
 @pytest.mark.slow

@@ -72,16 +72,40 @@ def test_the_mask_and_the_channels():
     assert correlation_area(same) == pytest.approx(3 * correlation_area(field), rel=1e-9)
 
 
-def test_the_stated_sd_scales_with_the_area_and_keeps_the_floor():
+def test_the_stated_sd_scales_with_the_score_area_and_keeps_the_floor():
+    """Each parameter's sd is its independent-pixel sd times the square root of the
+    correlation area of its score image (Jacobian column times residual); the floor adds
+    in quadrature, the loads' as fractions of Fz."""
     rng = np.random.default_rng(3)
     field = _filtered(_gaussian(2.0), seed=3, n=128)
     J = rng.normal(size=(field.size, 5))
     r = field.ravel()
     p = np.array([[1.0, -1.0, 2.5, 0.3, -0.2]])
     sd, area = stated_sd(J, r, (128, 128, 1), p, model_sd=np.zeros(5))
-    assert area == pytest.approx(correlation_area(field))
-    assert np.allclose(sd[0], parameter_sd(J, r, r.size) * np.sqrt(area))
+    want = [correlation_area(J[:, k].reshape(field.shape) * field) for k in range(5)]
+    assert np.allclose(area[0], want)
+    assert np.allclose(sd[0], parameter_sd(J, r, r.size) * np.sqrt(area[0]))
+    # a white Jacobian decorrelates the scores: about one pixel each
+    assert np.all(area < 1.5), area
+    # an offset-like parameter (every pixel alike) sees the residual's own area
+    J[:, 2] = 1.0
+    _, area = stated_sd(J, r, (128, 128, 1), p, model_sd=np.zeros(5))
+    assert area[0, 2] == pytest.approx(correlation_area(field))
     floor = np.array([0.1, 0.1, 0.2, 0.2, 0.2])  # mm, mm, and fractions of Fz
+    sd, _ = stated_sd(J, r, (128, 128, 1), p, model_sd=np.zeros(5))
     big, _ = stated_sd(J, r, (128, 128, 1), p, model_sd=floor)
-    want = np.hypot(sd[0], floor * np.array([1, 1, 2.5, 2.5, 2.5]))
-    assert np.allclose(big[0], want)
+    assert np.allclose(big[0], np.hypot(sd[0], floor * np.array([1, 1, 2.5, 2.5, 2.5])))
+
+
+def test_phase_steps_in_opposite_phase_do_not_cancel():
+    """Two channels whose residuals and Jacobians are opposite (phase steps 180 deg
+    apart): the residual's channel sum vanishes, the score's does not; the stated sd
+    sees the correlated misfit."""
+    field = _filtered(_gaussian(2.0), seed=4, n=96)
+    image = np.stack([field, -field], axis=-1)
+    J = np.stack([np.ones(field.shape), -np.ones(field.shape)], axis=-1).reshape(-1, 1)
+    J = np.repeat(J, 5, axis=1)
+    p = np.array([[0.0, 0.0, 2.0, 0.0, 0.0]])
+    _, area = stated_sd(J, image.ravel(), (96, 96, 2), p, model_sd=np.zeros(5))
+    assert correlation_area(image) == 1.0  # the residuals' sum is zero everywhere
+    assert np.all(area == pytest.approx(2 * correlation_area(field)))

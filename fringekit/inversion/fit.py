@@ -87,8 +87,9 @@ class InvertResult:
     """Fitted indenters: params (n, 5) x, y (mm), Fz, Fx, Fy (N); sd (n, 5) their stated
     1-sigma (:func:`~fringekit.inversion.uncertainty.stated_sd`); diameters (n,) (m);
     residual_rms (n,) near each indenter, in fringe amplitudes; gains and offsets per
-    channel; noise sd; iterations; total residual; times; correlation_px, the residual
-    image's correlation area (pixels of the fitted, every-2nd-pixel grid)."""
+    channel; noise sd; iterations; total residual; times; correlation_px (n, 5), the
+    correlation area of each parameter's share of the residual, in pixels of the
+    fitted (every-2nd-pixel) grid, by which its variance was scaled."""
 
     params: np.ndarray
     sd: np.ndarray
@@ -100,7 +101,7 @@ class InvertResult:
     iterations: int
     residual: float
     times_s: dict = field(default_factory=dict)
-    correlation_px: float = 1.0
+    correlation_px: np.ndarray = field(default_factory=lambda: np.zeros((0, N_PARAMS)))
 
 
 def subsample(model: ImageModel, k: int) -> ImageModel:

@@ -10,8 +10,7 @@ holds them as a table and writes them.
   Fz > 0 presses, Fx/Fy in the sense of a config's ``shear_N``), their 1-sigma and
   ``residual_rms``;
 - ``summary.json``: method, image, library, sensor check, noise, gains, iterations,
-  ``residual_rms`` (one per indenter, as in ``loads.csv``), the residual's correlation
-  area (pixels of the fitted, every-2nd-pixel grid), warnings and times;
+  ``residual_rms`` (one per indenter, as in ``loads.csv``), warnings and times;
 - ``fit.png``: measured, fitted and residual images, with arrows for the tangential
   loads; the residual in fringe amplitudes, each indenter's ``residual_rms`` on it.
 
@@ -257,7 +256,6 @@ def invert(
         "n_indenters": int(len(res.params)),
         "iterations": int(res.iterations),
         "residual_rms": [float(r) for r in res.residual_rms],
-        "residual_correlation_px": float(res.correlation_px),
         "noise_sd": res.noise,
         "gains": [float(g) for g in res.gains],
         "offsets": [float(o) for o in res.offsets],

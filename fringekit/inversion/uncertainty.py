@@ -153,13 +153,20 @@ def parameter_sd(jac, residual, n_used: int) -> np.ndarray:
     return np.sqrt(np.clip(np.diag(cov), 0.0, None))
 
 
-def stated_sd(jac, residual, shape, params, model_sd=MODEL_SD) -> tuple[np.ndarray, float]:
-    """The stated 1-sigma of every indenter's parameters, and the residual's correlation
-    area.
+def stated_sd(jac, residual, shape, params, model_sd=MODEL_SD) -> tuple[np.ndarray, np.ndarray]:
+    """The stated 1-sigma of every indenter's parameters, and the correlation areas they
+    rest on.
 
-    The independent-pixel sd (:func:`parameter_sd`) scaled by the square root of the
-    residual image's correlation area (:func:`correlation_area`: ``N / A`` independent
-    pixels, not ``N``), and the model-error floor ``model_sd`` added in quadrature.
+    A least-squares estimate moves with the sum of its score terms ``g_i = J_ik r_i``
+    over the pixels and channels: correlated terms make that sum vary ``A`` times more
+    than independent ones would (Bayley and Hammersley's effective number of
+    observations, :func:`correlation_area`, here of the score image rather than of the
+    residual; for a parameter that moves every pixel alike the two are the same). So
+    each parameter's independent-pixel sd (:func:`parameter_sd`) is scaled by the
+    square root of its score image's correlation area, and the model-error floor
+    ``model_sd`` is added in quadrature. The score rather than the residual: the six
+    phase steps' residuals cancel in their sum (their steps are in opposite phases), and
+    so do their Jacobians, but not the products.
 
     Parameters
     ----------
@@ -179,22 +186,24 @@ def stated_sd(jac, residual, shape, params, model_sd=MODEL_SD) -> tuple[np.ndarr
     -------
     sd : (n, 5) array
         1-sigma of x, y (mm), Fz, Fx, Fy (N).
-    area : float
-        The residual's correlation area (pixels of the fitted grid).
+    area : (n, 5) array
+        The correlation area of each parameter's score image (pixels of the fitted
+        grid; 1 where the residuals are independent).
 
     Examples
     --------
-    One indenter fitted to residuals that err in blocks of 2 x 2 pixels: a correlation
-    area of about 4 pixels, and every sd twice the independent-pixel one:
+    One indenter whose parameters move every pixel alike, fitted to residuals that err
+    in blocks of 2 x 2 pixels: correlation areas of about 4 pixels, and every sd twice
+    the independent-pixel one:
 
     >>> import numpy as np
     >>> rng = np.random.default_rng(1)
     >>> r = np.kron(rng.normal(size=(64, 64)), np.ones((2, 2))).ravel()
-    >>> J = rng.normal(size=(128 * 128, 5))
+    >>> J = np.ones((128 * 128, 5)) * np.arange(1.0, 6.0)  # five multiples of an offset
     >>> p = np.array([[0.0, 0.0, 2.0, 0.5, 0.0]])
     >>> sd, area = stated_sd(J, r, (128, 128, 1), p, model_sd=np.zeros(5))
-    >>> round(area, 1), np.round(sd / parameter_sd(J, r, 128 * 128), 2)
-    (4.1, array([[2.03, 2.03, 2.03, 2.03, 2.03]]))
+    >>> np.round(area, 1), np.round(sd / parameter_sd(J, r, 128 * 128), 2)
+    (array([[4.1, 4.1, 4.1, 4.1, 4.1]]), array([[2.03, 2.03, 2.03, 2.03, 2.03]]))
 
     With the floor, a 2 N indenter's Fz sd is at least ``model_sd[2] * 2`` N:
 
@@ -206,8 +215,10 @@ def stated_sd(jac, residual, shape, params, model_sd=MODEL_SD) -> tuple[np.ndarr
     r = np.asarray(residual, float)
     image = r[: rows * cols * C].reshape(rows, cols, C)
     mask = np.any(image != 0.0, axis=-1)
-    area = correlation_area(image, mask)
+    J = np.asarray(jac, float)[: rows * cols * C].reshape(rows, cols, C, -1)
     q = np.asarray(params, float).reshape(-1, N_PARAMS)
+    area = np.array([correlation_area(J[..., k] * image, mask) for k in range(J.shape[-1])])
+    area = area.reshape(q.shape)
     sd = parameter_sd(jac, r, int(np.count_nonzero(r))).reshape(q.shape) * np.sqrt(area)
     scale = np.concatenate([np.ones((len(q), 2)), np.repeat(q[:, 2:3], 3, axis=1)], axis=1)
     floor = np.asarray(model_sd, float) * scale

@@ -41,7 +41,7 @@ from fringekit.inversion.detect import detect, noise_sd
 from fringekit.inversion.hop import hop
 from fringekit.inversion.model import N_PARAMS, ImageModel, range_penalty, unpack
 from fringekit.inversion.start import scan_start
-from fringekit.inversion.uncertainty import parameter_sd, stated_sd
+from fringekit.inversion.uncertainty import model_sd, parameter_sd, stated_sd
 from fringekit.inversion.verdict import AT_LARGEST, WARN_RESIDUAL, InvertError, refuse
 from fringekit.optics import PixelGrid
 
@@ -396,7 +396,8 @@ def _finish(fine, p, diam, res, verdict, noise, its, t0, t_detect) -> InvertResu
             times_s={"detect_s": t_detect, "total_s": time.perf_counter() - t0},
         )
     q = p.reshape(n, N_PARAMS)
-    sd, area = stated_sd(res.jac, res.fun, (*fine.grid.shape, fine.measured.shape[1]), q)
+    shape = (*fine.grid.shape, fine.measured.shape[1])
+    sd, area = stated_sd(res.jac, res.fun, shape, q, model_sd(lib.shear_ratio))
     rms, total, gains, offs = verdict
     refuse(q, lib, total)
     return InvertResult(

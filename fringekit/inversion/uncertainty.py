@@ -39,7 +39,8 @@ __all__ = [
 #: bench (``bench/invert.py --preset coarse --n-indenters 1 2 --seed 0 1 2``, methods
 #: rgb, mono and phase: 27 fits, 9 indenters of 6 FEM solves, 2026-11-25) as the smallest
 #: floor per quantity that puts 68 % of its errors within 1 sd: 0.043 mm, 2.2 % and
-#: 1.07 % of Fz (then 69-70 % within 1 sd and 93-100 % within 2). The library on the
+#: 1.07 % of Fz (the bench then gave 67-69 % within 1 sd and 93-100 % within 2 on those
+#: seeds, and on seeds 3-5, held out, 53-93 % and 90-100 %). The library on the
 #: coarse 0.6 mm contact mesh reads Fz about 2 % low on almost every image: an error
 #: the fit takes into the parameters, so that no residual shows it. Measured with the
 #: coarse library only: a library on a finer mesh should err less (not measured).

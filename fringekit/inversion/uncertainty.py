@@ -3,8 +3,8 @@
 The joint fit's residual is not white noise: where the library's image differs from the
 sensor's (a coarser mesh, interpolation between its loads, the camera's 8 bits) it
 differs over whole fringes, so neighbouring pixels err together. Treating the pixels as
-independent stated 1-sigma 10-30 times smaller than the errors on the coarse bench's
-FEM images. Two terms correct it:
+independent stated 1-sigma 3-6 times smaller than the median error on the coarse bench's
+FEM images, and up to 24 times smaller than the largest. Two terms correct it:
 
 1. :func:`correlation_area`: the correlation area ``A`` (pixels) of each parameter's
    score image (its Jacobian column times the residual), so that the fit has about

@@ -1,22 +1,25 @@
 """Benchmark ``fringekit invert`` on held-out images rendered by full FEM solves.
 
 Usage: python bench/invert.py [--preset coarse|reference] [--n-indenters 1 2 4 6]
-       [--methods rgb mono phase] [--seed 0] [--library DIR] [--work DIR] [--json FILE]
+       [--methods rgb mono phase] [--seed 0 1 ...] [--library DIR] [--work DIR] [--json FILE]
        [--set TABLE.KEY=VALUE ...]
        (--work default: bench/out/invert, ignored by git; --set overrides the preset's
        config for the library and the cases alike, e.g. --set mesh.h_contact_mm=0.3 for
        a refinement study)
 
 Builds (or reuses) the library of the preset's sensor, then for each number of indenters
-draws one case (seeded): positions at random over the field of view at least 4.5 mm
+draws one case per seed: positions at random over the field of view at least 4.5 mm
 apart (the first pair exactly 6 mm when there are two or more), Fz uniform over the library's
 range (0.5-10 N for the reference preset), tangential load 0-0.8 Fz in a random
 direction. Each case is solved by ``fringekit predict`` (full model, full stick; the FEM,
 not the library), photographed 8-bit with 10k e- full well and 5 e- read noise, and
 inverted with each method. Prints per case and in summary the Fz error (N and %),
 tangential magnitude error (N and % of Fz), direction error (deg), position error (mm),
-missed and spurious indenters and the time per image; ``--json`` writes
-``{"cases": [...], "library_build_s"}``.
+missed and spurious indenters, the time per image, and the coverage of the stated
+1-sigma: for Fz, the tangential components (Fx, Fy) and the position (x, y), the
+fractions of the errors within 1 and 2 sd (about 68 % and 95 % when the sd are honest);
+``--json`` writes ``{"cases": [...], "coverage": {method: {quantity: ...}},
+"library_build_s", "peak_mb"}``.
 
 Presets: ``coarse`` is examples/coarse_sensor.toml, the tests' sensor (20 mm sheet,
 0.6 mm contact mesh, 96 px, library 1-4 N x 5 ratios: minutes); ``reference`` is the
@@ -65,6 +68,12 @@ PRESETS = {
 NORMAL_STEPS = (0.125, 0.18, 0.25, 0.35, 0.5, 0.7, 1.0)
 NOISE = {"optics.full_well_e": 10000.0, "optics.read_noise_e": 5.0}
 MIN_APART_MM = 4.5
+#: The stated 1-sigma columns of loads.csv, kept with each estimate.
+SD_COLUMNS = ("sx_mm", "sy_mm", "sFx_N", "sFy_N", "sFz_N")
+#: Each estimated quantity's sd column.
+SD_OF = dict(zip(("x_mm", "y_mm", "Fx", "Fy", "Fz"), SD_COLUMNS, strict=True))
+#: The quantities whose coverage the summary gives, and their components.
+COVERAGE = {"Fz": ("Fz",), "tangential": ("Fx", "Fy"), "position": ("x_mm", "y_mm")}
 
 
 def draw_case(rng, n: int, preset: dict) -> list[dict]:
@@ -151,7 +160,24 @@ def errors(t: dict, e: dict) -> dict:
         "Ft_pct_of_Fz": 100 * (fe - ft) / t["Fz"],
         "direction_deg": float((ang + 180) % 360 - 180) if ft > 0.1 else None,
         "position_mm": float(np.hypot(e["x_mm"] - t["x_mm"], e["y_mm"] - t["y_mm"])),
+        # the errors in units of the stated 1-sigma (loads.csv's sx_mm ... sFz_N)
+        "z": {k: (e[k] - t[k]) / e[SD_OF[k]] if e[SD_OF[k]] > 0 else None for k in SD_OF},
     }
+
+
+def coverage(errs: list[dict]) -> dict:
+    """Per quantity (Fz; tangential: Fx and Fy; position: x and y), the number of
+    normalised errors and the fractions of them within 1 and 2 of the stated sd."""
+    out = {}
+    for q, keys in COVERAGE.items():
+        z = np.array([abs(e["z"][k]) for e in errs for k in keys if e["z"][k] is not None])
+        out[q] = {
+            "n": len(z),
+            "within_1sd": float(np.mean(z <= 1.0)) if len(z) else None,
+            "within_2sd": float(np.mean(z <= 2.0)) if len(z) else None,
+            "median_z": float(np.median(z)) if len(z) else None,
+        }
+    return out
 
 
 def read_loads(path: Path) -> list[dict]:
@@ -163,6 +189,7 @@ def read_loads(path: Path) -> list[dict]:
                 "Fz": float(r["Fz_N"]),
                 "Fx": float(r["Fx_N"]),
                 "Fy": float(r["Fy_N"]),
+                **{k: float(r[k]) for k in SD_COLUMNS},
             }
             for r in csv.DictReader(f)
         ]
@@ -232,7 +259,10 @@ def run_case(base, inds, name, methods, lib, work: Path, pixel_mm) -> list[dict]
     return out
 
 
-def summary(cases: list[dict]) -> None:
+def summary(cases: list[dict]) -> dict:
+    """Print each method's errors, and the coverage of its stated sd (:func:`coverage`),
+    also for all methods together; return the coverage by method (and ``"all"``)."""
+    cover = {}
     for m in sorted({c["method"] for c in cases}):
         errs = [
             i["errors"] for c in cases if c["method"] == m for i in c["indenters"] if i["errors"]
@@ -255,6 +285,21 @@ def summary(cases: list[dict]) -> None:
             f"{sum(c['spurious'] for c in cases if c['method'] == m)}; "
             f"time per image median {np.median(t):.1f} s"
         )
+        cover[m] = coverage(errs)
+    every = [i["errors"] for c in cases for i in c["indenters"] if i["errors"]]
+    if every:
+        cover["all"] = coverage(every)
+    for m, cov in cover.items():
+        print(
+            f"{m}: within 1 / 2 sd: "
+            + "; ".join(
+                f"{q} {v['within_1sd']:.0%} / {v['within_2sd']:.0%} of {v['n']} "
+                f"(median |err|/sd {v['median_z']:.2g})"
+                for q, v in cov.items()
+                if v["n"]
+            )
+        )
+    return cover
 
 
 def main_bench(argv=None) -> None:
@@ -262,7 +307,7 @@ def main_bench(argv=None) -> None:
     ap.add_argument("--preset", choices=sorted(PRESETS), default="coarse")
     ap.add_argument("--n-indenters", nargs="+", type=int, default=[1, 2, 4, 6])
     ap.add_argument("--methods", nargs="+", default=["rgb", "mono", "phase"])
-    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--seed", nargs="+", type=int, default=[0])
     ap.add_argument("--library", default=None, help="library folder (built when missing)")
     ap.add_argument("--work", default="bench/out/invert")
     ap.add_argument("--json", default=None)
@@ -283,19 +328,21 @@ def main_bench(argv=None) -> None:
     build_library(base, lib, loads=preset["loads"], ratios=preset["ratios"], progress=True)
     build_s = time.perf_counter() - t0
     print(f"library {lib}: {build_s:.1f} s (0 when reused)")
-    rng = np.random.default_rng(a.seed)
     pixel_mm = base["optics"]["field_of_view_mm"] / base["optics"]["pixels"]
     cases = []
-    for n in a.n_indenters:
-        inds = draw_case(rng, n, preset)
-        cases += run_case(base, inds, f"{a.preset}-{n}", a.methods, lib, work, pixel_mm)
-    summary(cases)
+    for seed in a.seed:  # one draw per seed (the case names say the seed when several)
+        rng = np.random.default_rng(seed)
+        tag = f"{a.preset}-s{seed}" if len(a.seed) > 1 else a.preset
+        for n in a.n_indenters:
+            inds = draw_case(rng, n, preset)
+            cases += run_case(base, inds, f"{tag}-{n}", a.methods, lib, work, pixel_mm)
+    cover = summary(cases)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"peak memory {peak:.0f} MB")
     if a.json:
         Path(a.json).write_text(
             json.dumps(
-                {"cases": cases, "library_build_s": build_s, "peak_mb": peak},
+                {"cases": cases, "coverage": cover, "library_build_s": build_s, "peak_mb": peak},
                 indent=1,
                 default=float,
             )

@@ -194,6 +194,6 @@ def test_invert_reports_its_stages_and_a_spent_budget_exits_1_with_the_answer(
     assert said.out == "" and "--max-seconds 0 ran out after the detection" in said.err
     s = json.loads((out / "summary.json").read_text())
     assert s["stopped_after"] == "detection" and s["reliable"] == [False]
-    assert s["residual"] is None  # no fit: strict JSON, no NaN
+    assert s["residual_rms"] == [None]  # no fit: strict JSON, no NaN
     assert (out / "loads.csv").read_text().count("\n") == 2  # the header and the candidate
     assert (out / "fit.png").exists()

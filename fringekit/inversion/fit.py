@@ -22,8 +22,9 @@
    one than two spheres can (a diameter), is dropped; a residual peak that
    passes the detection test away from the others adds one; then the fit is repeated.
 5. **Uncertainty and refusal.** 1-sigma from the Jacobian at the solution scaled by the
-   residual variance (pixels are treated as independent, so spatially correlated model
-   error makes these optimistic); a load at the edge of the library's range, or a
+   residual variance and by the residual's correlation area (neighbouring pixels err
+   together), with a model-error floor added (:mod:`fringekit.inversion.uncertainty`); a
+   load at the edge of the library's range, or a
    residual above ``MAX_RESIDUAL`` of the fringe amplitude, or fringes that no load in
    range explains, are refused rather than returned.
 """
@@ -42,7 +43,8 @@ from fringekit.inversion.detect import detect, noise_sd
 from fringekit.inversion.hop import hop
 from fringekit.inversion.model import N_PARAMS, ImageModel, range_penalty, unpack
 from fringekit.inversion.start import scan_start
-from fringekit.inversion.verdict import AT_LARGEST, WARN_RESIDUAL, InvertError, parameter_sd, refuse
+from fringekit.inversion.uncertainty import model_sd, parameter_sd, stated_sd
+from fringekit.inversion.verdict import AT_LARGEST, WARN_RESIDUAL, InvertError, refuse
 from fringekit.optics import PixelGrid
 
 __all__ = [
@@ -84,11 +86,14 @@ START_LOADS = 16
 
 @dataclass(frozen=True)
 class InvertResult:
-    """Fitted indenters: params (n, 5) x, y (mm), Fz, Fx, Fy (N); sd (n, 5); diameters
-    (n,) (m); residual_rms (n,) near each indenter, in fringe amplitudes; gains and
-    offsets per channel; noise sd; iterations; total residual; times; ``stopped``: the
-    stage after which the time budget ran out (the answer is that stage's, not a
-    converged fit), None when the fit finished."""
+    """Fitted indenters: params (n, 5) x, y (mm), Fz, Fx, Fy (N); sd (n, 5) their stated
+    1-sigma (:func:`~fringekit.inversion.uncertainty.stated_sd`); diameters (n,) (m);
+    residual_rms (n,) near each indenter, in fringe amplitudes; gains and offsets per
+    channel; noise sd; iterations; total residual; times; ``stopped``: the stage after
+    which the time budget ran out (the answer is that stage's, not a converged fit), None
+    when the fit finished; correlation_px (n, 5), the correlation area of each
+    parameter's share of the residual, in pixels of the fitted (every-2nd-pixel) grid,
+    by which its variance was scaled."""
 
     params: np.ndarray
     sd: np.ndarray
@@ -101,6 +106,7 @@ class InvertResult:
     residual: float
     times_s: dict = field(default_factory=dict)
     stopped: str | None = None
+    correlation_px: np.ndarray = field(default_factory=lambda: np.zeros((0, N_PARAMS)))
 
 
 def subsample(model: ImageModel, k: int) -> ImageModel:
@@ -334,7 +340,7 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2, budget=None) -> Inve
             "size and the method, or build a library with larger --load-N"
         )
     times = (t0, t_detect)
-    return _finish(model, p, diam, res, verdict, noise, its, times, budget.stopped)
+    return _finish(fine, p, diam, res, verdict, noise, its, times, budget.stopped)
 
 
 def select_indenters(model, coarse, fine, pos, noise, sheared: bool, max_rounds: int, budget=None):
@@ -352,7 +358,7 @@ def select_indenters(model, coarse, fine, pos, noise, sheared: bool, max_rounds:
         p, res, its = fit_all(coarse, fine, p, diam, noise, its, anchors, budget)
         if res is None or round_ == max_rounds or budget.stopped:
             break
-        sd = parameter_sd(res, int(np.count_nonzero(res.fun)))
+        sd = parameter_sd(res.jac, res.fun, int(np.count_nonzero(res.fun)))
         p2, diam2, kept = _prune(p, sd, diam, model.lib)
         gone = np.setdiff1d(np.arange(len(diam)), kept)
         dropped = np.concatenate([dropped, _axes(p, gone), anchors[gone]])  # fitted, detected
@@ -373,7 +379,7 @@ def select_indenters(model, coarse, fine, pos, noise, sheared: bool, max_rounds:
         p, diam = np.concatenate([p2, pn]), diam2 + dn
         anchors = np.concatenate([anchors[kept], _axes(pn)])
     if res is not None and not budget.stopped:  # the last fit may have let two meet
-        sd = parameter_sd(res, int(np.count_nonzero(res.fun)))
+        sd = parameter_sd(res.jac, res.fun, int(np.count_nonzero(res.fun)))
         p2, diam2, _ = _prune(p, sd, diam, model.lib)
         if len(diam2) < len(diam):  # the basins are searched already
             p, res, its = _refit(_exact(fine), p2, diam2, noise, its)
@@ -409,12 +415,13 @@ def _positions_only(pos, noise, t0, t_detect, stopped) -> InvertResult:
     )
 
 
-def _finish(model, p, diam, res, verdict, noise, its, times, stopped=None) -> InvertResult:
-    """The result of the fit ``res`` of ``p`` with its :func:`_verdict`, or refusal; an
-    answer cut short by the time budget (``stopped``, the last stage) is not refused
-    (every indenter of it is flagged), and without a fit its sd are NaN."""
+def _finish(fine, p, diam, res, verdict, noise, its, times, stopped=None) -> InvertResult:
+    """The result of the fit ``res`` of ``p`` on ``fine`` (every 2nd pixel) with its
+    :func:`_verdict` and stated sd (:func:`stated_sd`), or refusal; an answer cut short by
+    the time budget (``stopped``, the last stage) is not refused (every indenter of it is
+    flagged), and without a fit its sd are NaN."""
     t0, t_detect = times
-    lib = model.lib
+    lib = fine.lib
     n = len(diam)
     times_s = {"detect_s": t_detect, "total_s": time.perf_counter() - t0}
     if n == 0:
@@ -422,12 +429,15 @@ def _finish(model, p, diam, res, verdict, noise, its, times, stopped=None) -> In
         e = np.zeros(0)
         return InvertResult(z, z, e, e, e, e, noise, its, 0.0, times_s, stopped)
     q = p.reshape(n, N_PARAMS)
-    if res is None:
-        sd = np.full((n, N_PARAMS), np.nan)
+    if res is None or stopped is not None:  # no converged fit: no uncertainty stated
+        sd, area = np.full((n, N_PARAMS), np.nan), np.full((n, N_PARAMS), np.nan)
     else:
-        sd = parameter_sd(res, int(np.count_nonzero(res.fun))).reshape(n, N_PARAMS)
+        shape = (*fine.grid.shape, fine.measured.shape[1])
+        sd, area = stated_sd(res.jac, res.fun, shape, q, model_sd(lib.shear_ratio))
     rms, total, gains, offs = verdict
     if stopped is None:
         refuse(q, lib, total)
     diam = np.array(diam)
-    return InvertResult(q, sd, diam, rms, gains, offs, noise, its, total, times_s, stopped)
+    return InvertResult(
+        q, sd, diam, rms, gains, offs, noise, its, total, times_s, stopped, correlation_px=area
+    )

@@ -7,11 +7,17 @@ holds them as a table and writes them.
 - ``loads.csv``: one row per indenter, exactly the columns :data:`LOAD_COLUMNS`: the
   axis position at first touch (mm, the frame of ``predict``: x to the right, y up, origin
   at ``origin_px``), sphere diameter, the force the indenter exerts on the sheet (N;
-  Fz > 0 presses, Fx/Fy in the sense of a config's ``shear_N``), their 1-sigma and the
-  RMS residual within 3 mm of the indenter (fraction of the fitted fringe amplitude);
+  Fz > 0 presses, Fx/Fy in the sense of a config's ``shear_N``), their 1-sigma and
+  ``residual_rms``;
 - ``summary.json``: method, image, library, sensor check, noise, gains, iterations,
-  residual, warnings and times;
-- ``fit.png``: measured, fitted and residual images, with arrows for the tangential loads.
+  ``residual_rms`` (one per indenter, as in ``loads.csv``), warnings and times;
+- ``fit.png``: measured, fitted and residual images, with arrows for the tangential
+  loads; the residual in fringe amplitudes, each indenter's ``residual_rms`` on it.
+
+``residual_rms`` is the one residual figure of ``invert`` (the terminal, ``loads.csv``,
+``summary.json`` and ``fit.png`` all show it): per indenter, the RMS of measured minus
+fitted intensity over the fitted pixels within ``WINDOW_MM`` (3 mm) of its axis, as a
+fraction of the fitted fringe amplitude (the mean gain of the channels).
 """
 
 from __future__ import annotations
@@ -33,7 +39,7 @@ from fringekit.errors import ConfigError
 from fringekit.inversion.budget import DEFAULT_MAX_SECONDS, Budget
 from fringekit.inversion.detect import SMOOTH_MM, detection_bytes, noise_sd
 from fringekit.inversion.figure import fit_figure
-from fringekit.inversion.fit import InvertResult, invert_image
+from fringekit.inversion.fit import WINDOW_MM, InvertResult, invert_image
 from fringekit.inversion.model import ImageModel
 from fringekit.inversion.read import pixel_grid, read_measurement, sensor_config
 from fringekit.inversion.scale import check_scale
@@ -169,6 +175,23 @@ def _check_numbers(pixel_mm, max_seconds) -> None:
         raise ConfigError(f"--max-seconds {max_seconds} is not allowed; give seconds >= 0")
 
 
+def _sensor(lib: Library, sensor, paths) -> tuple[dict, str | None, list[str]]:
+    """The image's sensor config (checked against the library's), where it came from,
+    and a warning when none was given or found (the library's own is assumed)."""
+    cfg, where = sensor_config(sensor, paths)
+    if cfg is not None:
+        check_sensor(lib, cfg, where)
+        return cfg, where, []
+    return (
+        load_config(lib.folder / "config.toml"),
+        where,
+        [
+            "no sensor config given or found beside the image: the library's own sensor, "
+            "camera and light are assumed (--sensor)"
+        ],
+    )
+
+
 def _library(library: Library | str | os.PathLike) -> Library:
     return library if isinstance(library, Library) else load_library(library)
 
@@ -250,16 +273,7 @@ def invert(
     budget = Budget(max_seconds, say=say, clock=clock)  # the whole run's
     paths = [images] if isinstance(images, (str, os.PathLike)) else list(images)
     lib = _library(library)
-    cfg, where = sensor_config(sensor, paths)
-    warnings = []
-    if cfg is None:
-        cfg = load_config(lib.folder / "config.toml")
-        warnings.append(
-            "no sensor config given or found beside the image: the library's "
-            "own sensor, camera and light are assumed (--sensor)"
-        )
-    else:
-        check_sensor(lib, cfg, where)
+    cfg, where, warnings = _sensor(lib, sensor, paths)
     optics = optics_setup(cfg)
     method, measured, usable, nodata, shape, note = read_measurement(
         paths, method, optics.camera.sensitivities
@@ -299,10 +313,15 @@ def invert(
     warnings += residual_warnings(res.params, res.residual_rms)
     off = _off_sheet(res.params[:, :2], sheet_mm)
     warnings += _off_sheet_warnings(res.params, off, sheet_mm)
+    rms = ", ".join(f"{r:.3f}" for r in res.residual_rms)
     cut = f"cut short after the {res.stopped}" if res.stopped else None
     say(
         f"invert: {len(res.params)} indenter(s), "
-        + (cut or f"residual {res.residual:.3f} of the fringe amplitude")
+        + (
+            cut
+            or f"residual_rms {rms or '-'} (within {WINDOW_MM:g} mm of each, of the fringe "
+            "amplitude)"
+        )
         + f", {time.perf_counter() - t0:.1f} s"
     )
     summary = {
@@ -314,7 +333,7 @@ def invert(
         "origin_px": list(origin_px) if origin_px is not None else None,
         "n_indenters": int(len(res.params)),
         "iterations": int(res.iterations),
-        "residual": res.residual if np.isfinite(res.residual) else None,  # None: no fit
+        "residual_rms": [float(r) if np.isfinite(r) else None for r in res.residual_rms],
         "noise_sd": res.noise,
         "gains": [float(g) for g in res.gains],
         "offsets": [float(o) for o in res.offsets],

@@ -1,9 +1,12 @@
-"""The verdict on an inversion: uncertainties, refusals and flags.
+"""The verdict on an inversion: refusals and flags (the uncertainties are
+:mod:`fringekit.inversion.uncertainty`'s).
 
 An image the library cannot explain is refused (:class:`InvertError`, exit 2, one line)
 rather than answered: an indenter at the edge of the library's range (the fit is held
-there, not converged), or a residual above MAX_RESIDUAL of the fringe amplitude. An
-indenter whose residual near it is above WARN_RESIDUAL is returned but flagged.
+there, not converged), or an RMS residual over the whole fitted image above
+MAX_RESIDUAL of the fringe amplitude. An indenter whose ``residual_rms`` (the RMS
+residual within ``fringekit.inversion.fit.WINDOW_MM`` of it, the figure ``invert``
+reports) is above WARN_RESIDUAL is returned but flagged.
 """
 
 from __future__ import annotations
@@ -17,7 +20,6 @@ __all__ = [
     "InvertError",
     "MAX_RESIDUAL",
     "WARN_RESIDUAL",
-    "parameter_sd",
     "refuse",
     "residual_warnings",
 ]
@@ -46,23 +48,11 @@ class InvertError(RefusedError):
     """
 
 
-def parameter_sd(res, n_used: int) -> np.ndarray:
-    """1-sigma of the parameters from the Jacobian and the residual variance."""
-    J = res.jac
-    dof = max(n_used - J.shape[1], 1)
-    s2 = float(np.sum(res.fun**2)) / dof
-    try:
-        cov = np.linalg.pinv(J.T @ J) * s2
-    except np.linalg.LinAlgError:
-        return np.full(J.shape[1], np.nan)
-    return np.sqrt(np.clip(np.diag(cov), 0.0, None))
-
-
 def residual_warnings(params: np.ndarray, residual_rms: np.ndarray) -> list[str]:
     """One warning per indenter whose residual near it is above WARN_RESIDUAL."""
     return [
-        f"indenter {i + 1} at ({v[0]:.2f}, {v[1]:.2f}) mm is not reliable: the residual near "
-        f"it is {r:.2f} of the fringe amplitude (above {WARN_RESIDUAL}); the fit may explain a "
+        f"indenter {i + 1} at ({v[0]:.2f}, {v[1]:.2f}) mm is not reliable: its residual_rms "
+        f"is {r:.2f} of the fringe amplitude (above {WARN_RESIDUAL}); the fit may explain a "
         "neighbour's fringes with its load"
         for i, (v, r) in enumerate(zip(params, residual_rms, strict=True))
         if r > WARN_RESIDUAL
@@ -97,7 +87,7 @@ def refuse(q: np.ndarray, lib, total: float) -> None:
             )
     if not np.isfinite(total) or total > MAX_RESIDUAL:
         left = (
-            f"leaves a residual of {total:.2f} of the fringe amplitude"
+            f"leaves an RMS residual of {total:.2f} of the fringe amplitude over the whole image"
             if np.isfinite(total)
             else "leaves a residual that is not a number"
         )

@@ -68,6 +68,9 @@ PRESETS = {
 NORMAL_STEPS = (0.125, 0.18, 0.25, 0.35, 0.5, 0.7, 1.0)
 NOISE = {"optics.full_well_e": 10000.0, "optics.read_noise_e": 5.0}
 MIN_APART_MM = 4.5
+#: Failed draws in a row after which the centres placed so far are dropped (a first centre
+#: near the edge of a small field can leave no room for its partner 6 mm away).
+RESTART_AFTER = 1000
 #: The stated 1-sigma columns of loads.csv, kept with each estimate.
 SD_COLUMNS = ("sx_mm", "sy_mm", "sFx_N", "sFy_N", "sFz_N")
 #: Each estimated quantity's sd column.
@@ -81,9 +84,12 @@ def draw_case(rng, n: int, preset: dict) -> list[dict]:
     MIN_APART_MM from the rest (3.5 mm spheres plus a margin); loads and shear."""
     w = preset["half_width_mm"]
     pos: list[np.ndarray] = []
+    misses = 0
     for _ in range(200000):  # rejection sampling; bounded
         if len(pos) == n:
             break
+        if misses > RESTART_AFTER:  # the centres so far leave no room: draw them again
+            pos, misses = [], 0
         if len(pos) == 1:
             a = rng.uniform(0, 2 * np.pi)
             p = pos[0] + 6.0 * np.array([np.cos(a), np.sin(a)])
@@ -91,6 +97,9 @@ def draw_case(rng, n: int, preset: dict) -> list[dict]:
             p = rng.uniform(-w, w, 2)
         if np.all(np.abs(p) <= w) and all(np.hypot(*(p - q)) >= MIN_APART_MM for q in pos):
             pos.append(p)
+            misses = 0
+        else:
+            misses += 1
     else:
         raise SystemExit(f"cannot place {n} indenters {MIN_APART_MM} mm apart within +-{w} mm")
     out = []

@@ -20,7 +20,14 @@ from .circles import Circle, disc_by_symmetry, find_disc, find_discs
 from .compare import Comparison, Profile, compare_maps, line_profile
 from .images import SIX_STEP_ORDER, Frame, image_noise_sd, load_image, load_six_step, normalise
 from .masks import border_anchor, check_mask, circle_mask, exclude_circle, polygon_mask
-from .mono import AGREE_MIN, MonoResult, channel_agreement, grey_channel, mono_order
+from .mono import (
+    AGREE_MIN,
+    MonoResult,
+    channel_agreement,
+    grey_channel,
+    mono_order,
+    strongest_channel,
+)
 from .phase import (
     Resolution,
     SixStep,
@@ -50,6 +57,7 @@ __all__ = [
     "MonoResult",
     "grey_channel",
     "channel_agreement",
+    "strongest_channel",
     "AGREE_MIN",
     "mono_order",
     "calibrate_from_maps",

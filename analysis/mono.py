@@ -60,6 +60,7 @@ __all__ = [
     "channel_agreement",
     "grey_channel",
     "mono_order",
+    "strongest_channel",
 ]
 
 #: In a cap band whose fringe centre was not seen, pixels closer than this (fringe) to
@@ -204,11 +205,35 @@ def grey_channel(image: np.ndarray, mask: np.ndarray | None = None) -> np.ndarra
     True
     """
     img = np.asarray(image, float)
-    if img.ndim == 2:
-        return img
+    return img if img.ndim == 2 else img[..., strongest_channel(img, mask)]
+
+
+def strongest_channel(image: np.ndarray, mask: np.ndarray | None = None) -> int:
+    """The channel of a colour photograph with the widest 1-99 % range: the one
+    :func:`grey_channel` reads.
+
+    Parameters
+    ----------
+    image : (rows, cols, 3) float array
+    mask : (rows, cols) bool array, optional
+        Pixels that decide (default all).
+
+    Returns
+    -------
+    int
+        0, 1 or 2 (red, green, blue).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> fringes = np.sin(np.linspace(0, 6, 20))[None, :] ** 2 * np.ones((4, 1))
+    >>> strongest_channel(np.stack([0.1 * fringes, fringes, 0.2 * fringes], axis=-1))
+    1
+    """
+    img = np.asarray(image, float)
     m = np.ones(img.shape[:2], bool) if mask is None else mask
     spread = [np.subtract(*np.percentile(img[..., k][m], [99, 1])) for k in range(3)]
-    return img[..., int(np.argmax(spread))]
+    return int(np.argmax(spread))
 
 
 #: A band holding at least this share of the anchor pixels is an anchor band (a corner

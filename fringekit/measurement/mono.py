@@ -20,6 +20,7 @@ from fringekit.analysis import (
     grey_channel,
     load_image,
     mono_order,
+    strongest_channel,
 )
 from fringekit.errors import InputError
 from fringekit.measurement.regions import no_data_regions, order_anchors, region_mask
@@ -53,9 +54,7 @@ def colour_as_grey(data, mask, path, option: str) -> str:
             f"{c:.2f}, allowed at least {AGREE_MIN:g}): white-light fringes; use --method rgb, "
             "or photograph in monochromatic light"
         )
-    m = np.ones(np.shape(data)[:2], bool) if mask is None else mask
-    spread = np.subtract(*np.percentile(np.asarray(data, float)[m], [99, 1], axis=0))
-    name = ("red", "green", "blue")[int(np.argmax(spread))]
+    name = ("red", "green", "blue")[strongest_channel(data, mask)]
     return (
         f"{path} is a colour image of monochromatic light (its channels agree, correlation "
         f"{c:.2f}): read as its {name} channel"

@@ -21,7 +21,7 @@ from fringekit.analysis import (
     unwrap_fringe_order,
 )
 from fringekit.errors import InputError
-from fringekit.measurement.regions import no_data_regions, order_anchors, region_mask
+from fringekit.measurement.regions import data_region, order_anchors
 from fringekit.optics import PSM4_ASSUMED, Camera, colour_chart, light_source
 
 __all__ = ["MAX_FOLD_DISAGREEMENT", "analyse_phase", "analyse_rgb"]
@@ -69,8 +69,7 @@ def analyse_phase(
     picks the map, the other checks it. ``reference`` (six zero-load images): their
     retardation is subtracted vectorially first (:func:`analysis.subtract_reference`)."""
     frames = load_six_step(paths[0] if len(paths) == 1 else paths, dark=dark)
-    nodata = no_data_regions(np.stack([f.data for f in frames], -1))
-    mask = region_mask(frames[0].shape, *mask_args) & ~nodata
+    mask, no_data_px = data_region(np.stack([f.data for f in frames], -1), mask_args)
     res = six_step(frames, mask=mask, min_modulation=min_modulation)
     if not res.valid.any():
         raise InputError(_no_modulation(paths, frames, res.modulation[mask], min_modulation))
@@ -119,7 +118,7 @@ def analyse_phase(
             f"{100 * differ:.0f} % of the pixels (more than half a fringe apart): check "
             f"--order-at or --anchor-order, or compare with --fold {other}"
         )
-    part["no_data_px"] = int(nodata.sum())
+    part["no_data_px"] = no_data_px
     return fo.order, fo.reliable, maps, part, mask
 
 
@@ -153,8 +152,8 @@ def analyse_rgb(paths, dark, mask_args, *, colour_table=None, chart=None, seeds=
     # one channel at full scale still constrains the order (vivid fringe colours leave
     # the sRGB gamut and clip, in the chart exactly as in the image); a pixel with
     # every channel at full scale does not
-    nodata = no_data_regions(frame.data)
-    mask = region_mask(frame.shape, *mask_args) & ~np.all(frame.data >= 1.0, axis=-1) & ~nodata
+    mask, no_data_px = data_region(frame.data, mask_args)
+    mask &= ~np.all(frame.data >= 1.0, axis=-1)
     table = _table(colour_table, chart)
     if seeds:
         seed_list = [((r, c), o) for r, c, o in seeds]
@@ -180,5 +179,5 @@ def analyse_rgb(paths, dark, mask_args, *, colour_table=None, chart=None, seeds=
             "tell fringe orders apart; the rgb method needs white light (six phase-stepped "
             "images: --method phase)"
         )
-    part["no_data_px"] = int(nodata.sum())
+    part["no_data_px"] = no_data_px
     return rr.order, reliable, {"colour_error": rr.error}, part, mask

@@ -23,7 +23,7 @@ from fringekit.analysis import (
     strongest_channel,
 )
 from fringekit.errors import InputError
-from fringekit.measurement.regions import no_data_regions, order_anchors, region_mask
+from fringekit.measurement.regions import data_region, order_anchors
 
 __all__ = ["POINTS_COLUMNS", "analyse_mono", "colour_as_grey", "read_points", "write_points"]
 
@@ -66,8 +66,8 @@ def analyse_mono(paths, dark, mask_args, anchor_order, order_at, mono: dict):
     if len(paths) != 1:
         raise InputError(f"the mono method takes one image, got {len(paths)}")
     frame = load_image(paths[0], dark=dark)
-    nodata = no_data_regions(frame.data)
-    mask = region_mask(frame.shape, *mask_args) & ~frame.saturated & ~nodata
+    mask, no_data_px = data_region(frame.data, mask_args)
+    mask &= ~frame.saturated
     colour_note = colour_as_grey(frame.data, mask, paths[0], "--method mono")
     flat = None
     if mono.get("flat"):
@@ -102,7 +102,7 @@ def analyse_mono(paths, dark, mask_args, anchor_order, order_at, mono: dict):
             **res.info,
         }
     }
-    part["no_data_px"] = int(nodata.sum())
+    part["no_data_px"] = no_data_px
     if colour_note:
         part["extra_warning"] = colour_note
     share = float(res.reliable[mask].mean())

@@ -20,6 +20,7 @@ __all__ = [
     "NO_DATA_MIN_PX",
     "DISC_ROI_SHARE",
     "ORDER_AT_RADIUS_PX",
+    "data_region",
     "disc_region",
     "mask_file",
     "no_data_regions",
@@ -56,6 +57,23 @@ def no_data_regions(data: np.ndarray) -> np.ndarray:
         return hit
     sizes = ndimage.sum(hit, lab, np.arange(1, n + 1))
     return np.concatenate([[False], sizes >= NO_DATA_MIN_PX])[lab]
+
+
+def data_region(data: np.ndarray, mask_args) -> tuple[np.ndarray, int]:
+    """The region of interest of the options ``mask_args`` (:func:`region_mask`) without
+    the no-data regions of the image ``data`` (rows, cols[, channels])
+    (:func:`no_data_regions`), and how many pixels those hold.
+
+    Examples
+    --------
+    >>> img = np.random.default_rng(0).uniform(0, 1, (32, 32))
+    >>> img[10:16, 10:16] = 0.5
+    >>> mask, no_data = data_region(img, (None, []))
+    >>> int(mask.sum()), no_data
+    (988, 36)
+    """
+    nodata = no_data_regions(data)
+    return region_mask(np.shape(data), *mask_args) & ~nodata, int(nodata.sum())
 
 
 def mask_file(path, shape) -> np.ndarray:

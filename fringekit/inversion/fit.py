@@ -296,7 +296,9 @@ def _refit(exact: ImageModel, p, diam, noise, its):
     return res.x, res, its + res.nfev
 
 
-def invert_image(model: ImageModel, *, max_rounds: int = 2, budget=None) -> InvertResult:
+def invert_image(
+    model: ImageModel, *, max_rounds: int = 2, budget=None, noise: float | None = None
+) -> InvertResult:
     """Detect and fit every indenter of ``model``'s measured image (full resolution).
 
     The candidates start from scanned loads (:func:`_start`); when that leaves an
@@ -309,10 +311,11 @@ def invert_image(model: ImageModel, *, max_rounds: int = 2, budget=None) -> Inve
 
     ``budget`` (:class:`~fringekit.inversion.budget.Budget`, default none) reports the
     stages; when it is spent the answer is that of the last stage, ``stopped`` set.
+    ``noise``: the image's noise sd when the caller has it (default :func:`noise_sd`).
     """
     t0 = time.perf_counter()
     budget = budget or Budget(math.inf)
-    noise = noise_sd(model)
+    noise = noise_sd(model) if noise is None else noise
     coarse, fine = subsample(model, 4), subsample(model, 2)
     pos = detect(fine, noise)
     t_detect = time.perf_counter() - t0

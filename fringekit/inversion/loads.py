@@ -304,11 +304,12 @@ def invert(
         f"invert: {method}, {shape[0]} x {shape[1]} px, library {lib.folder} "
         f"({len(lib.load_N) - 1} loads x {len(lib.shear_ratio)} ratios)"
     )
-    scale = check_scale(model, pixel_mm, noise_sd(model))
+    noise = noise_sd(model)
+    scale = check_scale(model, pixel_mm, noise)
     if scale is not None:
         lo, hi = scale["pixel_mm_range"]
         say(f"invert: scale check: the fringes suggest {lo:.3g}-{hi:.3g} mm per pixel")
-    res = invert_image(model, budget=budget)
+    res = invert_image(model, budget=budget, noise=noise)
     warnings += _stopped_warnings(res, max_seconds)
     warnings += residual_warnings(res.params, res.residual_rms)
     off = _off_sheet(res.params[:, :2], sheet_mm)

@@ -144,7 +144,6 @@ def run(case: str, mesh_name: str) -> dict:
         "factorizations": stats.factorizations,
         "factor_reuses": stats.factor_reuses,
         "cutbacks": stats.cutbacks,
-        "reanchors": stats.reanchors,
         "peak_mem_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
         "states": states,
     }
@@ -197,8 +196,7 @@ def _report(res: dict, stats, elapsed: float) -> None:
         f"{stats.residual_evaluations / n_it:.2f} residual evaluations "
         f"({stats.tangent_assemblies} and {stats.residual_evaluations} over {n_it} "
         f"iterations); factorizations {stats.factorizations} (+ {stats.factor_reuses} "
-        f"Newton steps solved on an earlier factor); cut-backs {stats.cutbacks}, "
-        f"re-anchorings {stats.reanchors}"
+        f"Newton steps solved on an earlier factor); cut-backs {stats.cutbacks}"
     )
     for s in res["states"]:
         print(

@@ -22,6 +22,16 @@ indenter does not rotate) with normal ``n0 = a / R``. The elastic tangential sli
 ``s = (I - n0 n0) (y - a)`` with penalty ``eps_T``. Stick: force ``w eps_T s``
 (energy ``w eps_T |s|^2 / 2``). Coulomb slip when ``eps_T |s| > mu p``: force
 ``w mu p s / |s|`` (return mapping), with its consistent, unsymmetric tangent.
+
+A point sticks where it first touches. A point that was not in contact at the previous
+iterate (relative position ``y0``, trial pressure ``t0 = lambda - eps_N g0 <= 0``) and
+is in contact now (``t > 0``) is anchored where the straight path between the two
+crosses the contact condition, ``y_c = y0 + tau (y - y0)`` with
+``tau = t0 / (t0 - t)``, projected on the sphere: ``a = R y_c / |y_c|``. As the point
+just touches, ``tau -> 1`` and ``s -> 0``, so the stick energy is continuous at first
+touch (an anchor fixed beforehand makes it jump by ``w eps_T |s|^2 / 2``), and the
+anchor does not depend on how the load path is cut into increments beyond the
+linearity of the path within one Newton step.
 """
 
 from __future__ import annotations
@@ -33,7 +43,13 @@ from scipy.spatial import ConvexHull, QhullError
 
 from .element import TRI_QUADRATURE, tri6_shape
 
-__all__ = ["ContactFace", "ContactResult", "sphere_contact", "FRICTION_STICK"]
+__all__ = [
+    "ContactFace",
+    "ContactResult",
+    "FRICTION_STICK",
+    "first_touch_anchors",
+    "sphere_contact",
+]
 
 #: Friction coefficient meaning "full stick" (no slip whatever the tangential force).
 FRICTION_STICK = float("inf")
@@ -174,6 +190,10 @@ class ContactResult:
     gap : (f, q) normal gap (m), negative = penetration.
     slip : (f, q) bool, points in Coulomb slip.
     s : (f, q, 3) elastic tangential slip (m).
+    anchor : (f, q, 3) float array or None, the stick anchors used, relative to the centre
+        (m): the fixed ones, and first-touch anchors for the points that came into contact
+        since the previous iterate; None without friction.
+    y : (f, q, 3) positions of the points relative to the centre (m).
     """
 
     energy: float
@@ -183,6 +203,46 @@ class ContactResult:
     gap: np.ndarray
     slip: np.ndarray
     s: np.ndarray
+    anchor: np.ndarray | None = None
+    y: np.ndarray | None = None
+
+
+def first_touch_anchors(y, trial, anchor, anchored, y_from, lam, eps_n, radius):
+    """Stick anchors (f, q, 3) with first-touch anchors for the points newly in contact.
+
+    Points with ``anchored`` keep ``anchor``; the others out of contact get their own
+    projection on the sphere (unused while they are out of contact). A point in contact
+    now (``trial > 0``) and not anchored is anchored where the straight path from
+    ``y_from`` (its position at the previous iterate, relative to the centre) to ``y``
+    crosses the contact
+    condition ``lambda - eps_n g = 0`` (module docstring), projected on the sphere; a
+    point already in contact at ``y_from`` (after a multiplier update) is anchored at
+    its own projection. Positions in m, ``lam`` and ``trial`` in Pa.
+
+    Examples
+    --------
+    A point 10 um above a 1 mm sphere's pole moves to about 10 um inside it and 20 um
+    sideways: it touched about half-way, 10 um to the side.
+
+    >>> import numpy as np
+    >>> y0 = np.array([[[0.0, 0.0, 1.01e-3]]])
+    >>> y1 = np.array([[[2e-5, 0.0, 0.99e-3]]])
+    >>> t1 = -1e9 * (np.linalg.norm(y1, axis=-1) - 1e-3)
+    >>> a = first_touch_anchors(y1, t1, np.zeros_like(y1), np.zeros((1, 1), bool), y0,
+    ...                         np.zeros((1, 1)), 1e9, 1e-3)
+    >>> np.round(a[0, 0] * 1e6, 2).tolist()  # um
+    [10.1, 0.0, 999.95]
+    """
+    fresh = (trial > 0) & ~anchored
+    yc = y
+    if y_from is not None and np.any(fresh):
+        t0 = lam - eps_n * (np.linalg.norm(y_from, axis=-1) - radius)
+        cross = fresh & (t0 <= 0)
+        tau = np.where(cross, t0 / np.where(cross, t0 - trial, 1.0), 1.0)
+        yc = y_from + tau[..., None] * (y - y_from)
+    proj = radius * yc / np.linalg.norm(yc, axis=-1, keepdims=True)
+    # points out of contact and not anchored get their projection: unused, but finite
+    return np.where(anchored[..., None], anchor, proj)
 
 
 def sphere_contact(
@@ -195,6 +255,8 @@ def sphere_contact(
     *,
     mu: float = 0.0,
     anchor: np.ndarray | None = None,
+    anchored: np.ndarray | None = None,
+    y_from: np.ndarray | None = None,
     eps_t: float = 0.0,
     tangent: bool = True,
     p_curvature_cap: float = np.inf,
@@ -219,6 +281,14 @@ def sphere_contact(
         Friction coefficient; 0 frictionless, ``inf`` full stick.
     anchor : (f, q, 3) float array or None
         Stick anchors relative to the centre (m); required when ``mu > 0``.
+    anchored : (f, q) bool array, optional
+        The points whose anchor is fixed (in contact at the previous iterate); the
+        others are anchored where they first touch (:func:`first_touch_anchors`).
+        Default: every anchor is fixed.
+    y_from : (f, q, 3) float array, optional
+        Positions relative to the centre at the previous iterate (m), for the
+        first-touch anchors; without it a newly touching point is anchored at its own
+        projection.
     p_curvature_cap : float
         Pressure (Pa) above which the curvature term of the normal tangent,
         ``-(p / r) (I - n n)``, is taken at this pressure instead of ``p``. That term is
@@ -249,6 +319,8 @@ def sphere_contact(
     if mu > 0:
         if anchor is None:
             raise ValueError("friction needs stick anchors")
+        if anchored is not None:
+            anchor = first_touch_anchors(y, trial, anchor, anchored, y_from, lam, eps_n, radius)
         n0 = anchor / np.linalg.norm(anchor, axis=-1, keepdims=True)
         d = y - anchor
         s = d - np.einsum("fqi,fqi->fq", d, n0)[..., None] * n0
@@ -279,4 +351,4 @@ def sphere_contact(
     K = None
     if tangent:
         K = np.einsum("qa,qb,fqik->faibk", _NEXT, _NEXT, H, optimize=True).reshape(-1, 21, 21)
-    return ContactResult(energy, force, K, p, g, slip, s)
+    return ContactResult(energy, force, K, p, g, slip, s, anchor if mu > 0 else None, y)

@@ -10,7 +10,7 @@ contact multipliers, stick anchors and active flags.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -292,9 +292,11 @@ class Model:
         return out
 
     def recandidate(self, st: State, cand: list[np.ndarray]) -> None:
-        """Switch to candidates ``cand``, carrying ``st``'s contact state over."""
+        """Switch to candidates ``cand``, carrying ``st``'s contact state over; the points
+        of the facets new to the set start from their current positions."""
         st.remap(self.cand, cand)
         self.set_candidates(cand)
+        self.set_touch_base(st)
 
     def refresh_candidates(self, st: State) -> None:
         """After an accepted increment refresh the candidate facets for the next one."""
@@ -302,14 +304,11 @@ class Model:
         if any(not np.array_equal(a, b) for a, b in zip(cand, self.cand, strict=True)):
             self.recandidate(st, cand)
 
-    def set_anchors(self, st: State) -> None:
-        """Points not in contact at the last converged state get their closest sphere point."""
+    def set_touch_base(self, st: State) -> None:
+        """The positions relative to each centre that the first-touch anchors of the next
+        evaluation start from (:func:`fea.contact.first_touch_anchors`): ``st``'s."""
         x = self.mesh.points + st.u
-        for j, ind in enumerate(self.indenters):
-            y = self.face.points(x, self.cand[j]) - st.c[j]
-            proj = ind.radius * y / np.linalg.norm(y, axis=-1, keepdims=True)
-            new = ~st.active[j]
-            st.anchor[j][new] = proj[new]
+        st.y_prev = [self.face.points(x, c) - st.c[j] for j, c in enumerate(self.cand)]
 
 
 @dataclass
@@ -324,6 +323,10 @@ class State:
     anchor : per indenter (f, q, 3) stick anchors on the sphere, relative to its centre (m)
     active : per indenter (f, q) bool, in contact at the last converged state
     results : the converged contact results, or None
+    touched : per indenter (f, q) bool, in contact at the current iterate: their anchors
+        are fixed; the others are anchored where they first touch
+    y_prev : per indenter (f, q, 3) positions relative to the centre at the current
+        iterate (m), where the first-touch anchors of the next evaluation start from
     """
 
     u: np.ndarray
@@ -332,6 +335,8 @@ class State:
     anchor: list
     active: list
     results: list | None = None
+    touched: list = field(default_factory=list)
+    y_prev: list = field(default_factory=list)
 
     @classmethod
     def initial(cls, model: Model) -> State:
@@ -343,6 +348,8 @@ class State:
             lam=[np.zeros((0, nq)) for _ in model.indenters],
             anchor=[np.zeros((0, nq, 3)) for _ in model.indenters],
             active=[np.zeros((0, nq), dtype=bool) for _ in model.indenters],
+            touched=[np.zeros((0, nq), dtype=bool) for _ in model.indenters],
+            y_prev=[np.zeros((0, nq, 3)) for _ in model.indenters],
         )
 
     def copy(self) -> State:
@@ -353,20 +360,33 @@ class State:
             [a.copy() for a in self.anchor],
             [a.copy() for a in self.active],
             self.results,
+            [a.copy() for a in self.touched],
+            [a.copy() for a in self.y_prev],
         )
 
+    def commit(self, results) -> None:
+        """Make the evaluation ``results`` at this state the current iterate's contact
+        state: the points in contact keep the anchors they were given, and the next
+        first-touch anchors start from these positions."""
+        for j, res in enumerate(results):
+            self.touched[j] = res.p > 0
+            self.y_prev[j] = res.y
+            if res.anchor is not None:
+                self.anchor[j] = res.anchor
+
     def remap(self, old: list[np.ndarray], cand: list[np.ndarray]) -> None:
-        """Carry multipliers/anchors/active flags from facets ``old`` to ``cand``."""
+        """Carry multipliers, anchors and contact flags from facets ``old`` to ``cand``
+        (zero on facets new to the set)."""
         for j in range(len(cand)):
             nq = self.lam[j].shape[1]
-            lam = np.zeros((len(cand[j]), nq))
-            anc = np.zeros((len(cand[j]), nq, 3))
-            act = np.zeros((len(cand[j]), nq), dtype=bool)
-            if len(old[j]):
-                pos = np.searchsorted(old[j], cand[j])
-                pos = np.minimum(pos, len(old[j]) - 1)
-                hit = old[j][pos] == cand[j]
-                lam[hit] = self.lam[j][pos[hit]]
-                anc[hit] = self.anchor[j][pos[hit]]
-                act[hit] = self.active[j][pos[hit]]
-            self.lam[j], self.anchor[j], self.active[j] = lam, anc, act
+            pos = np.minimum(np.searchsorted(old[j], cand[j]), max(len(old[j]) - 1, 0))
+            hit = old[j][pos] == cand[j] if len(old[j]) else np.zeros(len(cand[j]), bool)
+            for name, shape, dtype in (
+                ("lam", (nq,), float),
+                ("anchor", (nq, 3), float),
+                ("active", (nq,), bool),
+                ("touched", (nq,), bool),
+            ):
+                new = np.zeros((len(cand[j]), *shape), dtype=dtype)
+                new[hit] = getattr(self, name)[j][pos[hit]]
+                getattr(self, name)[j] = new

@@ -6,6 +6,11 @@ with a backtracking line search (energy or residual decrease, never an inverted
 element) and updates the contact multipliers (lambda <- p, inexact Uzawa) once the
 residual is small; :func:`solve_increment` adds the check that no facet outside the
 candidate set penetrates, and the stick/slip return mapping of the anchors.
+
+Each iterate Newton moves to is committed (:meth:`fea.model.State.commit`): a point that
+came into contact on the way keeps the anchor where it first touched, so the stick
+energy is continuous along every line search and no iterate sticks a point to where it
+was at the increment's start.
 """
 
 from __future__ import annotations
@@ -44,13 +49,6 @@ CURVATURE_CAP = 1.0
 #: residual (relative to the load) below which a two-value cycle of the Newton iterates is
 #: broken by a multiplier update (see newton)
 CYCLE_AL = 1e-2
-#: stalls with friction (_stalled): re-anchorings per Newton run; an accepted step this
-#: short with a residual below CYCLE_AL; residual (relative to the load) below which a
-#: two-value cycle counts when it is above CYCLE_AL, where a multiplier update breaks it
-#: (a six-head stick case cycled at 0.024/0.044 N, 1.2 N per head)
-MAX_REANCHORS = 3
-CRAWL_ALPHA = 1.0 / 16.0
-REANCHOR_CYCLE = 0.1
 
 
 def _body(model: Model, st: State, tangent: bool, stats: SolveStats, cache: BodyCache | None):
@@ -123,6 +121,8 @@ def evaluate(
             model.eps_n[j],
             mu=mu,
             anchor=st.anchor[j] if mu > 0 else None,
+            anchored=st.touched[j] if mu > 0 else None,
+            y_from=st.y_prev[j] if mu > 0 else None,
             eps_t=model.contact.tangential_factor * model.eps_n[j],
             tangent=tangent,
             p_curvature_cap=CURVATURE_CAP * model.sheet.E,
@@ -209,7 +209,6 @@ def solve_increment(run: Run, st: State, s_new: float, iter_log: list, final=Tru
             return True, ""
         cand = model.candidates_near(x, st.c, extra=2 * float(model.face_size.max()))
         model.recandidate(st, cand)
-        model.set_anchors(st)
     return False, "the contact zone kept growing beyond the candidate facets"
 
 
@@ -249,31 +248,6 @@ def is_cycling(history: list[float]) -> bool:
     return abs(d - b) <= 1e-3 * d and abs(c - a) <= 1e-3 * c and abs(d - c) > 1e-3 * d
 
 
-def _stalled(friction, reanchors, rnorm, scale, *, cycling=False, failed=False, alpha=1.0):
-    """Whether Newton with friction has stalled on a point with a stale anchor.
-
-    A point that comes into contact during the increment sticks to the anchor it was
-    given at the increment's start; the sheet has moved since, so its stick energy
-    w eps_T |s|^2 / 2 jumps as it touches. Energy and residual are discontinuous there
-    and Newton stalls with the point on the switch: the line search fails, or crawls at
-    steps of :data:`CRAWL_ALPHA` or less near equilibrium, or the iterates cycle between
-    two residuals. At most :data:`MAX_REANCHORS` times per Newton run.
-    """
-    if friction <= 0 or reanchors >= MAX_REANCHORS:
-        return False
-    crawling = alpha <= CRAWL_ALPHA and rnorm <= CYCLE_AL * scale
-    return failed or crawling or (cycling and rnorm <= REANCHOR_CYCLE * scale)
-
-
-def _reanchor(run: Run, st: State, f_ind):
-    """Anchor the points that came into contact during the increment where they are now
-    (a stalled Newton with friction, see :func:`newton`); returns the evaluation there
-    (without its tangent: Newton forms it when it needs it)."""
-    run.model.set_anchors(st)
-    run.stats.reanchors += 1
-    return evaluate(run.model, st, f_ind, tangent=False, stats=run.stats, cache=run.cache)
-
-
 def _update_multipliers(run: Run, st: State, results, f_ind):
     """Uzawa step lambda <- p; returns the evaluation at the same displacements (the
     tangent only when the body's is at hand: Newton assembles it when it needs it)."""
@@ -282,7 +256,15 @@ def _update_multipliers(run: Run, st: State, results, f_ind):
     run.stats.al_updates += 1
     body = run.cache.get(st.u)
     has_k = body is not None and body.Ke is not None
-    return evaluate(run.model, st, f_ind, tangent=has_k, stats=run.stats, cache=run.cache)
+    return _current(run, st, f_ind, tangent=has_k)
+
+
+def _current(run: Run, st: State, f_ind, *, tangent: bool):
+    """Evaluate ``st`` and commit it as the current iterate (None: an inverted element)."""
+    out = evaluate(run.model, st, f_ind, tangent=tangent, stats=run.stats, cache=run.cache)
+    if out is not None:
+        st.commit(out[3])
+    return out
 
 
 def newton(run: Run, st: State, f_ind, fscale: float, iter_log: list, penalty_only=False):
@@ -296,11 +278,11 @@ def newton(run: Run, st: State, f_ind, fscale: float, iter_log: list, penalty_on
     """
     model, lin, stats = run.model, run.lin, run.stats
     settings, contact = model.settings, model.contact
-    updates = reanchors = 0
+    updates = 0
     e0 = None
     e_last = None
     history: list[float] = []  # residual norms of this Newton run (N)
-    prev = evaluate(model, st, f_ind, tangent=True, stats=stats, cache=run.cache)
+    prev = _current(run, st, f_ind, tangent=True)
     if prev is None:
         return False, "inverted element at the start of the increment", None
     for it in range(settings.max_iterations):
@@ -320,11 +302,6 @@ def newton(run: Run, st: State, f_ind, fscale: float, iter_log: list, penalty_on
             stats.cycle_breaks += 1
             history.clear()
             e_last = None
-            continue
-        if _stalled(contact.friction, reanchors, rnorm, scale, cycling=cycling):
-            # a cycle further from equilibrium, with friction: a stale anchor (_stalled)
-            prev, reanchors, e_last = _reanchor(run, st, f_ind), reanchors + 1, None
-            history.clear()
             continue
         if rnorm <= AL_SWITCH * scale:
             ratio = 0.0 if penalty_only else penetration_ratio(model, st, results)
@@ -347,7 +324,7 @@ def newton(run: Run, st: State, f_ind, fscale: float, iter_log: list, penalty_on
                 return True, "", results
         t_it, f_it = time.perf_counter(), lin.time_factorize
         if K is None:  # an accepted trial, not converged: its tangent, on its kinematics
-            prev = evaluate(model, st, f_ind, tangent=True, stats=stats, cache=run.cache)
+            prev = _current(run, st, f_ind, tangent=True)
             energy, r, K, results, body, _ = prev
         dx = lin.solve(
             K,
@@ -366,14 +343,9 @@ def newton(run: Run, st: State, f_ind, fscale: float, iter_log: list, penalty_on
         row = {"iteration": it, "residual_N": rnorm, "energy_norm_J": enorm, "alpha": alpha}
         iter_log.append(row)
         log.debug("fea: %s", row)
-        failed = accepted is None
-        if _stalled(contact.friction, reanchors, rnorm, scale, failed=failed, alpha=alpha):
-            prev, reanchors, e_last = _reanchor(run, st, f_ind), reanchors + 1, None
-            history.clear()
-            stats.iteration_times.append((time.perf_counter() - t_it, lin.time_factorize - f_it))
-            continue
-        if failed:
+        if accepted is None:
             return False, "the line search found no decreasing, admissible step", None
+        st.commit(accepted[3])
         prev = accepted  # without its tangent: formed at the next step if one is needed
         stats.iteration_times.append((time.perf_counter() - t_it, lin.time_factorize - f_it))
         run.watch.check(it, rnorm, settings.max_iterations)

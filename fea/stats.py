@@ -31,9 +31,9 @@ class SolveStats:
         Newton iterations of each load state.
     iteration_times : list of (float, float)
         Per Newton iteration: (wall time, factorization time) (s).
-    cutbacks, al_updates, cycle_breaks, reanchors : int
-        Halved increments, augmented-Lagrangian multiplier updates, updates made to
-        break a two-value cycle, and re-anchorings of stuck points (friction).
+    cutbacks, al_updates, cycle_breaks : int
+        Halved increments, augmented-Lagrangian multiplier updates, and updates made to
+        break a two-value cycle.
     tangent_assemblies, residual_evaluations : int
         Element tangents formed, and body evaluations of energy and residual.
     factorizations, factor_reuses : int
@@ -72,10 +72,6 @@ class SolveStats:
     al_updates: int = 0
     #: multiplier updates made to break a two-value cycle of the Newton iterates
     cycle_breaks: int = 0
-    #: stalls with friction (a failed or crawling line search, a two-value cycle) after
-    #: which the points that came into contact during the increment were anchored where
-    #: they are (fea.newton._stalled)
-    reanchors: int = 0
     #: element tangents formed (each on the kinematics of a residual evaluation, see
     #: fea.assembly.body_tangent), and body evaluations of energy and residual (the
     #: line-search trials and the unloaded start; reused by multiplier updates,

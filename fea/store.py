@@ -43,7 +43,8 @@ log = logging.getLogger("fringekit.fea")
 
 #: Bump when the stored arrays or the solver's converged answer change meaning.
 #: 2: every entry holds its key and the inputs it was hashed from.
-STORE_VERSION = 2
+#: 3: under friction a point sticks where it first touches (fea.contact.first_touch_anchors).
+STORE_VERSION = 3
 
 _IND_ARRAYS = ("centre", "force", "points", "pressure")
 _IND_SCALARS = ("radius", "depth", "contact_radius", "max_penetration")

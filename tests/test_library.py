@@ -83,6 +83,10 @@ def _set_format_1(m):
     del m["manifest_sha256"]
 
 
+def _set_format_2(m):
+    m["format"] = "fringekit-library/2"
+
+
 #: Edits of manifest.json -> words of the one-line refusal.
 MANIFEST_EDITS = {
     "top load": (_set_top_load, ["manifest.json", "checksum", "edited"]),
@@ -90,6 +94,10 @@ MANIFEST_EDITS = {
     "format 1": (
         _set_format_1,
         ["fringekit-library/1", "rebuild it: fringekit library build", "--load-N 2 4"],
+    ),
+    "format 2": (
+        _set_format_2,
+        ["fringekit-library/2", "load steps", "rebuild it: fringekit library build"],
     ),
 }
 

@@ -1,5 +1,6 @@
-"""Full stick: a point that comes into contact during an increment, and the failed line
-search that its stale anchor can cause."""
+"""Full stick: a point sticks where it first touches, so the stick energy is continuous
+at first touch and the converged state of a monotone load path does not depend on how
+it is cut into load states."""
 
 from __future__ import annotations
 
@@ -8,21 +9,21 @@ import math
 import numpy as np
 import pytest
 
-import fringekit.fea.newton
 from fringekit.fea import ContactSettings, Indenter, solve
 from fringekit.fea.contact import sphere_contact
 
 R, EPS = 1.75e-3, 1e11
+N_TOUCH = np.array([0.3, 0.0, -1.0]) / math.hypot(0.3, 1.0)  # a point on the sphere
+T_TOUCH = np.array([1.0, 0.0, 0.3]) / math.hypot(1.0, 0.3)  # tangent to it there
 
 
-def _energy(gap: float, anchor_shift: float) -> float:
-    """Stick energy of one point on the sphere's axis side at normal gap ``gap``, its
-    anchor displaced tangentially by ``anchor_shift`` from its projection."""
-    n = np.array([0.3, 0.0, -1.0]) / math.hypot(0.3, 1.0)
-    x = (R + gap) * n
-    t = np.array([1.0, 0.0, 0.3]) / math.hypot(1.0, 0.3)  # tangent to the sphere at n
-    a = R * n + anchor_shift * t
-    a = R * a / np.linalg.norm(a)
+def _energy(gap: float, *, first_touch: bool) -> float:
+    """Stick energy of one point that moved from 5 um outside the sphere, 5 um to the
+    side, to normal gap ``gap`` at ``N_TOUCH``: anchored where it was (the old rule) or
+    where its path crossed the sphere (``first_touch``)."""
+    x = (R + gap) * N_TOUCH
+    y0 = (R + 5e-6) * N_TOUCH - 5e-6 * T_TOUCH
+    stale = R * y0 / np.linalg.norm(y0)
     res = sphere_contact(
         x[None, None],
         np.full((1, 1), 1e-8),
@@ -31,70 +32,67 @@ def _energy(gap: float, anchor_shift: float) -> float:
         np.zeros((1, 1)),
         EPS,
         mu=math.inf,
-        anchor=a[None, None],
+        anchor=stale[None, None],
+        anchored=np.array([[not first_touch]]),
+        y_from=y0[None, None],
         eps_t=EPS,
         tangent=False,
     )
     return res.energy
 
 
-def test_a_stale_anchor_makes_the_stick_energy_jump_at_first_contact():
-    """Just outside the sphere the point carries no energy; just inside, with an anchor
-    5 um away, it carries w eps_T |s|^2 / 2 however small the penetration: the energy
-    (and the force) of the increment jump there, so no line-search step length need
-    decrease them. Anchored at its own projection the jump is gone."""
+def test_a_first_touch_anchor_makes_the_stick_energy_continuous():
+    """Anchored where it was at the step's start, a point that just touches carries
+    w eps_T |s|^2 / 2 however small its penetration: the energy (and force) jump there,
+    so no line-search step length need decrease them. Anchored where its path crossed
+    the sphere, it carries nothing at first touch, and its energy grows with the square
+    of the penetration."""
     h = 1e-13
-    jump = _energy(-h, 5e-6) - _energy(h, 5e-6)
-    assert jump == pytest.approx(0.5 * 1e-8 * EPS * (5e-6) ** 2, rel=1e-3)
-    assert abs(_energy(-h, 0.0) - _energy(h, 0.0)) < 1e-12 * jump
+    jump = _energy(-h, first_touch=False) - _energy(h, first_touch=False)
+    assert jump == pytest.approx(0.5 * 1e-8 * EPS * (5e-6) ** 2, rel=1e-2)
+    assert abs(_energy(-h, first_touch=True) - _energy(h, first_touch=True)) < 1e-9 * jump
+    deeper = [_energy(-g, first_touch=True) for g in (1e-8, 2e-8)]
+    # the normal penalty w eps_N g^2 / 2 plus the stick part, both ~ g^2
+    assert deeper[1] / deeper[0] == pytest.approx(4.0, rel=0.05)
 
 
-@pytest.mark.parametrize(
-    "stall", [pytest.param("fails", marks=pytest.mark.slow), "crawls", "cycles"]
-)
-def test_a_stalled_line_search_with_stick_anchors_the_new_points_and_goes_on(
-    small_meshes, monkeypatch, stall
-):
-    """A line search that fails, or accepts a step of 1/16 or less near equilibrium, or
-    iterates that cycle between two residuals (each forced here, once), in a stick solve
-    re-anchors the points that came into contact during the increment and Newton goes
-    on: no cut-back, and the state is the one the solve without the stall reaches (the
-    re-anchored points are at the contact's edge, where the converged anchors differ by
-    the sheet's motion within one Newton step). Frictionless contact has no anchors: the
-    same failure cuts the increment back, and a short step is just a short step."""
+def _states(F: float, n: int, shear: float = 0.0, n_shear: int = 0):
+    """n normal load states up to F, then n_shear tangential ones up to ``shear``."""
+    normal = [F * (k + 1) / n for k in range(n)] + [F] * n_shear
+    tang = [(0.0, 0.0)] * n + [(shear * (k + 1) / n_shear, 0.0) for k in range(n_shear)]
+    return Indenter(normal_force=tuple(normal), shear_force=tuple(tang) if n_shear else None)
+
+
+def _surface_difference(a, b) -> float:
+    """Largest difference of the nodal stress (Pa) of two solutions, relative to the
+    largest nodal stress."""
+    return float(np.abs(a.stress_nodes - b.stress_nodes).max() / np.abs(b.stress_nodes).max())
+
+
+def test_stick_does_not_depend_on_the_load_states(small_meshes):
+    """2 N under full stick in one load state and in eight: the same depth (0.3 %),
+    force and stresses. Before first-touch anchoring one state gave a depth 2 % larger
+    than sixteen on this block (0.3952 against 0.3874 mm at 3 N)."""
     mesh = small_meshes["quarter"]
-    ind = [Indenter(normal_force=(2.0,))]
     stick = ContactSettings(friction=math.inf)
-    ref, ref_stats = solve(mesh, ind, contact=stick)
-    assert ref_stats.reanchors == 0
-    real = fringekit.fea.newton.line_search
-    calls = {"n": 0}
+    one, _ = solve(mesh, [_states(2.0, 1)], contact=stick)
+    eight, _ = solve(mesh, [_states(2.0, 8)], contact=stick)
+    a, b = one[-1].indenters[0], eight[-1].indenters[0]
+    assert a.force[2] == pytest.approx(b.force[2], rel=1e-9)
+    assert a.depth == pytest.approx(b.depth, rel=3e-3)
+    assert _surface_difference(one[-1], eight[-1]) < 0.03
 
-    def stall_once(run, st, f_ind, dx, energy, rnorm):
-        calls["n"] += 1
-        if calls["n"] != 7:  # iteration 7 of the log: residual 9e-4 N, near equilibrium
-            return real(run, st, f_ind, dx, energy, rnorm)
-        if stall == "fails":
-            return None, 2.0**-8
-        trial, _ = real(run, st, f_ind, dx, energy, rnorm)
-        return trial, 2.0**-5  # reported as a crawl; the step itself is the real one
 
-    real_cycling = fringekit.fea.newton.is_cycling
-    seen = {"n": 0}
-
-    def cycles_once(history):
-        seen["n"] += 1
-        return seen["n"] == 7 or real_cycling(history)
-
-    if stall == "cycles":
-        monkeypatch.setattr(fringekit.fea.newton, "is_cycling", cycles_once)
-    else:
-        monkeypatch.setattr(fringekit.fea.newton, "line_search", stall_once)
-    sols, stats = solve(mesh, ind, contact=stick)
-    assert stats.reanchors == 1 and stats.cutbacks == 0
-    a, b = sols[-1].indenters[0], ref[-1].indenters[0]
-    assert a.force[2] == pytest.approx(-2.0, rel=1e-6)
-    assert a.depth == pytest.approx(b.depth, rel=1e-3)
-    calls["n"] = seen["n"] = 0
-    _, free = solve(mesh, ind)
-    assert free.reanchors == 0 and free.cutbacks == (1 if stall == "fails" else 0)
+@pytest.mark.slow
+def test_stick_with_shear_does_not_depend_on_the_load_states(small_meshes):
+    """2 N, then 0.6 N tangential under full stick: one normal and one tangential state
+    against four of each give the same depth and tangential displacement (0.5 %)."""
+    mesh = small_meshes["half"]
+    stick = ContactSettings(friction=math.inf)
+    one, _ = solve(mesh, [_states(2.0, 1, 0.6, 1)], contact=stick)
+    four, _ = solve(mesh, [_states(2.0, 4, 0.6, 4)], contact=stick)
+    a, b = one[-1].indenters[0], four[-1].indenters[0]
+    assert a.force[0] == pytest.approx(b.force[0], rel=1e-9)
+    assert a.depth == pytest.approx(b.depth, rel=3e-3)
+    assert a.centre[0] == pytest.approx(b.centre[0], rel=5e-3)
+    assert _surface_difference(one[-1], four[-1]) < 0.03

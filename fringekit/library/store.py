@@ -49,9 +49,18 @@ __all__ = [
     "sha256",
 ]
 
-#: 2: the manifest holds a checksum of its own (1: of the field files only; refused with
-#: the command that rebuilds it).
-FORMAT = "fringekit-library/2"
+#: 2: the manifest holds a checksum of its own (1: of the field files only).
+#: 3: under friction a point sticks where it first touches (fea.contact), so the
+#: stick fields of earlier libraries depend on the load steps they were built with.
+#: Older formats are refused with the command that rebuilds the library.
+FORMAT = "fringekit-library/3"
+#: Earlier formats -> why they are refused.
+_OLD_FORMATS = {
+    "fringekit-library/1": "its manifest.json has no checksum of its own, so edits to it "
+    "go unnoticed",
+    "fringekit-library/2": "its stick fields anchored each point where it was at the start "
+    "of a load step, so they depend on the load steps (up to 2 % in load)",
+}
 #: The arrays of a field file (module docstring).
 FIELD_KEYS = ("AB", "valid", "contact_radius_m", "centre_m", "force_N")
 
@@ -281,12 +290,11 @@ def _check_manifest(folder: Path, manifest: dict) -> None:
     """The format, and the manifest's checksum of itself (an edited grid, diameter or
     lattice would give other loads and heads than the fields were solved for)."""
     fmt = manifest.get("format")
-    if fmt == "fringekit-library/1":
+    if fmt in _OLD_FORMATS:
         raise _bad(
             folder,
-            "built by an earlier fringekit (format fringekit-library/1: its manifest.json "
-            f"has no checksum of its own, so edits to it go unnoticed); rebuild it: "
-            f"{_rebuild(folder, manifest)}",
+            f"built by an earlier fringekit (format {fmt}: {_OLD_FORMATS[fmt]}); rebuild "
+            f"it: {_rebuild(folder, manifest)}",
         )
     if fmt != FORMAT:
         raise _bad(folder, f"format {fmt!r} is not {FORMAT!r}")

@@ -1,7 +1,11 @@
 """Benchmark the contact solver on the reference cases.
 
-Usage: python bench/fea.py [--mesh coarse fine] [--case vertical shear reference plate4]
+Usage: python bench/fea.py [--quick] [--mesh coarse fine] [--case vertical shear reference plate4]
        [--json FILE]
+
+--quick runs the reference and plate4 cases on the coarse (default) mesh only. Before it
+starts, the script lists the cases with their expected time (fringekit.fea.estimate_solve);
+each case then prints the estimate against the time it took.
 
 vertical:  one 3.5 mm indenter, load path 1..8 N, quarter model.
 shear:     8 N vertical then 8 N shear along x with full stick, half model.
@@ -29,6 +33,7 @@ from fringekit.fea import (
     ContactSettings,
     Indenter,
     dimitriadis_force,
+    estimate_solve,
     hertz_force,
     solve,
 )
@@ -114,8 +119,15 @@ def _eight_newton(sol, centred: bool) -> dict:
     return out
 
 
+def _estimate(mesh, inds, contact):
+    return estimate_solve(
+        mesh.n_dofs, inds, E=SHEET_DEFAULT.E, h=mesh.spec.layers.sheet_thickness, contact=contact
+    )
+
+
 def run(case: str, mesh_name: str) -> dict:
     mesh, inds, contact = _problem(case, mesh_name)
+    est = _estimate(mesh, inds, contact)
     t0 = time.perf_counter()
     sols, stats = solve(mesh, inds, contact=contact, progress=True)
     elapsed = time.perf_counter() - t0
@@ -144,6 +156,10 @@ def run(case: str, mesh_name: str) -> dict:
         "factorizations": stats.factorizations,
         "factor_reuses": stats.factor_reuses,
         "cutbacks": stats.cutbacks,
+        "increments": stats.increments,
+        "estimate_s": est.seconds,
+        "estimate_increments": sum(est.increments),
+        "estimate_newton_iterations": est.newton_iterations,
         "peak_mem_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
         "states": states,
     }
@@ -192,6 +208,12 @@ def _report(res: dict, stats, elapsed: float) -> None:
     )
     print(f"   iterations per state {stats.iterations_per_state}, peak {res['peak_mem_mb']:.0f} MB")
     print(
+        f"   estimate {res['estimate_s']:.0f} s against {elapsed:.0f} s taken (ratio "
+        f"{elapsed / max(res['estimate_s'], 1e-9):.2f}); increments {res['estimate_increments']} "
+        f"expected, {stats.increments} taken; Newton iterations "
+        f"{res['estimate_newton_iterations']} expected, {n_it} taken"
+    )
+    print(
         f"   per Newton iteration: {stats.tangent_assemblies / n_it:.2f} tangent assemblies, "
         f"{stats.residual_evaluations / n_it:.2f} residual evaluations "
         f"({stats.tangent_assemblies} and {stats.residual_evaluations} over {n_it} "
@@ -216,8 +238,22 @@ def main() -> None:
     cases = ["vertical", "shear", "reference", "plate4"]
     p.add_argument("--case", nargs="+", default=cases, choices=cases)
     p.add_argument("--json", type=Path)
+    p.add_argument(
+        "--quick", action="store_true", help="the reference and plate4 cases, coarse mesh only"
+    )
     a = p.parse_args()
-    cases = [run(c, m) for c in a.case for m in a.mesh]
+    if a.quick:
+        a.case, a.mesh = ["reference", "plate4"], ["coarse"]
+    plan = [(c, m) for c in a.case for m in a.mesh]
+    total = 0.0
+    print("will run:")
+    for c, m in plan:
+        mesh, inds, contact = _problem(c, m)
+        est = _estimate(mesh, inds, contact)
+        total += est.seconds
+        print(f"   {c} on the {m} mesh: {est.text()}")
+    print(f"about {total / 60:.1f} min in all (2 cores; meshing not included)", flush=True)
+    cases = [run(c, m) for c, m in plan]
     if a.json:
         a.json.write_text(json.dumps({"cases": cases}, indent=2))
 

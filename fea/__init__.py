@@ -3,13 +3,15 @@
 Quadratic tets with mean dilatation (fea.assembly), neo-Hookean and Mooney-Rivlin solids
 and their Cauchy stress (fea.materials), augmented-Lagrangian sphere contact with Coulomb
 friction or full stick (fea.contact), the discrete problem (fea.model), Newton with line
-search (fea.newton), load stepping with cut-back (fea.solver), stress and contact
+search (fea.newton), load stepping with cut-back (fea.solver) and its cost before it
+starts (fea.estimate), stress and contact
 recovery (fea.recovery), one :class:`Solution` per load state (fea.solution), and the
 closed-form checks (fea.analytic).
 """
 
 from .analytic import depth_guess, dimitriadis_force, hertz_force
 from .contact import FRICTION_STICK
+from .estimate import SolveEstimate, estimate_solve
 from .linsolve import LinearSolver, available_backends
 from .materials import (
     POLYCARBONATE_DEFAULT,
@@ -43,6 +45,8 @@ __all__ = [
     "SolverError",
     "SolveStats",
     "solve",
+    "SolveEstimate",
+    "estimate_solve",
     "depth_guess",
     "dimitriadis_force",
     "hertz_force",

@@ -42,6 +42,8 @@ from .stats import SolveStats
 from .watchdog import Watchdog
 
 __all__ = [
+    "first_fraction",
+    "friction_limit",
     "solve",
     "SolverError",
     "SolveInterrupted",
@@ -155,6 +157,7 @@ def _reach_state(run: Run, st: State, s_done: float, k: int, ds: float, n_done: 
         if ok:
             st = trial
             s_done = s_new
+            run.stats.increments += 1
             ds = min(2 * ds, float(k) - s_done) if s_done < k else ds
         else:
             run.stats.cutbacks += 1
@@ -352,34 +355,57 @@ def _check_parents(parents, S: int) -> tuple[int, ...]:
     return out
 
 
-def _friction_cap(model: Model, s_done: float, k: int) -> float:
-    """The furthest load-path position the next increment from ``s_done`` may reach.
+def _whole_normal_loads(model: Model, s: float, k: int) -> np.ndarray:
+    """(m,) whole-indenter normal loads (N, pressing > 0) at load-path position ``s`` of
+    segment ``k``; 0 for indenters whose depth is prescribed."""
+    f, _ = model.targets(s, k)
+    z_free = np.array([model.z_free(j) for j in range(len(model.indenters))])
+    return np.where(z_free, -f[:, 2] / model.frac, 0.0)
 
-    With friction a point that comes into contact is anchored where the Newton iterates
-    first carry it across the contact condition (:func:`fea.contact.first_touch_anchors`),
-    along straight steps: the larger the increment, the further that path is from the
+
+def friction_limit(loads_from, loads_to, s_done: float, k: int) -> float:
+    """The furthest load-path position an increment from ``s_done`` may reach with friction.
+
+    A point that comes into contact is anchored where the Newton iterates first carry it
+    across the contact condition (:func:`fea.contact.first_touch_anchors`), along
+    straight steps: the larger the increment, the further that path is from the
     loading's. The normal loads therefore rise by at most :data:`FRICTION_STEP` per
     increment (the contact radius by about 8 %, a ~ F^(1/3)); the first increment from
-    the unloaded sheet is short too (:func:`_first_increment`). On the coarse test
-    block, 3 N in 1, 4, 8 and 16 load states then gives depths within 0.16 % of each
-    other (2 % with the doubling increments alone). A tangential load at a constant
-    normal one adds little contact and is not limited. Without friction, or when no
-    force-controlled normal load rises that much, there is no limit (``inf``).
+    the unloaded sheet is short too (:func:`first_fraction`). On the coarse test block,
+    3 N in 1, 4, 8 and 16 load states then gives depths within 0.16 % of each other (2 %
+    with the doubling increments alone). A tangential load at a constant normal one adds
+    little contact and is not limited.
+
+    Parameters
+    ----------
+    loads_from, loads_to : (m,) float arrays
+        Whole normal loads (N) at ``s_done`` and at the segment's end ``k``.
+    s_done : float
+        Load-path position reached (state k - 1 < s_done < k, or its parent's).
+    k : int
+        The load state the segment ends at.
+
+    Returns
+    -------
+    float, the position limit (``inf`` when no normal load rises that much).
+
+    Examples
+    --------
+    From 2 N towards 8 N in state 1, the next increment stops at 2.5 N:
+
+    >>> friction_limit([2.0], [8.0], 0.25, 1)
+    0.3125
     """
-    if model.contact.friction <= 0:
+    a, b = np.asarray(loads_from, float), np.asarray(loads_to, float)
+    rise = (a > 0) & (b > FRICTION_STEP * a)
+    if not np.any(rise):
         return np.inf
-    f0, _ = model.targets(s_done, k)
-    f1, _ = model.targets(float(k), k)
-    cap = np.inf
-    for j in range(len(model.indenters)):
-        a, b = -f0[j, 2], -f1[j, 2]
-        if model.z_free(j) and a > 0 and b > FRICTION_STEP * a:
-            cap = min(cap, s_done + (FRICTION_STEP - 1.0) * a / (b - a) * (k - s_done))
-    return cap
+    t = (FRICTION_STEP - 1.0) * a[rise] / (b[rise] - a[rise])
+    return float(s_done + t.min() * (k - s_done))
 
 
-def _first_increment(model: Model, k: int = 1) -> float:
-    """Load fraction of the first increment towards state k from the unloaded sheet.
+def first_fraction(loads, radii, E: float, h: float, friction: float) -> float:
+    """Load fraction of the first increment towards a state from the unloaded sheet.
 
     Placing an undeformed sheet against a sphere at a deep guessed depth starts Newton
     with a huge penalty residual (113 N for 8 N on the test block, 28 iterations of
@@ -389,17 +415,56 @@ def _first_increment(model: Model, k: int = 1) -> float:
     With friction it stops at :data:`FRICTION_FIRST` of that depth: the points it brings
     into contact are anchored along the sphere's straight approach to the flat sheet,
     which the sheet's own motion departs from as the contact grows.
+
+    Parameters
+    ----------
+    loads : (m,) float array
+        Whole normal loads (N) of the state; 0 where the depth is prescribed.
+    radii : (m,) float array
+        Sphere radii (m).
+    E : float
+        The sheet's Young's modulus (Pa).
+    h : float
+        Sheet thickness (m).
+    friction : float
+        Friction coefficient (0 frictionless, ``inf`` full stick).
+
+    Returns
+    -------
+    float in [0.05, 1].
+
+    Examples
+    --------
+    8 N on the reference sheet (3 mm, 4 MPa, 1.75 mm radius), without and with stick:
+
+    >>> round(first_fraction([8.0], [1.75e-3], 4e6, 3e-3, 0.0), 3)
+    0.31
+    >>> round(first_fraction([8.0], [1.75e-3], 4e6, 3e-3, float("inf")), 3)
+    0.051
     """
-    f1, _ = model.targets(float(k), k)
+    first = FIRST_DEPTH * h * (FRICTION_FIRST if friction > 0 else 1.0)
     frac = 1.0
-    E, h = model.sheet.E, model.thickness
-    for j, ind in enumerate(model.indenters):
-        if model.z_free(j) and f1[j, 2] < 0:
-            d = depth_guess(-f1[j, 2] / model.frac[j], ind.radius, E, h)
-            first = FIRST_DEPTH * h * (FRICTION_FIRST if model.contact.friction > 0 else 1.0)
+    for load, radius in zip(loads, radii, strict=True):
+        if load > 0:
+            d = depth_guess(float(load), float(radius), E, h)
             if d > first:
                 frac = min(frac, (first / d) ** 1.5)
     return max(frac, 0.05)
+
+
+def _friction_cap(model: Model, s_done: float, k: int) -> float:
+    """:func:`friction_limit` of the model's loads (``inf`` without friction)."""
+    if model.contact.friction <= 0:
+        return np.inf
+    a = _whole_normal_loads(model, s_done, k)
+    return friction_limit(a, _whole_normal_loads(model, float(k), k), s_done, k)
+
+
+def _first_increment(model: Model, k: int = 1) -> float:
+    """:func:`first_fraction` of load state k."""
+    radii = [ind.radius for ind in model.indenters]
+    loads = _whole_normal_loads(model, float(k), k)
+    return first_fraction(loads, radii, model.sheet.E, model.thickness, model.contact.friction)
 
 
 def _reached(model: Model, s: float, k: int | None = None) -> str:

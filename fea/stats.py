@@ -31,9 +31,9 @@ class SolveStats:
         Newton iterations of each load state.
     iteration_times : list of (float, float)
         Per Newton iteration: (wall time, factorization time) (s).
-    cutbacks, al_updates, cycle_breaks : int
-        Halved increments, augmented-Lagrangian multiplier updates, and updates made to
-        break a two-value cycle.
+    increments, cutbacks, al_updates, cycle_breaks : int
+        Converged load increments, halved increments, augmented-Lagrangian multiplier
+        updates, and updates made to break a two-value cycle.
     tangent_assemblies, residual_evaluations : int
         Element tangents formed, and body evaluations of energy and residual.
     factorizations, factor_reuses : int
@@ -68,6 +68,7 @@ class SolveStats:
     #: per Newton iteration: (wall time, factorization time) in s, from the tangent
     #: through the linear solve and the line search
     iteration_times: list = field(default_factory=list)
+    increments: int = 0
     cutbacks: int = 0
     al_updates: int = 0
     #: multiplier updates made to break a two-value cycle of the Newton iterates

@@ -34,6 +34,7 @@ __all__ = [
     "KeyMismatch",
     "save_solutions",
     "load_solutions",
+    "cache_entry",
     "solution_inputs",
     "solution_key",
     "solve_cached",
@@ -182,6 +183,37 @@ def solution_key(
     """SHA-256 over everything the converged states depend on."""
     text = solution_inputs(mesh, indenters, materials, contact, settings)
     return hashlib.sha256(text.encode()).hexdigest()
+
+
+def cache_entry(
+    mesh: Mesh,
+    indenters: Sequence[Indenter],
+    *,
+    materials: dict[int, Material],
+    contact: ContactSettings,
+    settings: SolverSettings,
+    cache_dir: str | os.PathLike | None = None,
+) -> Path:
+    """Where :func:`solve_cached` keeps (or would keep) the states of these inputs.
+
+    Examples
+    --------
+    >>> from fringekit.fea import ContactSettings, Indenter, SolverSettings
+    >>> from fringekit.fea.materials import POLYCARBONATE_DEFAULT, SHEET_DEFAULT
+    >>> from fringekit.meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh
+    >>> layers = Layers(sheet_thickness=2e-3, substrate_thickness=0.0, width=10e-3, length=10e-3)
+    >>> sizing = Sizing(h_contact=1e-3, refine_radius=1.5e-3, h_far=4e-3, h_sheet=2e-3)
+    >>> spec = MeshSpec(layers, (IndenterSite(radius=1e-3),), sizing, symmetry="quarter")
+    >>> mesh = build_mesh(spec, use_cache=False)
+    >>> path = cache_entry(mesh, [Indenter(radius=1e-3, normal_force=[0.2])],
+    ...                    materials={0: SHEET_DEFAULT, 1: POLYCARBONATE_DEFAULT},
+    ...                    contact=ContactSettings(), settings=SolverSettings(), cache_dir="c")
+    >>> path.parent.as_posix(), path.suffix
+    ('c/solutions', '.npz')
+    """
+    root = Path(cache_dir) if cache_dir is not None else default_cache_dir()
+    key = solution_key(mesh, indenters, materials, contact, settings)
+    return root / "solutions" / f"{key[:32]}.npz"
 
 
 def solve_cached(

@@ -230,13 +230,19 @@ def test_predict_end_to_end(tiny_run):
     assert used_config(load_config(out / "config.toml")) == s["config"]
 
 
-def test_predict_rerender_uses_the_cached_solution(tiny_run):
+def test_predict_rerender_uses_the_cached_solution(tiny_run, capsys):
+    """A re-render with other optics takes the cached states, and says so where a solve
+    would print its time estimate."""
     import imageio.v3 as iio
 
     root, out, args = tiny_run
     out2 = root / "out2"
-    args2 = [a if a != str(out) else str(out2) for a in args]
+    args2 = [a if a != str(out) else str(out2) for a in args if a != "--quiet"]
+    capsys.readouterr()
     assert main(args2 + ["--set", "optics.qwp_error_deg=10"]) == 0
+    cap = capsys.readouterr()
+    said = cap.out + cap.err
+    assert "in the solution cache" in said and "to solve on 2 cores" not in said, said
     s = json.loads((out2 / "summary.json").read_text())
     assert s["model"]["solution_from_cache"] is True
     a, b = (np.load(o / "state_01" / "maps.npz")["fringe_order"] for o in (out, out2))

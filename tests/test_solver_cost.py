@@ -11,10 +11,12 @@ import scipy.sparse as sp
 
 from fringekit.fea import (
     SHEET_DEFAULT,
+    ContactSettings,
     Indenter,
     LinearSolver,
     SolverSettings,
     available_backends,
+    estimate_solve,
     solve,
 )
 from fringekit.fea.linsolve import REFINE_RTOL
@@ -177,3 +179,19 @@ def test_increments_on_the_way_skip_multiplier_updates_when_frictionless(small_m
     _, s_mu = solve(mesh, [Indenter(normal_force=(8.0,))], contact=mu)
     assert s_mu.al_updates == s_mu_full.al_updates
     assert s_mu.newton_iterations == s_mu_full.newton_iterations
+
+
+@pytest.mark.parametrize("friction", [0.0, math.inf])
+def test_the_estimate_knows_the_increments_the_solver_takes(small_meshes, friction):
+    """The cost estimate steps the load as the solver does (first increment, doubling,
+    and with friction no normal load rising more than 1.25x per increment): the same
+    increments per state, frictionless and under full stick, on a path of two states."""
+    mesh = small_meshes["quarter"]
+    ind = [Indenter(normal_force=(1.0, 2.5))]
+    contact = ContactSettings(friction=friction)
+    _, stats = solve(mesh, ind, contact=contact)
+    est = estimate_solve(mesh.n_dofs, ind, E=SHEET_DEFAULT.E, h=3e-3, contact=contact)
+    assert stats.cutbacks == 0
+    assert sum(est.increments) == stats.increments
+    assert est.increments[1] == (5 if friction else 1)  # 1 -> 2.5 N: 1.25^4 < 2.5 < 1.25^5
+    assert est.seconds > 0 and f"{stats.increments} increment(s)" in est.text()

@@ -36,7 +36,8 @@ from fringekit.config.inputs import OpticsSetup, build_inputs
 from fringekit.config.model import Config, as_config
 from fringekit.errors import ComputeError, Interrupted
 from fringekit.fea import SolveInterrupted, SolverError, write_solution_vtu
-from fringekit.fea.store import solve_cached
+from fringekit.fea.estimate import estimate_solve
+from fringekit.fea.store import cache_entry, solve_cached
 from fringekit.meshes import build_mesh, quality_report
 from fringekit.output.folders import atomic_write, claim_output
 from fringekit.output.numbers import significant
@@ -141,23 +142,28 @@ def used_config(cfg: dict) -> dict:
     return used
 
 
-#: Measured solver cost on 2 cores (bench/fea.py, 2026-11-23): seconds per Newton iteration
-#: at 34.5k DOF, the exponent of its growth with DOF (34.5k: 0.58 s, 70k: 1.5 s, 144k:
-#: 5-6 s), and Newton iterations for the first load state (reference 22, four-head plate
-#: 23, six-head foot at 90k DOF 32 s) and each later one (4-5 on the 1..8 N path).
-_S_PER_ITERATION, _DOF_REF, _GROWTH, _FIRST_ITS, _LATER_ITS = 0.58, 34.5e3, 1.5, 20, 5
-
-
-def estimate_text(mesh, indenters) -> str:
-    """One line before solving: model size and a rough time estimate from measured rates."""
-    states = indenters[0].n_states
-    its = _FIRST_ITS + _LATER_ITS * (states - 1)  # indenters share their increments
-    t = its * _S_PER_ITERATION * (mesh.n_dofs / _DOF_REF) ** _GROWTH
-    return (
-        f"{mesh.n_dofs:,} DOF, {mesh.n_cells:,} cells, {states} load state(s); about "
-        f"{max(t, 1):.0f} s to solve on 2 cores (rough: ~{its} Newton iterations at the "
-        "measured rate; cached solutions take seconds)"
+def estimate_text(mesh, inp, *, cache_dir=None, use_cache: bool = True) -> str:
+    """One line before solving: model size and the expected increments and time
+    (:func:`fringekit.fea.estimate.estimate_solve`), or that the states are cached."""
+    if use_cache:
+        entry = cache_entry(
+            mesh,
+            inp.indenters,
+            materials=inp.materials,
+            contact=inp.contact,
+            settings=inp.settings,
+            cache_dir=cache_dir,
+        )
+        if entry.exists():
+            return f"{mesh.n_dofs:,} DOF; the states are in the solution cache ({entry.name})"
+    est = estimate_solve(
+        mesh.n_dofs,
+        inp.indenters,
+        E=inp.materials[0].E,
+        h=mesh.spec.layers.sheet_thickness,
+        contact=inp.contact,
     )
+    return est.text()
 
 
 @dataclass(frozen=True)
@@ -288,7 +294,7 @@ def predict(
     times = {"mesh_s": time.perf_counter() - t0}
     rep = quality_report(mesh.points, mesh.cells, mesh.regions)
     say(f"mesh: {rep}")
-    say(f"solve: {estimate_text(mesh, inp.indenters)}")
+    say(f"solve: {estimate_text(mesh, inp, cache_dir=cache_dir, use_cache=use_cache)}")
     t0 = time.perf_counter()
     sols, stats, cache_file, failure, interrupted = _solve(
         inp, mesh, cache_dir=cache_dir, use_cache=use_cache, progress=progress

@@ -3,7 +3,8 @@
 The increments are those :func:`fea.solve` takes when no increment is cut back: the first
 one from the unloaded sheet ends at :func:`fea.solver.first_fraction` of the load and the
 next ones double, and with friction no normal load rises by more than
-:data:`fea.solver.FRICTION_STEP` per increment (:func:`fea.solver.friction_limit`). The
+:data:`fea.solver.FRICTION_STEP` per increment and no tangential load changes by more
+than :data:`fea.solver.TANGENT_STEP` of the normal one (:func:`fea.solver.friction_limit`). The
 Newton iterations and the time per iteration are rates measured with ``bench/fea.py`` on
 2 cores (:data:`RATES`); the time per iteration grows with the DOF as a power
 (sparse factorization of a 3-D mesh, George & Liu, *Computer Solution of Large Sparse
@@ -43,7 +44,7 @@ RATES = {
 class SolveEstimate:
     """The expected cost of one solve without cut-backs.
 
-    Attributes
+    Parameters
     ----------
     dofs : int
         Degrees of freedom of the mesh.
@@ -55,6 +56,13 @@ class SolveEstimate:
         Expected Newton iterations in all.
     seconds : float
         Expected wall time on 2 cores (s).
+
+    Examples
+    --------
+    >>> est = SolveEstimate(dofs=34_500, states=1, increments=(3,), newton_iterations=22,
+    ...                     seconds=11.6)
+    >>> est.text()[:51]
+    '34,500 DOF, 1 load state(s) in 3 increment(s); abou'
     """
 
     dofs: int
@@ -73,14 +81,16 @@ class SolveEstimate:
         )
 
 
-def _normal_loads(indenters: Sequence[Indenter]) -> np.ndarray:
-    """(S + 1, m) whole normal loads per state (row 0 unloaded); 0 under depth control."""
+def _loads(indenters: Sequence[Indenter]) -> tuple[np.ndarray, np.ndarray]:
+    """(S + 1, m) whole normal loads per state (row 0 unloaded; 0 under depth control)
+    and (S + 1, m, 2) tangential ones."""
     S = indenters[0].n_states
-    out = np.zeros((S + 1, len(indenters)))
+    normal, shear = np.zeros((S + 1, len(indenters))), np.zeros((S + 1, len(indenters), 2))
     for j, ind in enumerate(indenters):
         if ind.force_control:
-            out[1:, j] = ind.normal_targets()
-    return out
+            normal[1:, j] = ind.normal_targets()
+        shear[1:, j] = ind.shear_targets()
+    return normal, shear
 
 
 def increment_schedule(
@@ -121,7 +131,7 @@ def increment_schedule(
     >>> increment_schedule(ind, E=4e6, h=3e-3, friction=float("inf"))
     (15,)
     """
-    L = _normal_loads(indenters)
+    L, T = _loads(indenters)
     S = len(L) - 1
     parents = list(parents) if parents is not None else list(range(S))
     radii = [ind.radius for ind in indenters]
@@ -138,8 +148,9 @@ def increment_schedule(
         while s_done < k - 1e-12:
             cap = np.inf
             if friction > 0:
-                here = L[p] + (s_done - (k - 1)) * (L[k] - L[p])
-                cap = friction_limit(here, L[k], s_done, k)
+                t = s_done - (k - 1)
+                here, there = L[p] + t * (L[k] - L[p]), T[p] + t * (T[k] - T[p])
+                cap = friction_limit(here, L[k], s_done, k, there, T[k])
             s_done = min(s_done + ds, float(k), cap)
             ds = min(2 * ds, float(k) - s_done) if s_done < k else ds
             n += 1

@@ -255,16 +255,19 @@ def invert(
 
     Examples
     --------
-    The small built-in sensor's 8 N dark-field image, read back with a small library of
-    the same sensor (about 30 s in all on 2 cores):
+    The small built-in sensor's 8 N dark-field image under full stick (what a library
+    models), read back with a small library of the same sensor (about 40 s in all on 2
+    cores; the frictionless image, whose surface flows inwards under the sphere, reads
+    8.40 N):
 
     >>> import tempfile, fringekit
     >>> lib = fringekit.build_library("small", tempfile.mkdtemp() + "/lib",
     ...                               loads=[4, 8, 12], ratios=[0, 0.4], progress=False)
-    >>> folder = fringekit.predict("small").write(tempfile.mkdtemp())
+    >>> stick = fringekit.Config.builtin("small").replace({"contact.friction": "stick"})
+    >>> folder = fringekit.predict(stick).write(tempfile.mkdtemp())
     >>> inv = fringekit.invert(folder / "state_01" / "dark_field.png", lib, pixel_mm=12 / 64)
     >>> loads = inv.table()
-    >>> len(loads["Fz_N"]), bool(abs(loads["Fz_N"][0] - 8.0) < 0.4), bool(loads["reliable"][0])
+    >>> len(loads["Fz_N"]), bool(abs(loads["Fz_N"][0] - 8.0) < 0.2), bool(loads["reliable"][0])
     (1, True, True)
     """
     t0 = time.perf_counter()

@@ -199,6 +199,30 @@ class DiscCalibration:
         return out
 
 
+def _fit(discs, geometry, D, t, field, shared, residual_field):
+    """The uniform-residual fit, or (``residual_field``) the series fit; and the worst
+    residual left to judge (0 after a series fit, which judges its loads itself)."""
+    fit = fit_disc_photos(
+        discs, geometry, diameter=D, thickness=t, field=field, shared_light=shared
+    )
+    worst = max(fit.residuals)
+    distinct = len({d.load_N for d in discs})
+    if residual_field == "series" or (
+        residual_field == "auto" and worst > WARN_RESIDUAL and distinct >= MIN_SERIES
+    ):
+        fit = fit_disc_series(discs, geometry, diameter=D, thickness=t, field=field)
+        _check_loads(fit, [d.name for d in discs])
+        return fit, 0.0
+    if worst > REFUSE_RESIDUAL and residual_field == "auto":
+        raise RefusedError(
+            f"--disc: Frocht's field with a uniform residual order leaves an RMS residual of "
+            f"{100 * worst:.0f} % of the fringe amplitude; a frozen field that varies over the "
+            f"disc needs a load series: at least {MIN_SERIES} photographs at distinct loads "
+            f"(given {distinct}; a zero-load --reference counts)"
+        )
+    return fit, worst
+
+
 def calibrate_disc(
     images,
     *,
@@ -312,24 +336,7 @@ def calibrate_disc(
         f"{geometry.radius_px:.1f} px from the {how}; fitting {len(photos)} photograph(s)"
     )
     discs = [DiscImage(p, P, n) for p, P, n in zip(photos, all_loads, names, strict=True)]
-    fit = fit_disc_photos(
-        discs, geometry, diameter=D, thickness=t, field=field, shared_light=reference is not None
-    )
-    worst = max(fit.residuals)
-    distinct = len(set(all_loads))
-    if residual_field == "series" or (
-        residual_field == "auto" and worst > WARN_RESIDUAL and distinct >= MIN_SERIES
-    ):
-        fit = fit_disc_series(discs, geometry, diameter=D, thickness=t, field=field)
-        _check_loads(fit, names)
-        worst = 0.0
-    elif worst > REFUSE_RESIDUAL and residual_field == "auto":
-        raise RefusedError(
-            f"--disc: Frocht's field with a uniform residual order leaves an RMS residual of "
-            f"{100 * worst:.0f} % of the fringe amplitude; a frozen field that varies over the "
-            f"disc needs a load series: at least {MIN_SERIES} photographs at distinct loads "
-            f"(given {distinct}; a zero-load --reference counts)"
-        )
+    fit, worst = _fit(discs, geometry, D, t, field, reference is not None, residual_field)
     if worst > REFUSE_RESIDUAL:
         raise RefusedError(
             f"--disc: Frocht's field leaves an RMS residual of {100 * worst:.0f} % of the fringe "

@@ -34,6 +34,7 @@ from fringekit.calibrate.disc_photo import (
     disc_coordinates,
     fit_disc_photos,
 )
+from fringekit.calibrate.disc_series import MIN_SERIES, fit_disc_series
 from fringekit.errors import InputError, RefusedError
 from fringekit.optics import DiametralDisc
 from fringekit.output.figures import disc_fit_figure
@@ -198,6 +199,30 @@ class DiscCalibration:
         return out
 
 
+def _fit(discs, geometry, D, t, field, shared, residual_field):
+    """The uniform-residual fit, or (``residual_field``) the series fit; and the worst
+    residual left to judge (0 after a series fit, which judges its loads itself)."""
+    fit = fit_disc_photos(
+        discs, geometry, diameter=D, thickness=t, field=field, shared_light=shared
+    )
+    worst = max(fit.residuals)
+    distinct = len({d.load_N for d in discs})
+    if residual_field == "series" or (
+        residual_field == "auto" and worst > WARN_RESIDUAL and distinct >= MIN_SERIES
+    ):
+        fit = fit_disc_series(discs, geometry, diameter=D, thickness=t, field=field)
+        _check_loads(fit, [d.name for d in discs])
+        return fit, 0.0
+    if worst > REFUSE_RESIDUAL and residual_field == "auto":
+        raise RefusedError(
+            f"--disc: Frocht's field with a uniform residual order leaves an RMS residual of "
+            f"{100 * worst:.0f} % of the fringe amplitude; a frozen field that varies over the "
+            f"disc needs a load series: at least {MIN_SERIES} photographs at distinct loads "
+            f"(given {distinct}; a zero-load --reference counts)"
+        )
+    return fit, worst
+
+
 def calibrate_disc(
     images,
     *,
@@ -212,6 +237,7 @@ def calibrate_disc(
     pixel_mm=None,
     dark=None,
     echo=None,
+    residual_field="auto",
 ) -> DiscCalibration:
     """The material fringe value from photographs of a disc in diametral compression.
 
@@ -242,6 +268,12 @@ def calibrate_disc(
         A dark frame subtracted from every photograph.
     echo : callable, optional
         Where the one line on the disc found goes (default: nowhere).
+    residual_field : {"auto", "uniform", "series"}
+        The frozen stress: ``uniform`` a residual order common to the whole disc;
+        ``series`` any smooth frozen field, by load stepping over a series of at least
+        four distinct loads (:func:`fringekit.calibrate.disc_series.fit_disc_series`);
+        ``auto`` (default) uniform, and the series fit when the uniform one leaves more
+        than 4 % of the fringe amplitude and the series is long enough.
 
     Returns
     -------
@@ -304,10 +336,7 @@ def calibrate_disc(
         f"{geometry.radius_px:.1f} px from the {how}; fitting {len(photos)} photograph(s)"
     )
     discs = [DiscImage(p, P, n) for p, P, n in zip(photos, all_loads, names, strict=True)]
-    fit = fit_disc_photos(
-        discs, geometry, diameter=D, thickness=t, field=field, shared_light=reference is not None
-    )
-    worst = max(fit.residuals)
+    fit, worst = _fit(discs, geometry, D, t, field, reference is not None, residual_field)
     if worst > REFUSE_RESIDUAL:
         raise RefusedError(
             f"--disc: Frocht's field leaves an RMS residual of {100 * worst:.0f} % of the fringe "
@@ -322,6 +351,7 @@ def calibrate_disc(
             "uneven residual stress, or fringes too dense for the pixels"
         )
     g = fit.geometry
+    series = getattr(fit, "load_scales", None) is not None
     summary = {
         "disc": {
             "centre_px": [float(g.row), float(g.col)],
@@ -338,8 +368,16 @@ def calibrate_disc(
         "sd_method": fit.sd_method,
         "model_evaluations": fit.evaluations,
         "warnings": warnings,
+        "residual_field": "series" if series else "uniform",
         "time_s": time.perf_counter() - t0,
     }
+    if series:
+        summary["series"] = {
+            "load_scales": list(fit.load_scales),
+            "own_centre_orders": list(fit.own_centre_orders),
+            "r_squared": fit.r_squared,
+            "offset_order_is": "the frozen order at the centre modulo one fringe",
+        }
     images_out = [
         {"file": n, "load_N": P, "centre_order": float(c), "residual_rms": float(r)}
         for n, P, c, r in zip(names, all_loads, fit.centre_orders, fit.residuals, strict=True)
@@ -354,6 +392,23 @@ def calibrate_disc(
         photos,
         orders,
     )
+
+
+#: Largest departure of a photograph's best-fitting load from its --load-N in a series.
+LOAD_TOLERANCE = 0.03
+
+
+def _check_loads(fit, names) -> None:
+    """Refuse a series whose photographs disagree with their loads (one line)."""
+    off = [(abs(s - 1), s, n) for s, n in zip(fit.load_scales, names, strict=True) if s == s]
+    worst, scale, name = max(off)
+    if worst > LOAD_TOLERANCE:
+        scales = ", ".join(f"{s:.3f}" for s in fit.load_scales if s == s)
+        raise RefusedError(
+            f"--load-N: the photographs' fringe orders are not proportional to the loads: "
+            f"{Path(name).name} fits a load {100 * (scale - 1):+.0f} % off its --load-N "
+            f"(best factor per photo {scales}; allowed within {100 * LOAD_TOLERANCE:.0f} %)"
+        )
 
 
 def run_disc_photos(
@@ -371,6 +426,7 @@ def run_disc_photos(
     pixel_mm=None,
     dark=None,
     echo=print,
+    residual_field="auto",
 ) -> dict:
     """``fringekit calibrate --disc``: :func:`calibrate_disc`, then write ``out``."""
     with claim_output(out, command="calibrate", inputs=[*images, reference, dark]) as work:
@@ -387,6 +443,7 @@ def run_disc_photos(
             pixel_mm=pixel_mm,
             dark=dark,
             echo=echo,
+            residual_field=residual_field,
         )
         cal.write(work)
     return {**cal.result(), "summary": cal.summary}

@@ -82,6 +82,14 @@ def add_parser(sub) -> None:
         default="dark",
         help="(disc) polariscope field of the photographs",
     )
+    ca.add_argument(
+        "--residual-field",
+        choices=("auto", "uniform", "series"),
+        default="auto",
+        help="(disc) frozen stress: uniform (one residual order), series (any smooth "
+        "field, by load stepping; at least 4 photos at distinct loads), auto (uniform, "
+        "then series when that leaves over 4 %% of the fringe amplitude)",
+    )
     ca.add_argument("--dark", default=None, help="(disc) dark frame subtracted from every photo")
     ca.add_argument("--pixel-mm", type=in_range(PIXEL_MM), default=None)
     ca.add_argument("--centre", nargs=2, type=finite, metavar=("ROW", "COL"))
@@ -110,6 +118,7 @@ def _disc_photos(args: argparse.Namespace) -> int:
         pixel_mm=args.pixel_mm,
         dark=args.dark,
         echo=(lambda s: None) if args.quiet else print,
+        residual_field=args.residual_field,
     )
     print(
         f"fringe value f_sigma = {res['f_sigma_N_per_m']:.5g} +- {res['f_sigma_sd_N_per_m']:.2g} "

@@ -339,7 +339,8 @@ def calibrate_disc(
     fit, worst = _fit(discs, geometry, D, t, field, reference is not None, residual_field)
     if worst > REFUSE_RESIDUAL:
         raise RefusedError(
-            f"--disc: Frocht's field leaves an RMS residual of {100 * worst:.0f} % of the fringe "
+            f"--disc: Frocht's field leaves an RMS residual of "
+            f"{'over 100' if worst > 1 else f'{100 * worst:.0f}'} % of the fringe "
             "amplitude: the photographs are not explained as a disc in diametral compression "
             "(check --load-N, --diameter-mm, --field, the disc found, or give --centre/--radius-px)"
         )

@@ -123,7 +123,8 @@ def test_ctrl_c_during_the_solve_keeps_the_converged_states(folder, capsys, monk
 def test_predict_says_the_model_size_and_an_estimate_before_solving(folder, capsys):
     root, out, _ = folder
     cfg = root / "tiny.toml"
-    code = main(["predict", str(cfg), "--out", str(root / "loud")])
+    fresh = root / "fresh-cache"  # a solve, not a cache hit
+    code = main(["predict", str(cfg), "--out", str(root / "loud"), "--cache-dir", str(fresh)])
     said = capsys.readouterr().out
     assert code == 0
     line = next(x for x in said.splitlines() if x.startswith("solve:") and "DOF" in x)

@@ -163,7 +163,7 @@ def estimate_text(mesh, inp, *, cache_dir=None, use_cache: bool = True) -> str:
         h=mesh.spec.layers.sheet_thickness,
         contact=inp.contact,
     )
-    return est.text()
+    return f"{mesh.n_cells:,} cells, {est.text()}"
 
 
 @dataclass(frozen=True)

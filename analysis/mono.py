@@ -73,6 +73,10 @@ CAP_EXTREME = 0.1
 #: Width (px) of the edge of the region where a cap's side is not trusted.
 EDGE_PX = 2
 
+#: Pixels this close (px) to unresolved fringes (:func:`analysis.envelope.unresolved`)
+#: are unreliable: loops smaller than a band may have been merged there.
+NEAR_DENSE_PX = 3
+
 
 @dataclass(frozen=True)
 class MonoResult:
@@ -375,6 +379,20 @@ def _sides(u, d, labels, nominal, anchor_mask, start):
     return side, centres, blind, caps
 
 
+def _pit_or_hill(caps, start, nominal, pairs):
+    """Caps whose only neighbours are anchor bands above order 0: the band may be a hill
+    (order up by 1/2) or a pit (down by 1/2, an isotropic point of the far field, beside a
+    crack tip) - the count cannot tell."""
+    other = np.zeros(len(caps), bool)
+    a, b = (pairs[:, 0], pairs[:, 1]) if len(pairs) else (np.zeros(0, int),) * 2
+    np.logical_or.at(other, a, ~start[b])
+    np.logical_or.at(other, b, ~start[a])
+    lowest = np.full(len(caps), np.inf)
+    np.minimum.at(lowest, a, np.where(start[b], nominal[b], np.inf))
+    np.minimum.at(lowest, b, np.where(start[a], nominal[a], np.inf))
+    return caps & ~other & np.isfinite(lowest) & (lowest >= 0.5)
+
+
 def _smoothed_noise_sd(image: np.ndarray, mask: np.ndarray, smooth_px: float) -> float:
     """Per-pixel noise of the smoothed image: :func:`analysis.images.image_noise_sd` times the
     Gaussian filter's noise gain 1 / (2 sqrt(pi) sigma)."""
@@ -492,6 +510,16 @@ def mono_order(
     # can reach the lower side along the edge: cap pixels on the edge off the line
     edge = mask & ~ndimage.binary_erosion(mask, iterations=EDGE_PX, border_value=1)
     cap_px |= caps[labels] & (labels > 0) & edge & (d >= CAP_EXTREME / 2)
+    # fringes denser than the pixels (a crack tip, a load point) belong to no band; a cap
+    # that runs into them may rise beyond what is seen, and next to them tiny loops were
+    # merged as noise: neither is counted
+    dense = mask & (labels == 0)
+    near_dense = ndimage.binary_dilation(dense, iterations=NEAR_DENSE_PX) if dense.any() else dense
+    touches = np.bincount(
+        labels[ndimage.binary_dilation(dense) & (labels > 0)], minlength=len(caps)
+    )
+    cap_px |= ((caps & (touches > 0))[labels] & (labels > 0)) | near_dense
+    cap_px |= _pit_or_hill(caps, start, nominal, pairs)[labels] & (labels > 0)
     # a pixel clearly on the other side of u = 1/2 than its band: an island merged as noise
     island = ((u > 0.5) != is_bright[labels]) & (np.abs(u - 0.5) > 3 * sd_u)
     reliable = np.isfinite(order) & ~cap_px & ~island & ~conflict[labels]
@@ -505,6 +533,8 @@ def mono_order(
         "blind_cap_bands": int(np.sum(blind[1:])),
         "anchor_bands": int(start.sum()),
         "conflicting_bands": int(conflict.sum()),
+        "unresolved_px": int(dense.sum()),
+        "pit_or_hill_bands": int(_pit_or_hill(caps, start, nominal, pairs).sum()),
         "envelope": env.method,
         "envelope_from_centres": list(env.sampled),
         "envelope_samples": env.samples,

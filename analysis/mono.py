@@ -73,6 +73,10 @@ CAP_EXTREME = 0.1
 #: Width (px) of the edge of the region where a cap's side is not trusted.
 EDGE_PX = 2
 
+#: The anchor says which field the image is in when both its order and its normalised
+#: intensity are this far from the half-way 1/2 (a whole or half order, dark or bright).
+FIELD_CLEAR = 0.25
+
 #: Pixels this close (px) to unresolved fringes (:func:`analysis.envelope.unresolved`)
 #: are unreliable: loops smaller than a band may have been merged there.
 NEAR_DENSE_PX = 3
@@ -99,7 +103,10 @@ class MonoResult:
     envelope : Envelope
         The fringe envelope the image was normalised by.
     info : dict
-        Counts and the envelope's figures, for reports.
+        Counts and the envelope's figures, for reports; ``field_implied`` is the field
+        that the anchor's intensity and order imply (``""`` when the anchor sits between
+        a dark and a bright fringe): a whole order is dark in dark field and bright in
+        bright field, so a bright anchor at a whole order says the field given is wrong.
 
     Examples
     --------
@@ -393,6 +400,21 @@ def _pit_or_hill(caps, start, nominal, pairs):
     return caps & ~other & np.isfinite(lowest) & (lowest >= 0.5)
 
 
+def _implied_field(field, u, anchor, anchor_order):
+    """The field that the anchor's intensity implies (module doc), its normalised
+    intensity (dark-field sense u, median over the anchor) and its median order."""
+    known = np.broadcast_to(np.asarray(anchor_order, float), u.shape)[anchor]
+    seen = u[anchor]
+    if not (np.isfinite(known).any() and np.isfinite(seen).any()):
+        return "", float("nan"), float("nan")
+    a0, seen = float(np.nanmedian(known)), float(np.nanmedian(seen))
+    expect = np.sin(np.pi * a0) ** 2  # dark field, Dally and Riley ch. 6
+    if abs(expect - 0.5) < FIELD_CLEAR or abs(seen - 0.5) < FIELD_CLEAR:
+        return "", seen, a0  # the anchor sits between a dark and a bright fringe
+    other = "bright" if field == "dark" else "dark"
+    return (field if (seen > 0.5) == (expect > 0.5) else other), seen, a0
+
+
 def _smoothed_noise_sd(image: np.ndarray, mask: np.ndarray, smooth_px: float) -> float:
     """Per-pixel noise of the smoothed image: :func:`analysis.images.image_noise_sd` times the
     Gaussian filter's noise gain 1 / (2 sqrt(pi) sigma)."""
@@ -527,7 +549,12 @@ def mono_order(
     # without a half-order fringe centre (or a flat field) the fringe amplitude is the
     # image's own range: a photo whose orders stay below 1/2 would be stretched to it
     reliable &= "high" in env.sampled
+    implied, seen, a0 = _implied_field(field, u, anchor, anchor_order)
     info = {
+        "field": field,
+        "field_implied": implied,
+        "anchor_intensity": seen,
+        "anchor_order_median": a0,
         "bands": int(len(is_bright) - 1),
         "ordered_bands": int(np.isfinite(nominal[1:]).sum()),
         "blind_cap_bands": int(np.sum(blind[1:])),

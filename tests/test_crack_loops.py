@@ -5,10 +5,13 @@ denser than the pixels at the tip) nothing is marked reliable."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
 from fringekit.analysis import circle_mask, mono_order, normalise, polygon_mask
+from fringekit.cli.main import main
 from fringekit.optics import (
     Camera,
     PhotoModel,
@@ -16,6 +19,7 @@ from fringekit.optics import (
     crack_tip_field,
     dark_field_circular,
     photograph,
+    write_image,
 )
 
 #: 8-bit camera, residual birefringence, 30 % vignetting, 2 % glare, JPEG quality 90
@@ -72,3 +76,52 @@ def test_loops_about_a_crack_tip_count_up_one_order_each(crack, field, masked):
     assert wrong.sum() == 0, (int(wrong.sum()), np.argwhere(wrong)[:5].tolist())
     assert not res.reliable[roi & (order > 3.0)].any()
     assert res.info["unresolved_px"] > 0
+
+
+def test_an_anchor_that_contradicts_the_field_is_reported(crack, tmp_path, capsys):
+    """The far field is bright in dark field (order 1/2). Anchored there at order 1 (a
+    whole order, dark in dark field) the result says the image looks like bright field,
+    and analyze warns in one line naming --field and the anchor; anchored at 1/2 it says
+    dark and does not warn. A bright-field photo analysed as dark field with the true
+    anchor is caught the same way. Before, --field was taken as given, silently."""
+    order, q, _ = crack
+    dark = photograph(q, dark_field_circular(), CAMERA, REALISTIC, seed=1)
+    bright = photograph(q, bright_field_circular(), CAMERA, REALISTIC, seed=1)
+    anchor = _anchors(np.ones(order.shape, bool))
+    for img, n, field, implied in [
+        (dark, FAR, "dark", "dark"),
+        (dark, 1.0, "dark", "bright"),
+        (bright, FAR, "dark", "bright"),
+        (bright, FAR, "bright", "bright"),
+    ]:
+        res = mono_order(normalise(img).data, field=field, anchor_mask=anchor, anchor_order=n)
+        assert res.info["field_implied"] == implied, (n, field, res.info["field_implied"])
+    write_image(tmp_path / "crack.png", dark)
+    point = ["--order-at", str(TIP[0]), str(COLS - 8)]
+    for n, warns in [("0.5", False), ("1", True)]:
+        out = tmp_path / n
+        assert (
+            main(
+                [
+                    "analyze",
+                    str(tmp_path / "crack.png"),
+                    "--method",
+                    "mono",
+                    *point,
+                    n,
+                    "--out",
+                    str(out),
+                    "--quiet",
+                ]
+            )
+            == 0
+        )
+        err = capsys.readouterr().err.strip()
+        s = json.loads((out / "summary.json").read_text())
+        assert s["mono"]["field_implied"] == ("bright" if warns else "dark")
+        if warns:
+            assert err.count("\n") == 0 and "--field dark contradicts the anchor" in err, err
+            assert f"--order-at {TIP[0]} {COLS - 8} 1 is bright" in err, err
+            assert "give --field bright" in err, err
+        else:
+            assert "--field" not in err, err

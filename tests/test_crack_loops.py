@@ -9,6 +9,7 @@ import json
 
 import numpy as np
 import pytest
+from scipy import ndimage
 
 from fringekit.analysis import circle_mask, mono_order, normalise, polygon_mask
 from fringekit.cli.main import main
@@ -76,6 +77,46 @@ def test_loops_about_a_crack_tip_count_up_one_order_each(crack, field, masked):
     assert wrong.sum() == 0, (int(wrong.sum()), np.argwhere(wrong)[:5].tolist())
     assert not res.reliable[roi & (order > 3.0)].any()
     assert res.info["unresolved_px"] > 0
+
+
+def _wrongly_counted(res, order):
+    """Pixels of bands counted to another order than their truth: each connected band
+    of one counted order against the median true order of its pixels, to the half."""
+    wrong = np.zeros(order.shape, bool)
+    for n in np.unique(res.band_order[np.isfinite(res.band_order)]):
+        parts, k = ndimage.label(res.band_order == n)
+        truth = ndimage.median(order, parts, np.arange(1, k + 1))
+        bad = np.flatnonzero(np.round(2 * np.asarray(truth)) / 2 != n) + 1
+        wrong |= np.isin(parts, bad)
+    return wrong
+
+
+@pytest.mark.parametrize("field", ["dark", "bright"])
+@pytest.mark.parametrize("masked", [False, True])
+def test_one_far_field_anchor_leaves_the_far_side_of_the_loops_unreliable(crack, field, masked):
+    """The user's setup: one --order-at in the far field ahead of the tip. The far field
+    behind the tip (true 0.5, with pits of order 0 beside the crack) is reached only
+    across the 1.0 band that runs from the tip to the image's frame: the count went on up
+    (1.5, the pits 2.0) and marked it reliable - 32,000-35,000 pixels of wrongly counted
+    bands and 3,900-4,300 more above order 0.8 off by up to 0.5. Now none of them is
+    reliable, and the closed loops the anchor reaches (1.5, 2) are still counted within
+    0.1 (measured 0.009-0.017) and as reliable as with three anchors."""
+    order, q, line = crack
+    arrangement = dark_field_circular() if field == "dark" else bright_field_circular()
+    img = normalise(photograph(q, arrangement, CAMERA, REALISTIC, seed=1)).data
+    roi = ~line if masked else np.ones(order.shape, bool)
+    anchor = circle_mask((ROWS, COLS), (TIP[0], COLS - 8), 3) & roi
+    res = mono_order(img, mask=roi, field=field, anchor_mask=anchor, anchor_order=FAR)
+    wrong = res.reliable & _wrongly_counted(res, order)
+    assert wrong.sum() == 0, (int(wrong.sum()), np.argwhere(wrong)[:5].tolist())
+    err = np.abs(res.order - order)
+    off = roi & res.reliable & (order > 0.8) & (err > 0.1)
+    assert off.sum() == 0, (int(off.sum()), np.argwhere(off)[:5].tolist())
+    for n, least in [(1.5, 0.9), (2.0, 0.4)]:
+        ring = roi & (np.abs(order - n) < 0.05)
+        assert np.nanmedian(err[ring]) < 0.1, (n, np.nanmedian(err[ring]))
+        assert res.reliable[ring].mean() >= least, (n, res.reliable[ring].mean())
+    assert res.info["bands_rising_away"] > 0
 
 
 def test_an_anchor_that_contradicts_the_field_is_reported(crack, tmp_path, capsys):

@@ -35,6 +35,7 @@ __all__ = [
     "fit_envelope",
     "flat_field_envelope",
     "smooth_surface",
+    "unresolved",
 ]
 
 
@@ -86,23 +87,90 @@ MIN_BAND_PX = 64
 
 
 def band_labels(u: np.ndarray, mask: np.ndarray, min_px: int = MIN_BAND_PX):
-    """Bright (u > 0.5) and dark bands of a normalised image, islands < ``min_px`` removed.
+    """Bright (u > 0.5) and dark bands of a normalised image, islands < ``min_px`` removed,
+    and the fringes too dense to resolve cut out.
 
-    Returns (labels (rows, cols) int, 0 outside ``mask``; bright (n_bands + 1,) bool per
-    label, index 0 unused). Dark bands are 4-connected and bright bands 8-connected (the
-    usual pairing of digital topology), so two bands that meet are always one bright and
-    one dark.
+    Returns (labels (rows, cols) int, 0 outside ``mask`` and on unresolved fringes; bright
+    (n_bands + 1,) bool per label, index 0 unused). Dark bands are 4-connected and bright
+    bands 8-connected (the usual pairing of digital topology), so two bands that meet are
+    always one bright and one dark. Where three bands meet within 3 x 3 pixels (a fringe
+    narrower than about two pixels: the fringes converge on a singular point such as a
+    crack tip or a load point) the pixels, and :data:`DENSE_MARGIN` px about them, belong
+    to no band: there every fringe touches every other one, and bands that are orders
+    apart would join into one.
     """
     bright = np.nan_to_num(u, nan=0.0) > 0.5
     bright = remove_small_objects(bright & mask, max_size=min_px) | (bright & ~mask)
     bright = remove_small_holes(bright | ~mask, max_size=min_px) & mask
-    dark = mask & ~bright
-    lab_b, nb = ndimage.label(bright, structure=np.ones((3, 3)))
-    lab_d, nd = ndimage.label(dark)
-    labels = np.where(bright, lab_b + nd, lab_d)
+    labels, is_bright = _label(bright, mask)
+    dense = unresolved(labels) | _thin(bright, mask)
+    if dense.any():
+        labels, is_bright = _label(bright, mask & ~dense)
+    return labels, is_bright
+
+
+#: Margin (px) about unresolved fringes that belongs to no band either.
+DENSE_MARGIN = 2
+
+
+def _label(bright, mask):
+    lab_b, nb = ndimage.label(bright & mask, structure=np.ones((3, 3)))
+    lab_d, nd = ndimage.label(mask & ~bright)
+    labels = np.where(bright & mask, lab_b + nd, lab_d)
     is_bright = np.zeros(nb + nd + 1, bool)
     is_bright[nd + 1 :] = True
     return labels, is_bright
+
+
+def _thin(bright, mask):
+    """Pixels within 3 x 3 of which every pixel touches the other kind (bright / dark):
+    bands at most two pixels wide on both sides, a fringe period of about four pixels."""
+    dt = np.where(
+        bright,
+        ndimage.distance_transform_edt(~(mask & ~bright)),
+        ndimage.distance_transform_edt(~(mask & bright)),
+    )
+    thin = ndimage.maximum_filter(np.where(mask, dt, 0), size=3) <= 1.0
+    thin &= mask
+    if thin.any():
+        thin = ndimage.binary_dilation(thin, iterations=DENSE_MARGIN)
+    return thin & mask
+
+
+def unresolved(labels: np.ndarray) -> np.ndarray:
+    """Pixels whose 3 x 3 neighbourhood holds three or more bands (label > 0), grown by
+    :data:`DENSE_MARGIN` px: fringes denser than the pixels.
+
+    Parameters
+    ----------
+    labels : (rows, cols) int array
+        Band labels, 0 for no band (:func:`band_labels`).
+
+    Returns
+    -------
+    (rows, cols) bool array
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.analysis.envelope import unresolved
+    >>> bands = np.repeat([[1, 1, 1, 2, 3, 3, 3, 3, 3, 3]], 3, axis=0)  # band 2: 1 px wide
+    >>> unresolved(bands)[1].astype(int).tolist()
+    [0, 1, 1, 1, 1, 1, 0, 0, 0, 0]
+    """
+    padded = np.pad(labels, 1)
+    rows, cols = labels.shape
+    win = np.stack(
+        [padded[i : i + rows, j : j + cols] for i in range(3) for j in range(3)], axis=-1
+    )
+    win.sort(axis=-1)
+    distinct = (win[..., 0] > 0).astype(int) + np.sum(
+        (win[..., 1:] != win[..., :-1]) & (win[..., 1:] > 0), axis=-1
+    )
+    dense = distinct >= 3
+    if DENSE_MARGIN and dense.any():
+        dense = ndimage.binary_dilation(dense, iterations=DENSE_MARGIN)
+    return dense & (labels > 0)
 
 
 def band_neighbours(labels: np.ndarray) -> np.ndarray:

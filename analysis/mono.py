@@ -12,7 +12,11 @@ ch. 8; Ramesh, *Digital Photoelasticity*, Springer 2000, ch. 4), made automatic:
    the bands are numbered by breadth-first search, counting up away from the anchor - the
    rule for fringes that rise towards a load (contact, load point). Bands out of reach of
    the anchor have no order; two touching bands whose numbers do not differ by 1/2 (a
-   count that went round a hill both ways) are flagged.
+   count that went round a hill both ways) are flagged. One image cannot tell a hill
+   from a dip (Ramesh 2000): when a singular zone is in view, a rise that carries the far
+   field (bands on the image's frame) more than one band beyond the anchor band goes
+   away from it and is flagged, with all counted only through it
+   (:func:`_towards_singular`).
 4. **Fringe centres and sides**: in each band the centre line (the extreme of u) splits
    the pixels on the side of its lower neighbours from those on the side of its higher
    ones - a watershed of |u - 1/2| seeded on the two boundaries (scikit-image). Within the
@@ -73,6 +77,14 @@ CAP_EXTREME = 0.1
 #: Width (px) of the edge of the region where a cap's side is not trusted.
 EDGE_PX = 2
 
+#: The anchor says which field the image is in when both its order and its normalised
+#: intensity are this far from the half-way 1/2 (a whole or half order, dark or bright).
+FIELD_CLEAR = 0.25
+
+#: Pixels this close (px) to unresolved fringes (:func:`analysis.envelope.unresolved`)
+#: are unreliable: loops smaller than a band may have been merged there.
+NEAR_DENSE_PX = 3
+
 
 @dataclass(frozen=True)
 class MonoResult:
@@ -95,7 +107,10 @@ class MonoResult:
     envelope : Envelope
         The fringe envelope the image was normalised by.
     info : dict
-        Counts and the envelope's figures, for reports.
+        Counts and the envelope's figures, for reports; ``field_implied`` is the field
+        that the anchor's intensity and order imply (``""`` when the anchor sits between
+        a dark and a bright fringe): a whole order is dark in dark field and bright in
+        bright field, so a bright anchor at a whole order says the field given is wrong.
 
     Examples
     --------
@@ -334,21 +349,25 @@ def _cap_sides(band, d_band, lower_band, elevation):
     return watershed(elevation, markers, mask=band), bool(beyond.any())
 
 
-def _sides(u, d, labels, nominal, anchor_mask, start):
+def _sides(u, d, labels, nominal, anchor_mask, start, doubtful):
     """+1 (higher side of the band's centre line), -1 (lower), 0 (unknown) per pixel, the
-    fringe-centre pixels, which labels are caps whose centre line was not seen, and which
-    are caps."""
+    fringe-centre pixels, which labels are caps whose centre line was not seen, which are
+    caps, and the pixels on the side of a ``doubtful`` higher neighbour (its count is not
+    trusted, so neither is the side)."""
     nom = np.where(labels > 0, nominal[labels], np.nan)
     lower = np.zeros(labels.shape, bool)
     higher = np.zeros(labels.shape, bool)
-    for nb in _neighbours(nom, np.nan):
+    shaky = np.zeros(labels.shape, bool)
+    for nb, nl in zip(_neighbours(nom, np.nan), _neighbours(labels, 0), strict=True):
         lower |= nb < nom
         higher |= nb > nom
+        shaky |= (nb > nom) & doubtful[nl]
     lower |= anchor_mask & start[labels]
     has_higher = np.bincount(labels[higher], minlength=len(nominal)) > 0
     blind = np.zeros(len(nominal), bool)
     side = np.zeros(labels.shape, np.int8)
     centres = np.zeros(labels.shape, bool)
+    doubt = np.zeros(labels.shape, bool)
     elevation = np.abs(u - 0.5)
     for lab, sl in enumerate(ndimage.find_objects(labels), start=1):
         if sl is None or np.isnan(nominal[lab]):
@@ -360,19 +379,84 @@ def _sides(u, d, labels, nominal, anchor_mask, start):
         else:
             markers = np.where(band & lower[sl], 1, 0) + np.where(band & higher[sl], 2, 0)
             markers[markers == 3] = 0  # a pixel touching both: let the flood decide
+            markers[(markers == 2) & shaky[sl]] = 3
             if not markers.any():
                 continue
             ws = watershed(elevation[sl], markers, mask=band)
-        side[sl][band] = np.where(ws[band] == 2, 1, -1).astype(np.int8)
-        if (ws == 2).any() and nominal[lab] > 0:
+            doubt[sl] |= band & (ws == 3)
+        side[sl][band] = np.where(ws[band] >= 2, 1, -1).astype(np.int8)
+        if (ws >= 2).any() and nominal[lab] > 0:
             meets = np.zeros(band.shape, bool)
             for nb in _neighbours(ws, 0):
-                meets |= nb == 2
+                meets |= nb >= 2
             centres[sl] |= (ws == 1) & meets
     caps = ~has_higher & np.isfinite(nominal)
     caps[0] = False
     caps &= ~start
-    return side, centres, blind, caps
+    return side, centres, blind, caps, doubt
+
+
+def _towards_singular(labels, mask, nominal, start, pairs):
+    """Which bands the count reached by rising towards a singular zone (per label).
+
+    From one image a band counted up from a lower one may as well be one down: a ridge
+    of a lower band looks the same from either side (Ramesh 2000, the hill-or-dip
+    ambiguity of fringe ordering). Where the image shows a singular zone - fringes denser
+    than the pixels (:func:`analysis.envelope.unresolved`) or a hole left out of the
+    region (a contact) - the rise is towards it, and the fringes close about it inside
+    the picture. The image's frame cuts the far field, away from it: the band next to an
+    anchor band is one step from the anchor either way, but a band reached by a second
+    step up that still reaches the frame would have the far field climb away from the
+    singular zone, where it may as well fall back. Such a band, and all counted only
+    through it, is not trusted. Without a singular zone in view every step is trusted
+    (the rise is towards the image's edge, as in bending)."""
+    frame = np.zeros(mask.shape, bool)
+    frame[[0, -1], :] = frame[:, [0, -1]] = True
+    out, _ = ndimage.label(~mask)
+    holes = ~mask & ~np.isin(out, np.unique(out[frame & ~mask]))
+    trusted = start.copy()
+    if not ((mask & (labels == 0)).any() or holes.any()) or not len(pairs):
+        return trusted | np.isfinite(nominal)
+    open_ = np.bincount(labels[frame & mask], minlength=len(nominal)) > 0
+    lo, hi = pairs.T
+    flip = nominal[lo] > nominal[hi]
+    lo, hi = np.where(flip, hi, lo), np.where(flip, lo, hi)
+    up = nominal[hi] - nominal[lo] == 0.5
+    lo, hi = lo[up], hi[up]
+    for level in np.unique(nominal[hi]):  # a loop over the levels of the count
+        s = nominal[hi] == level
+        ok = trusted[lo[s]] & (~open_[hi[s]] | start[lo[s]])
+        np.logical_or.at(trusted, hi[s], ok)
+    return trusted
+
+
+def _pit_or_hill(caps, start, nominal, pairs):
+    """Caps whose only neighbours are anchor bands above order 0: the band may be a hill
+    (order up by 1/2) or a pit (down by 1/2, an isotropic point of the far field, beside a
+    crack tip) - the count cannot tell."""
+    other = np.zeros(len(caps), bool)
+    a, b = (pairs[:, 0], pairs[:, 1]) if len(pairs) else (np.zeros(0, int),) * 2
+    np.logical_or.at(other, a, ~start[b])
+    np.logical_or.at(other, b, ~start[a])
+    lowest = np.full(len(caps), np.inf)
+    np.minimum.at(lowest, a, np.where(start[b], nominal[b], np.inf))
+    np.minimum.at(lowest, b, np.where(start[a], nominal[a], np.inf))
+    return caps & ~other & np.isfinite(lowest) & (lowest >= 0.5)
+
+
+def _implied_field(field, u, anchor, anchor_order):
+    """The field that the anchor's intensity implies (module doc), its normalised
+    intensity (dark-field sense u, median over the anchor) and its median order."""
+    known = np.broadcast_to(np.asarray(anchor_order, float), u.shape)[anchor]
+    seen = u[anchor]
+    if not (np.isfinite(known).any() and np.isfinite(seen).any()):
+        return "", float("nan"), float("nan")
+    a0, seen = float(np.nanmedian(known)), float(np.nanmedian(seen))
+    expect = np.sin(np.pi * a0) ** 2  # dark field, Dally and Riley ch. 6
+    if abs(expect - 0.5) < FIELD_CLEAR or abs(seen - 0.5) < FIELD_CLEAR:
+        return "", seen, a0  # the anchor sits between a dark and a bright fringe
+    other = "bright" if field == "dark" else "dark"
+    return (field if (seen > 0.5) == (expect > 0.5) else other), seen, a0
 
 
 def _smoothed_noise_sd(image: np.ndarray, mask: np.ndarray, smooth_px: float) -> float:
@@ -476,7 +560,10 @@ def mono_order(
     su = np.sqrt(np.clip(np.nan_to_num(u), 0, 1))
     # d > 1/4 only on islands too small to be bands (merged into their surroundings)
     d = np.minimum(np.where(is_bright[labels], np.arccos(su), np.arcsin(su)) / np.pi, 0.25)
-    side, centres, blind, caps = _sides(u, d, labels, nominal, anchor, start)
+    trusted = _towards_singular(labels, mask, nominal, start, pairs)
+    doubtful = np.isfinite(nominal) & ~trusted
+    doubtful[0] = False
+    side, centres, blind, caps, doubt = _sides(u, d, labels, nominal, anchor, start, doubtful)
     nom = np.where(labels > 0, nominal[labels], np.nan)
     order = np.where(side >= 0, nom + d, nom - d)
     order = np.abs(order)  # the anchor band of order 0 has no lower side: N = d
@@ -492,19 +579,38 @@ def mono_order(
     # can reach the lower side along the edge: cap pixels on the edge off the line
     edge = mask & ~ndimage.binary_erosion(mask, iterations=EDGE_PX, border_value=1)
     cap_px |= caps[labels] & (labels > 0) & edge & (d >= CAP_EXTREME / 2)
+    # fringes denser than the pixels (a crack tip, a load point) belong to no band; a cap
+    # that runs into them may rise beyond what is seen, and next to them tiny loops were
+    # merged as noise: neither is counted
+    dense = mask & (labels == 0)
+    near_dense = ndimage.binary_dilation(dense, iterations=NEAR_DENSE_PX) if dense.any() else dense
+    touches = np.bincount(
+        labels[ndimage.binary_dilation(dense) & (labels > 0)], minlength=len(caps)
+    )
+    cap_px |= ((caps & (touches > 0))[labels] & (labels > 0)) | near_dense
+    cap_px |= _pit_or_hill(caps, start, nominal, pairs)[labels] & (labels > 0)
     # a pixel clearly on the other side of u = 1/2 than its band: an island merged as noise
     island = ((u > 0.5) != is_bright[labels]) & (np.abs(u - 0.5) > 3 * sd_u)
     reliable = np.isfinite(order) & ~cap_px & ~island & ~conflict[labels]
+    reliable &= ~doubtful[labels] & ~doubt
     reliable &= (amp >= min_contrast) & (sd <= max_sd)
     # without a half-order fringe centre (or a flat field) the fringe amplitude is the
     # image's own range: a photo whose orders stay below 1/2 would be stretched to it
     reliable &= "high" in env.sampled
+    implied, seen, a0 = _implied_field(field, u, anchor, anchor_order)
     info = {
+        "field": field,
+        "field_implied": implied,
+        "anchor_intensity": seen,
+        "anchor_order_median": a0,
         "bands": int(len(is_bright) - 1),
         "ordered_bands": int(np.isfinite(nominal[1:]).sum()),
         "blind_cap_bands": int(np.sum(blind[1:])),
         "anchor_bands": int(start.sum()),
         "conflicting_bands": int(conflict.sum()),
+        "bands_rising_away": int(doubtful.sum()),
+        "unresolved_px": int(dense.sum()),
+        "pit_or_hill_bands": int(_pit_or_hill(caps, start, nominal, pairs).sum()),
         "envelope": env.method,
         "envelope_from_centres": list(env.sampled),
         "envelope_samples": env.samples,

@@ -15,7 +15,7 @@ from .fields import Boussinesq, DiametralDisc, StressField, TwistedStress, Unifo
 from .grid import PixelGrid, RaySamples, sample_points, sample_rays
 from .jones import characteristic, integrate_path, retarder, rotator, secondary_principal
 from .opticalmap import OpticalMap, integrate_layers, integrate_samples, optical_map
-from .photo import PhotoModel, indent_field, photograph, residual_birefringence
+from .photo import PhotoModel, crack_tip_field, indent_field, photograph, residual_birefringence
 from .polariscope import (
     SIX_STEPS,
     Arrangement,
@@ -58,6 +58,7 @@ __all__ = [
     "light_source",
     "monochrome_image",
     "optical_map",
+    "crack_tip_field",
     "indent_field",
     "photograph",
     "residual_birefringence",

@@ -30,7 +30,7 @@ from .camera import Camera
 from .jones import qmul, retarder
 from .polariscope import Arrangement, intensity
 
-__all__ = ["PhotoModel", "indent_field", "residual_birefringence", "photograph"]
+__all__ = ["PhotoModel", "crack_tip_field", "indent_field", "residual_birefringence", "photograph"]
 
 
 @dataclass(frozen=True)
@@ -263,3 +263,56 @@ def indent_field(rows: int, cols: int, core: float = 0.06):
     rad = np.hypot(x, y)
     order = 0.3 + 2.6 * np.exp(-((rad / 0.3) ** 2))
     return order, retarder(2 * np.pi * order, np.arctan2(y, x)), rad > core
+
+
+def crack_tip_field(rows: int, cols: int, k: float, far_order: float, tip_rc):
+    """A mode-I crack tip in a plate in tension, of known order, for photograph tests.
+
+    The near-tip field of Westergaard (*J. Appl. Mech.* 6, 1939) in Irwin's form (*J.
+    Appl. Mech.* 24, 1957) with Irwin's remote stress sigma_0x (Dally and Riley,
+    *Experimental Stress Analysis*, 4th ed., ch. 7, the two-parameter method): with
+    A = K_I / sqrt(2 pi r),
+
+        sigma_y - sigma_x = A sin(theta) sin(3 theta / 2) - sigma_0x,
+        2 tau_xy = A sin(theta) cos(3 theta / 2),
+
+    so sigma_1 - sigma_2 = K_I sin(theta) / sqrt(2 pi r) near the tip and |sigma_0x| far
+    from it. Here in fringe units, sigma_0x = -``far_order`` (a plate pulled across the
+    crack): dark-field fringes close in two loops on each side of the tip, one order per
+    loop inwards, and fall to the far-field order ahead of the tip and along the crack.
+
+    Parameters
+    ----------
+    rows, cols : int
+        Image shape (px).
+    k : float
+        K_I t / (f_sigma sqrt(2 pi)) in fringe sqrt(px): the order is k sin(theta) /
+        sqrt(r) near the tip (r in px).
+    far_order : float
+        Far-field order |sigma_0x| t / f_sigma (fringe).
+    tip_rc : (row, col)
+        The crack tip (px); the crack runs from it to the left (decreasing col).
+
+    Returns
+    -------
+    order : (rows, cols) float array
+        Fringe order (very large at the tip pixel).
+    q : (rows, cols, 4) float array
+        Quaternions of the retarder of each pixel.
+
+    Examples
+    --------
+    >>> from fringekit.optics import crack_tip_field
+    >>> order, q = crack_tip_field(64, 64, 5.0, 0.5, (32, 32))
+    >>> round(float(order[32, 60]), 3), round(float(order[22, 32]), 2)  # ahead; above the tip
+    (0.5, 1.97)
+    """
+    r, c = np.mgrid[:rows, :cols].astype(float)
+    x, y = c - tip_rc[1], tip_rc[0] - r
+    rad = np.maximum(np.hypot(x, y), 0.5)
+    th = np.arctan2(y, x)
+    amp = k / np.sqrt(rad)
+    diff = amp * np.sin(th) * np.sin(1.5 * th) + far_order  # sigma_y - sigma_x, fringe
+    shear = amp * np.sin(th) * np.cos(1.5 * th)  # 2 tau_xy, fringe
+    order = np.hypot(diff, shear)
+    return order, retarder(2 * np.pi * order, 0.5 * np.arctan2(shear, -diff))

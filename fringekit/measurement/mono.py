@@ -25,7 +25,14 @@ from fringekit.analysis import (
 from fringekit.errors import InputError
 from fringekit.measurement.regions import data_region, order_anchors
 
-__all__ = ["POINTS_COLUMNS", "analyse_mono", "colour_as_grey", "read_points", "write_points"]
+__all__ = [
+    "POINTS_COLUMNS",
+    "analyse_mono",
+    "colour_as_grey",
+    "field_note",
+    "read_points",
+    "write_points",
+]
 
 #: Columns of ``points.csv``, in order.
 POINTS_COLUMNS = ("row", "col", "x_mm", "y_mm", "order", "order_sd", "reliable")
@@ -58,6 +65,37 @@ def colour_as_grey(data, mask, path, option: str) -> str:
     return (
         f"{path} is a colour image of monochromatic light (its channels agree, correlation "
         f"{c:.2f}): read as its {name} channel"
+    )
+
+
+def field_note(info: dict, order_at) -> str:
+    """The warning when the anchor's intensity contradicts ``--field`` (``""`` if not).
+
+    Examples
+    --------
+    >>> info = {"field": "dark", "field_implied": "bright", "anchor_intensity": 0.97,
+    ...         "anchor_order_median": 1.0}
+    >>> print(field_note(info, [(10, 20, 1.0)]))
+    --field dark contradicts the anchor: --order-at 10 20 1 is bright (normalised intensity
+    0.97), and a whole order is dark in dark field; the image looks like bright field: give
+    --field bright, or check the anchor's order
+    """
+    field, implied = info.get("field"), info.get("field_implied")
+    if not implied or implied == field:
+        return ""
+    where = (
+        " and ".join(f"--order-at {r:g} {c:g} {n:g}" for r, c, n in order_at)
+        if order_at
+        else f"the image border at --anchor-order {info['anchor_order_median']:g}"
+    )
+    seen = info["anchor_intensity"]
+    kind = "whole" if abs(np.sin(np.pi * info["anchor_order_median"])) < 0.5 else "half"
+    return (
+        f"--field {field} contradicts the anchor: {where} is "
+        f"{'bright' if seen > 0.5 else 'dark'} (normalised intensity {seen:.2f}), and a "
+        f"{kind} order is {'dark' if (kind == 'whole') == (field == 'dark') else 'bright'} in "
+        f"{field} field; the image looks like {implied} field: give --field {implied}, or check "
+        "the anchor's order"
     )
 
 
@@ -103,8 +141,9 @@ def analyse_mono(paths, dark, mask_args, anchor_order, order_at, mono: dict):
         }
     }
     part["no_data_px"] = no_data_px
-    if colour_note:
-        part["extra_warning"] = colour_note
+    notes = [n for n in (colour_note, field_note(res.info, order_at)) if n]
+    if notes:
+        part["extra_warning"] = "; ".join(notes)
     share = float(res.reliable[mask].mean())
     if res.info["ordered_bands"] == 0 or res.info["bands"] < 2:
         part["unreliable_reason"] = "no fringes found to count"

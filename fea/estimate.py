@@ -24,17 +24,20 @@ from .solver import first_fraction, friction_limit
 
 __all__ = ["RATES", "SolveEstimate", "estimate_solve", "increment_schedule"]
 
-#: Measured on 2 cores (bench/fea.py --mesh coarse fine, 2026-11-25): Newton iterations
-#: of the first increment from the unloaded sheet and of each later one, frictionless
-#: and with friction; seconds per Newton iteration at ``dofs_ref`` DOF and the exponent
-#: of its growth with the DOF; seconds of set-up and recovery per 1k DOF.
+#: Measured on 2 cores (bench/fea.py --mesh coarse, 2026-11-25): Newton iterations of
+#: the first increment from the unloaded sheet and of each later one, frictionless
+#: (vertical 43 for 8 increments, reference 18 for 3, plate4 21 for 3) and with friction
+#: (shear 126 for 25 increments); seconds per Newton iteration at ``dofs_ref`` mesh DOF
+#: (0.52-0.81 s on the reference mesh, 1.10 s at 51k, 1.62 s at 74k, beside other
+#: jobs) and the exponent of its growth with the DOF; seconds of set-up and recovery
+#: per 1k DOF. The estimates came within 0.76-1.31 of the times taken.
 RATES = {
-    "first_its": 14.0,
-    "later_its": 4.0,
-    "first_its_friction": 12.0,
-    "later_its_friction": 5.0,
-    "s_per_it": 0.45,
-    "dofs_ref": 34.5e3,
+    "first_its": 9.0,
+    "later_its": 4.8,
+    "first_its_friction": 9.0,
+    "later_its_friction": 4.9,
+    "s_per_it": 0.6,
+    "dofs_ref": 37.26e3,
     "growth": 1.5,
     "s_fixed_per_kdof": 0.05,
 }
@@ -192,7 +195,7 @@ def estimate_solve(
     >>> from fringekit.fea import Indenter
     >>> est = estimate_solve(34_500, [Indenter(normal_force=(8.0,))], E=4e6, h=3e-3)
     >>> est.increments, est.newton_iterations
-    ((3,), 22)
+    ((3,), 19)
     """
     friction = (contact or ContactSettings()).friction
     incs = increment_schedule(indenters, E=E, h=h, friction=friction, parents=parents)

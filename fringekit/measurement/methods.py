@@ -9,19 +9,20 @@ import numpy as np
 from fringekit.analysis import (
     MIN_COLOUR_SPREAD,
     CalibrationTable,
+    border_anchor,
     colour_spread,
     count_fringe_order,
     load_image,
     load_six_step,
     resolve_ambiguity,
     search,
-    search_refined,
+    search_adapted,
     six_step,
     subtract_reference,
     unwrap_fringe_order,
 )
 from fringekit.errors import InputError
-from fringekit.measurement.regions import data_region, order_anchors
+from fringekit.measurement.regions import data_region, order_anchors, order_at_anchor
 from fringekit.optics import PSM4_ASSUMED, Camera, colour_chart, light_source
 
 __all__ = ["MAX_FOLD_DISAGREEMENT", "analyse_phase", "analyse_rgb"]
@@ -36,8 +37,8 @@ def _table(colour_table, chart: dict | None) -> CalibrationTable:
         PSM4_ASSUMED,
         light_source(chart.get("light", "LED"), lam),
         Camera(sensitivities=chart.get("camera", "CIE1931")),
-        max_order=chart.get("max_order", 4.0),
-        n=2001,
+        max_order=chart.get("max_order", 7.0),
+        n=int(np.ceil(chart.get("max_order", 7.0) * 500)) + 1,  # 0.002 fringe per row
     )
     # the chart is linear RGB at exposure 1; images carry the camera's exposure and, for
     # the CIE observer (fringekit's PNGs, most cameras' JPEGs), the sRGB encoding
@@ -142,8 +143,54 @@ def _no_modulation(paths, frames, modulation, min_modulation) -> str:
     )
 
 
-def analyse_rgb(paths, dark, mask_args, *, colour_table=None, chart=None, seeds=(), window=0.25):
-    """One colour image -> (order, reliable, extra maps, summary part, mask)."""
+def _rgb_seeds(shape, mask, seeds, order_at, anchor_order) -> tuple[np.ndarray, str]:
+    """The refined search's seeds as a map of orders (NaN off them) and where they came
+    from: the ``--seed`` pixels and the ``--order-at`` discs, else the region's border
+    ring at ``--anchor-order`` (as phase and mono)."""
+    known = np.full(shape[:2], np.nan)
+    for r, c, n in seeds:
+        rr, cc = int(round(r)), int(round(c))
+        if not (0 <= rr < shape[0] and 0 <= cc < shape[1]) or not mask[rr, cc]:
+            raise InputError(
+                f"--seed {r:g} {c:g} {n:g}: the pixel is outside the image or the region of "
+                f"interest; allowed: a pixel with data in the {shape[0]} x {shape[1]} image"
+            )
+        known[rr, cc] = n
+    anchor, orders = order_at_anchor(shape, mask, order_at)
+    if anchor is not None:
+        known = np.where(anchor, orders, known)
+    if np.isfinite(known).any():
+        return known, "--seed/--order-at"
+    ring = border_anchor(mask)
+    if not ring.any():
+        raise InputError(
+            "no pixel of the region of interest lies on the image border, where the rgb "
+            f"method's continuity search starts at --anchor-order ({anchor_order:g}); "
+            "allowed: --seed ROW COL N or --order-at ROW COL N (a pixel of known order), "
+            "or --search plain"
+        )
+    return np.where(ring, float(anchor_order), np.nan), "border at --anchor-order"
+
+
+def analyse_rgb(
+    paths,
+    dark,
+    mask_args,
+    *,
+    colour_table=None,
+    chart=None,
+    seeds=(),
+    window=0.25,
+    search_mode="refined",
+    adapt="auto",
+    order_at=(),
+    anchor_order=0.0,
+):
+    """One colour image -> (order, reliable, extra maps, summary part, mask).
+
+    ``search_mode="refined"`` (the default): the continuity search with colour adaptation
+    (:func:`analysis.search_adapted`) from the seeds (:func:`_rgb_seeds`); ``"plain"``:
+    every pixel against the whole table (reliable to about order 3)."""
     if len(paths) != 1:
         raise InputError(f"the rgb method takes one colour image, got {len(paths)}")
     frame = load_image(paths[0], dark=dark)
@@ -155,9 +202,13 @@ def analyse_rgb(paths, dark, mask_args, *, colour_table=None, chart=None, seeds=
     mask, no_data_px = data_region(frame.data, mask_args)
     mask &= ~np.all(frame.data >= 1.0, axis=-1)
     table = _table(colour_table, chart)
-    if seeds:
-        seed_list = [((r, c), o) for r, c, o in seeds]
-        rr = search_refined(frame.data, table, seed_list, mask=mask, window=window)
+    info = {"refined": search_mode == "refined", "adapt": "off", "reach": None}
+    if search_mode == "refined":
+        known, origin = _rgb_seeds(frame.data.shape, mask, seeds, order_at, anchor_order)
+        _check_seed_range(known, table, window)
+        rr = search_adapted(frame.data, table, known, mask=mask, window=window, adapt=adapt)
+        info.update(adapt=adapt, reach=rr.reach, seeds=origin, adaptation_px=rr.adaptation.pixels)
+        info["adaptation"] = rr.adaptation.coefficients.round(4).tolist()
     else:
         rr = search(frame.data, table, mask=mask)
     reliable = rr.reliable  # an order within MAX_COLOUR_ERROR of a table colour
@@ -167,8 +218,8 @@ def analyse_rgb(paths, dark, mask_args, *, colour_table=None, chart=None, seeds=
             "table": table.source,
             "rows": len(table),
             "orders": [float(table.orders[0]), float(table.orders[-1])],
-            "refined": bool(seeds),
             "colour_spread": spread,
+            **info,
         }
     }
     if spread < MIN_COLOUR_SPREAD:  # single-colour light: colour cannot tell orders apart
@@ -181,3 +232,16 @@ def analyse_rgb(paths, dark, mask_args, *, colour_table=None, chart=None, seeds=
         )
     part["no_data_px"] = no_data_px
     return rr.order, reliable, {"colour_error": rr.error}, part, mask
+
+
+def _check_seed_range(known, table, window) -> None:
+    """Every seed order inside the colour table's range, or a one-line error."""
+    o = known[np.isfinite(known)]
+    lo, hi = table.orders[0] - window, table.orders[-1] + window
+    if o.size and (o.min() < lo or o.max() > hi):
+        bad = float(o[(o < lo) | (o > hi)][0])
+        raise InputError(
+            f"seed order {bad:g} (--seed, --order-at or --anchor-order) is outside the colour "
+            f"table's orders {table.orders[0]:g}..{table.orders[-1]:g}; allowed: an order in "
+            "that range (raise --max-order for the synthetic chart)"
+        )

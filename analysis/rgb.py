@@ -402,6 +402,7 @@ def search_refined(
     mask=None,
     window: float = 0.25,
     max_error: float = MAX_COLOUR_ERROR,
+    stop_above: float = np.inf,
 ) -> RGBResult:
     """Search restricted to +-``window`` fringe around the neighbours' orders.
 
@@ -426,6 +427,9 @@ def search_refined(
         ~0.2 fringe/pixel (0.15 already lost the diametral disc at 0.25 mm/px).
     max_error : float
         Largest colour distance of a reliable pixel (:data:`MAX_COLOUR_ERROR`).
+    stop_above : float
+        Pixels solved above this order are kept (unreliable) but the search does not
+        grow from them: beyond the colours' reach it stops instead of wandering.
 
     Returns
     -------
@@ -513,9 +517,9 @@ def search_refined(
         order[done] = tab.orders[rows_best[take]]
         error[done] = e[take]
         in_front[done] = False
-        front = np.concatenate([front[~take], grow(done)])
+        front = np.concatenate([front[~take], grow(done[order[done] <= stop_above])])
     order = order.reshape(rows + 2, pc)[1:-1, 1:-1]
     error = error.reshape(rows + 2, pc)[1:-1, 1:-1]
     out = np.where(m, order, np.nan)
     err = np.where(m, error, np.nan)
-    return RGBResult(out, err, _reliable(out, err, max_error))
+    return RGBResult(out, err, _reliable(out, err, max_error) & ~(out > stop_above))

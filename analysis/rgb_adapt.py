@@ -283,9 +283,10 @@ def search_adapted(
        fit to the seed pixels only (a no-load region, points of known order), then the
        search; ``adapt="off"``: the table as given;
     3. the reach (:func:`colour_reach` of the searched table, ``window`` below its
-       end): pixels above it are unreliable, as are those farther than ``max_error``
-       from every table colour and those more than ``window / 2`` off the median order
-       of the 5x5 pixels about them (a wrong step of the search).
+       end): the search does not grow from pixels above it, which are unreliable, as
+       are those farther than ``max_error`` from every table colour and those more
+       than ``window / 2`` off the median order of the 5x5 pixels about them (a wrong
+       step of the search).
 
     Parameters
     ----------
@@ -338,20 +339,24 @@ def search_adapted(
         raise ValueError(f"adapt = {adapt!r} is not allowed; use 'auto', 'seeds' or 'off'")
     img = np.asarray(image, float)
     kw = {"mask": mask, "window": window, "max_error": max_error}
-    res = search_refined(img, table, seeds, **kw)
+
+    def reach_of(t: CalibrationTable) -> float:
+        return min(colour_reach(t, min_speed=min_speed), t.orders[-1] - window)
+
+    res = search_refined(img, table, seeds, stop_above=reach_of(table), **kw)
     adaptation, tab = ColourAdaptation.identity(), table
     if adapt != "off":
         seed_map = _seed_map(seeds, img.shape[:2])
         fits = [seed_map] if adapt == "seeds" else [None, None, None]
         for limit in fits:
             if limit is None:  # the pixels solved so far, within the range trusted
-                top = ADAPT_MAX_ORDER if tab is table else colour_reach(tab, min_speed=min_speed)
+                top = ADAPT_MAX_ORDER if tab is table else reach_of(tab)
                 limit = np.where(res.order <= top, res.order, np.nan)
                 limit = np.where(np.isfinite(seed_map), seed_map, limit)
             adaptation = fit_adaptation(img, table, limit, mask=mask)
             tab = adaptation.apply(table)
-            res = search_refined(img, tab, seeds, **kw)
-    reach = min(colour_reach(tab, min_speed=min_speed), tab.orders[-1] - window)
+            res = search_refined(img, tab, seeds, stop_above=reach_of(tab), **kw)
+    reach = reach_of(tab)
     reliable = res.reliable & (np.nan_to_num(res.order, nan=np.inf) <= reach)
     reliable &= ~_rough(res.order, window)
     return AdaptedRGBResult(res.order, res.error, reliable, reach, adaptation, tab)

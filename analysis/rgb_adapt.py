@@ -16,7 +16,8 @@
   *Optics and Lasers in Engineering* 45, 2007): the continuity search
   (:func:`analysis.rgb.search_refined`), a fit of the table to the pixels it solved
   where colours do not repeat (N <= 3), and the search again on the adapted table;
-  pixels beyond the reach are unreliable.
+  pixels beyond the reach are unreliable, and so are the regions whose colours say they
+  lie beyond it, whatever order the search gave them.
 """
 
 from __future__ import annotations
@@ -24,7 +25,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import distance_transform_edt, median_filter, uniform_filter1d
+from scipy.ndimage import (
+    binary_dilation,
+    binary_fill_holes,
+    distance_transform_edt,
+    median_filter,
+    uniform_filter,
+    uniform_filter1d,
+)
+from scipy.spatial import cKDTree
 
 from .masks import check_mask
 from .rgb import MAX_COLOUR_ERROR, CalibrationTable, RGBResult, search_refined
@@ -56,6 +65,9 @@ ADAPT_MAX_ORDER = 3.0
 _KEEP = 0.8
 #: Weight pulling the adaptation towards the identity, per pixel fitted.
 _RIDGE = 1e-3
+#: Side (px) of the square over which pixels vote on whether their colours lie beyond
+#: the reach; the region found is widened by half of it.
+_VOTE_PX = 7
 
 
 @dataclass(frozen=True)
@@ -263,6 +275,23 @@ def _rough(order: np.ndarray, window: float) -> np.ndarray:
     return np.abs(filled - median_filter(filled, size=5, mode="nearest")) > window / 2
 
 
+def _beyond_reach(img, res, tab: CalibrationTable, reach: float, mask) -> np.ndarray:
+    """Pixels whose colours say their order is beyond the reach, and every pixel enclosed
+    by them or within half the vote of them (see :func:`search_adapted`, step 4)."""
+    m = np.isfinite(res.order) if mask is None else np.asarray(mask, bool)
+    m = m & np.all(np.isfinite(img), axis=-1)
+    above = np.zeros(m.shape, bool)
+    if m.any():
+        d_above = cKDTree(tab.rgb[tab.orders >= reach]).query(img[m])[0]
+        above[m] = d_above < np.nan_to_num(res.error[m], nan=np.inf)
+    above |= np.nan_to_num(res.order, nan=-np.inf) > reach
+    votes = uniform_filter(above.astype(float), _VOTE_PX)
+    share = votes / np.maximum(uniform_filter(m.astype(float), _VOTE_PX), 1e-12)
+    region = binary_fill_holes((share > 0.5) & m)
+    half = _VOTE_PX // 2
+    return binary_dilation(region, np.ones((2 * half + 1,) * 2, bool)) & m
+
+
 def search_adapted(
     image,
     table: CalibrationTable,
@@ -286,7 +315,20 @@ def search_adapted(
        end): the search does not grow from pixels above it, which are unreliable, as
        are those farther than ``max_error`` from every table colour and those more
        than ``window / 2`` off the median order of the 5x5 pixels about them (a wrong
-       step of the search).
+       step of the search);
+    4. a check of the search by the colours alone, for a region whose orders rise
+       beyond the reach: there the search can slip onto a lower branch whose colours
+       are as washed out (a hill to order 8.5 read as 4.4-4.5 inside), and the
+       colours no longer say which order is right. A pixel votes "beyond" when its
+       colour is nearer to a table colour above the reach than to the colour of the
+       order it was given (or that order is above the reach); where more than half of
+       the 7 x 7 pixels about it vote so, it lies in a region beyond the reach. Every
+       pixel of that region, every pixel it encloses (the true order is continuous,
+       so the search reached them only through orders it cannot tell apart: the
+       continuity argument of refined TFP, Ramesh and Deshmukh 1996, turned round)
+       and every pixel within 3 px of it (the vote places the region's edge only to
+       within half its width) is unreliable. A read that is right does not vote so:
+       its colour is nearest the order it was given.
 
     Parameters
     ----------
@@ -359,6 +401,7 @@ def search_adapted(
     reach = reach_of(tab)
     reliable = res.reliable & (np.nan_to_num(res.order, nan=np.inf) <= reach)
     reliable &= ~_rough(res.order, window)
+    reliable &= ~_beyond_reach(img, res, tab, reach, mask)
     return AdaptedRGBResult(res.order, res.error, reliable, reach, adaptation, tab)
 
 

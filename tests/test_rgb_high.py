@@ -110,22 +110,24 @@ def test_adaptation_recovers_orders_the_table_misreads(table):
     assert np.all(gains < 1.0) and on.adaptation.pixels > 5000  # a dimmer photograph
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="known gap: inside a hill above the reach the continuity search can follow the "
-    "washed-out colours onto a lower branch (true 6.4-8.4 read as 4.4-4.5, reliable)",
-)
-def test_orders_beyond_the_reach_are_unreliable_not_wrong(table):
-    """A hill to order 8.5: the colours wash out above about 6.5. Every pixel above the
-    reported reach (plus the search window) is unreliable, and the reliable pixels are
-    right; the plain search calls pixels off by more than half a fringe reliable."""
+@pytest.mark.parametrize("camera", CAMERAS)
+def test_orders_beyond_the_reach_are_unreliable_not_wrong(table, camera):
+    """A hill to order 8.5, 0.15 fringe per pixel where it passes order 5: the colours wash
+    out above about 6.2 and the search slips onto a lower branch (4.4-4.5) from order 4.9
+    inward. Every pixel above the reported reach (plus the search window) is unreliable
+    and the reliable pixels are right (0.03 fringe RMS, none of 16 304 off by half a
+    fringe; 3 072 and 3 242 of them were called reliable and off by more than a quarter
+    fringe before the colour check); what is lost is the band the search could not
+    follow (4.9 to the reach, 11 % of the region) and the check's margin. The plain
+    search calls pixels off by more than half a fringe reliable."""
     order, theta, mask = _field(8.5)
-    img = _photo(order, theta, {"exposure": 0.9}, {}) / 255.0
+    img = _photo(order, theta, *CAMERAS[camera]) / 255.0
     res = search_adapted(img, table, [((0, 0), float(order[0, 0]))], mask=mask)
     assert 5.5 < res.reach < 7.0
     assert not res.reliable[order > res.reach + 0.25].any()
     err = np.abs(res.order - order)[res.reliable]
-    assert err.size > 0.7 * mask.sum() and np.sqrt(np.mean(err**2)) < 0.05
+    assert err.size > 0.6 * mask.sum() and np.sqrt(np.mean(err**2)) < 0.05
+    assert not (err > 0.5).any()
     plain = search(img, table, mask=mask)
     assert (np.abs(plain.order - order)[plain.reliable] > 0.5).any()
 

@@ -82,7 +82,13 @@ def analyse_phase(
                 "allowed: the same camera view"
             )
         res = subtract_reference(res, six_step(ref, mask=mask, min_modulation=min_modulation))
-    anchor, known = order_anchors(frames[0].shape, res.valid, order_at, anchor_order)
+    anchor, known = order_anchors(
+        frames[0].shape,
+        res.valid,
+        order_at,
+        anchor_order,
+        "not masked, modulation above --min-modulation",
+    )
     if np.ndim(known) == 0:  # the border ring at --anchor-order
         by_iso = unwrap_fringe_order(
             res, resolve_ambiguity(res), anchor_mask=anchor, anchor_order=known
@@ -156,11 +162,13 @@ def _rgb_seeds(shape, mask, seeds, order_at, anchor_order) -> tuple[np.ndarray, 
                 f"interest; allowed: a pixel with data in the {shape[0]} x {shape[1]} image"
             )
         known[rr, cc] = n
-    anchor, orders = order_at_anchor(shape, mask, order_at)
+    anchor, orders = order_at_anchor(
+        shape, mask, order_at, "in the region of interest, not clipped to white"
+    )
     if anchor is not None:
         known = np.where(anchor, orders, known)
     if np.isfinite(known).any():
-        return known, "--seed/--order-at"
+        return known, "--seed/--order-at pixels"
     ring = border_anchor(mask)
     if not ring.any():
         raise InputError(

@@ -11,11 +11,11 @@ import pytest
 from fringekit import Region, RGBOptions, analyze
 from fringekit.analysis import CalibrationTable, search, search_adapted
 from fringekit.errors import InputError
+from fringekit.measurement.methods import default_colour_table
 from fringekit.optics import (
     PSM4_ASSUMED,
     Camera,
     PhotoModel,
-    colour_chart,
     light_source,
     retarder,
     white_light_photograph,
@@ -57,14 +57,7 @@ def _photo(order, theta, camera: dict, extra: dict, seed=0) -> np.ndarray:
 @pytest.fixture(scope="module")
 def table() -> CalibrationTable:
     """fringekit's default chart (as ``analyze`` makes it), to order 7."""
-    import colour
-
-    lam = PSM4_ASSUMED.wavenumber_grid(31)
-    orders, rgb = colour_chart(
-        PSM4_ASSUMED, light_source("LED", lam), Camera(), max_order=7, n=3501
-    )
-    rgb = np.clip(colour.cctf_encoding(np.clip(rgb * 0.9, 0, 1), function="sRGB"), 0, 1)
-    return CalibrationTable.from_chart(orders, rgb)
+    return default_colour_table()
 
 
 def _band_rms(est, order, use) -> list[float]:
@@ -170,6 +163,30 @@ def test_a_seed_outside_the_table_or_the_region_is_refused(tmp_path):
         analyze([path], method="rgb", options=RGBOptions(seeds=[(200, 5, 0.0)]))
     with pytest.raises(InputError, match=r"seed order 9 .*outside the colour table's orders"):
         analyze([path], method="rgb", options=RGBOptions(seeds=[(5, 5, 9.0)]))
+    with pytest.raises(InputError) as exc:  # masked out: rgb has no --min-modulation
+        analyze(
+            [path], method="rgb", region=Region(circle=(63.5, 63.5, 20)), order_at=[(2, 2, 0.0)]
+        )
+    assert "--order-at 2 2 0: no valid pixel" in str(exc.value)
+    assert "region of interest" in str(exc.value) and "modulation" not in str(exc.value)
     inner = Region(circle=(63.5, 63.5, 40))  # no pixel on the image border
     with pytest.raises(InputError, match=r"--seed ROW COL N or --order-at"):
         analyze([path], method="rgb", region=inner)
+
+
+def test_seeds_whose_colours_misfit_the_table_are_named_in_one_line(tmp_path):
+    """A specimen whose border is at order 1, read from the border at the default
+    --anchor-order 0: the seeds' colours (order 1's) are far from the table's at order 0
+    (black), and analyze says so, naming the options; at --anchor-order 1 it does not."""
+    order, theta, _ = _field(2.5, width=0.2)
+    order = order + 1.0  # the border at order 1.000-1.005
+    path = tmp_path / "white.png"
+    write_image(path, _photo(order, theta, *CAMERAS["another white balance, exposure and tone"]))
+    wrong = analyze([path], method="rgb")
+    msg = wrong.summary["warning"]
+    assert "\n" not in msg and wrong.summary["rgb"]["seed_colour_misfit"] > 0.5
+    assert all(w in msg for w in ("seeds' colours", "--anchor-order", "--order-at", "--seed"))
+    right = analyze([path], method="rgb", anchor_order=1.0)
+    assert right.summary["rgb"]["seed_colour_misfit"] < 0.2
+    assert "seeds' colours" not in right.summary.get("warning", "")
+    assert np.nanmedian(np.abs(right.maps["fringe_order"] - order)) < 0.02

@@ -25,25 +25,63 @@ from fringekit.errors import InputError
 from fringekit.measurement.regions import data_region, order_anchors, order_at_anchor
 from fringekit.optics import PSM4_ASSUMED, Camera, colour_chart, light_source
 
-__all__ = ["MAX_FOLD_DISAGREEMENT", "analyse_phase", "analyse_rgb"]
+__all__ = [
+    "MAX_FOLD_DISAGREEMENT",
+    "MAX_SEED_MISFIT",
+    "analyse_phase",
+    "analyse_rgb",
+    "default_colour_table",
+]
 
 
 def _table(colour_table, chart: dict | None) -> CalibrationTable:
     if colour_table is not None:
         return CalibrationTable.from_csv(colour_table)
-    chart = chart or {}
+    return default_colour_table(**(chart or {}))
+
+
+def default_colour_table(
+    light: str = "LED", camera: str = "CIE1931", max_order: float = 7.0, exposure: float = 0.9
+) -> CalibrationTable:
+    """The colour table ``analyze --method rgb`` searches without ``--colour-table``.
+
+    The optics' colour chart of PSM-4 (:func:`fringekit.optics.colour_chart`) in the light
+    and camera named, on the wavelength grid ``predict`` renders white light on, 0.002
+    fringe per row, scaled by the camera's exposure and, for the CIE observer (fringekit's
+    PNGs, most cameras' JPEGs), sRGB-encoded: the colours an image carries.
+
+    Parameters
+    ----------
+    light : str
+        Light source (:func:`fringekit.optics.light_source`).
+    camera : str
+        Camera sensitivities (:class:`fringekit.optics.Camera`).
+    max_order : float
+        Highest fringe order of the table.
+    exposure : float
+        Fraction of full scale of a white pixel.
+
+    Returns
+    -------
+    CalibrationTable
+
+    Examples
+    --------
+    >>> from fringekit.measurement.methods import default_colour_table
+    >>> t = default_colour_table(max_order=4.0)
+    >>> len(t), float(t.orders[-1]), t.rgb[0].round(3).tolist()
+    (2001, 4.0, [0.0, 0.0, 0.0])
+    """
     lam = PSM4_ASSUMED.wavenumber_grid(31)  # the grid predict renders white light on
     orders, rgb = colour_chart(
         PSM4_ASSUMED,
-        light_source(chart.get("light", "LED"), lam),
-        Camera(sensitivities=chart.get("camera", "CIE1931")),
-        max_order=chart.get("max_order", 7.0),
-        n=int(np.ceil(chart.get("max_order", 7.0) * 500)) + 1,  # 0.002 fringe per row
+        light_source(light, lam),
+        Camera(sensitivities=camera),
+        max_order=max_order,
+        n=int(np.ceil(max_order * 500)) + 1,  # 0.002 fringe per row
     )
-    # the chart is linear RGB at exposure 1; images carry the camera's exposure and, for
-    # the CIE observer (fringekit's PNGs, most cameras' JPEGs), the sRGB encoding
-    rgb = np.clip(rgb * chart.get("exposure", 0.9), 0, 1)
-    if chart.get("camera", "CIE1931") == "CIE1931":
+    rgb = np.clip(rgb * exposure, 0, 1)
+    if camera == "CIE1931":
         rgb = np.clip(colour.cctf_encoding(rgb, function="sRGB"), 0, 1)
     return CalibrationTable.from_chart(orders, rgb, "synthetic colour chart (optics)")
 
@@ -51,6 +89,12 @@ def _table(colour_table, chart: dict | None) -> CalibrationTable:
 #: Share of the region where the two fold resolutions may differ by more than a quarter
 #: fringe before analyze warns.
 MAX_FOLD_DISAGREEMENT = 0.05
+
+#: Median colour distance of the rgb method's seeds to the table's colour at their orders
+#: ([0, 1] scale) before analyze warns. Seeds at the right order measured 0.01-0.07 with
+#: the table's camera and 0.10-0.13 with another white balance, exposure and tone curve;
+#: a border assumed at order 0 that lies at 0.5-2, 0.77-1.5.
+MAX_SEED_MISFIT = 0.3
 
 
 def analyse_phase(
@@ -211,12 +255,15 @@ def analyse_rgb(
     mask &= ~np.all(frame.data >= 1.0, axis=-1)
     table = _table(colour_table, chart)
     info = {"refined": search_mode == "refined", "adapt": "off", "reach": None}
+    misfit = 0.0  # the seeds' colour distance to the table at their orders
     if search_mode == "refined":
         known, origin = _rgb_seeds(frame.data.shape, mask, seeds, order_at, anchor_order)
         _check_seed_range(known, table, window)
         rr = search_adapted(frame.data, table, known, mask=mask, window=window, adapt=adapt)
         info.update(adapt=adapt, reach=rr.reach, seeds=origin, adaptation_px=rr.adaptation.pixels)
         info["adaptation"] = rr.adaptation.coefficients.round(4).tolist()
+        misfit = _seed_misfit(frame.data, table, known)
+        info["seed_colour_misfit"] = misfit
     else:
         rr = search(frame.data, table, mask=mask)
     reliable = rr.reliable  # an order within MAX_COLOUR_ERROR of a table colour
@@ -238,8 +285,24 @@ def analyse_rgb(
             "tell fringe orders apart; the rgb method needs white light (six phase-stepped "
             "images: --method phase)"
         )
+    elif misfit > MAX_SEED_MISFIT:
+        part["extra_warning"] = (
+            f"the seeds' colours do not match the colour table at their orders (median "
+            f"colour distance {misfit:.2f}, more than {MAX_SEED_MISFIT:g}; seeds from the "
+            f"{origin}): the orders read from them may be off by a fringe or more; check "
+            "--anchor-order, --order-at or --seed"
+        )
     part["no_data_px"] = no_data_px
     return rr.order, reliable, {"colour_error": rr.error}, part, mask
+
+
+def _seed_misfit(image, table: CalibrationTable, known) -> float:
+    """Median colour distance of the seed pixels to the table's colour at their orders
+    (a border assumed at order 0 that is at order 1 is black in the table, not yellow)."""
+    seeded = np.isfinite(known)
+    n = known[seeded]
+    rgb = np.column_stack([np.interp(n, table.orders, table.rgb[:, k]) for k in range(3)])
+    return float(np.median(np.linalg.norm(image[seeded] - rgb, axis=1)))
 
 
 def _check_seed_range(known, table, window) -> None:

@@ -46,6 +46,15 @@ from .rgb import (
     search,
     search_refined,
 )
+from .rgb_adapt import (
+    ADAPT_MAX_ORDER,
+    MIN_COLOUR_SPEED,
+    AdaptedRGBResult,
+    ColourAdaptation,
+    colour_reach,
+    fit_adaptation,
+    search_adapted,
+)
 from .unwrap import FringeOrderMap, count_fringe_order, unwrap_fringe_order
 
 __all__ = [
@@ -94,6 +103,13 @@ __all__ = [
     "resolve_ambiguity",
     "search",
     "search_refined",
+    "search_adapted",
+    "fit_adaptation",
+    "colour_reach",
+    "ColourAdaptation",
+    "AdaptedRGBResult",
+    "ADAPT_MAX_ORDER",
+    "MIN_COLOUR_SPEED",
     "six_step",
     "subtract_reference",
     "unwrap_fringe_order",

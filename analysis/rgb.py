@@ -353,18 +353,34 @@ def search(
     return RGBResult(order, error, _reliable(order, error, max_error))
 
 
-def _check_seeds(seeds, tab: CalibrationTable, m: np.ndarray, window: float) -> None:
-    """Every seed inside the image and the mask, its order inside the table range."""
+def _seed_arrays(seeds, tab: CalibrationTable, m: np.ndarray, window: float):
+    """Seed rows, columns and orders (int, int, float arrays) from a sequence of
+    ((row, col), order) or a (rows, cols) map of orders (NaN off the seeds); each checked:
+    inside the image and the mask, its order inside the table's range."""
     rows, cols = m.shape
-    for (r, c), o in seeds:
-        r, c = int(round(r)), int(round(c))
-        if not (0 <= r < rows and 0 <= c < cols) or not m[r, c]:
-            raise ValueError(f"seed pixel {(r, c)} is outside the image or the mask")
-        if not tab.orders[0] - window <= o <= tab.orders[-1] + window:
-            raise ValueError(
-                f"seed order {o!r} is outside the table range "
-                f"[{tab.orders[0]:.3g}, {tab.orders[-1]:.3g}]"
-            )
+    if isinstance(seeds, np.ndarray) and seeds.shape == m.shape:
+        r, c = np.nonzero(np.isfinite(seeds))
+        o = seeds[r, c].astype(float)
+    else:
+        seeds = list(seeds)
+        rc = np.array([p for p, _ in seeds], float).reshape(-1, 2)
+        r, c = np.round(rc[:, 0]).astype(np.int64), np.round(rc[:, 1]).astype(np.int64)
+        o = np.array([v for _, v in seeds], float)
+    if not len(o):
+        raise ValueError("search_refined needs at least one seed ((row, col), order)")
+    inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+    bad = ~inside
+    bad[inside] = ~m[r[inside], c[inside]]
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ValueError(f"seed pixel {(int(r[i]), int(c[i]))} is outside the image or the mask")
+    out = (o < tab.orders[0] - window) | (o > tab.orders[-1] + window) | ~np.isfinite(o)
+    if out.any():
+        raise ValueError(
+            f"seed order {float(o[np.argmax(out)])!r} is outside the table range "
+            f"[{tab.orders[0]:.3g}, {tab.orders[-1]:.3g}]"
+        )
+    return r, c, o
 
 
 def _windows(tab: CalibrationTable, k: int):
@@ -386,6 +402,7 @@ def search_refined(
     mask=None,
     window: float = 0.25,
     max_error: float = MAX_COLOUR_ERROR,
+    stop_above: float = np.inf,
 ) -> RGBResult:
     """Search restricted to +-``window`` fringe around the neighbours' orders.
 
@@ -399,9 +416,10 @@ def search_refined(
         Colours on the table's scale.
     table : CalibrationTable
         Resampled to uniform spacing internally.
-    seeds : sequence of ((row, col), order)
+    seeds : sequence of ((row, col), order), or (rows, cols) float array
         Pixels of known fringe order (e.g. the far field at 0, or a point on a
-        calibrated fringe). Every pixel connected to a seed inside ``mask`` is solved.
+        calibrated fringe), or a map of known orders, NaN off them (a no-load region).
+        Every pixel connected to a seed inside ``mask`` is solved.
     mask : (rows, cols) bool array, optional
     window : float
         Half-width of the order window (fringes). Must exceed the largest order change
@@ -409,6 +427,9 @@ def search_refined(
         ~0.2 fringe/pixel (0.15 already lost the diametral disc at 0.25 mm/px).
     max_error : float
         Largest colour distance of a reliable pixel (:data:`MAX_COLOUR_ERROR`).
+    stop_above : float
+        Pixels solved above this order are kept (unreliable) but the search does not
+        grow from them: beyond the colours' reach it stops instead of wandering.
 
     Returns
     -------
@@ -440,9 +461,6 @@ def search_refined(
     img, m = _pixels(image, mask)
     if not window > 0:
         raise ValueError(f"window = {window!r} fringe is not allowed; must be > 0")
-    seeds = list(seeds)
-    if not seeds:
-        raise ValueError("search_refined needs at least one seed ((row, col), order)")
     rows, cols = m.shape
     tab = (
         table
@@ -451,7 +469,7 @@ def search_refined(
     )
     step = tab.step
     k = int(np.ceil(window / step))
-    _check_seeds(seeds, tab, m, window)
+    sr, sc, so = _seed_arrays(seeds, tab, m, window)
     # work on a one-pixel padded grid so that every pixel has 8 neighbours
     pc = cols + 2
     inside = np.zeros((rows + 2, pc), bool)
@@ -463,12 +481,9 @@ def search_refined(
     pix.reshape(rows + 2, pc, 3)[1:-1, 1:-1] = img
     T, Tn, Tc = _windows(tab, k)
     nb = np.array([-pc - 1, -pc, -pc + 1, -1, 1, pc - 1, pc, pc + 1])
-    seed_flat = []
-    for (r, c), o in seeds:
-        f = (int(round(r)) + 1) * pc + int(round(c)) + 1
-        order[f] = float(o)
-        error[f] = float(np.sqrt(((pix[f] - T) ** 2).sum(-1).min()))
-        seed_flat.append(f)
+    seed_flat = (sr + 1) * pc + sc + 1
+    order[seed_flat] = so
+    error[seed_flat] = cKDTree(T).query(pix[seed_flat], k=1)[0]
     # Quality-guided growth: the frontier (unsolved pixels next to solved ones) is solved
     # in windows around its solved neighbours, and only its better half by colour error
     # is accepted in each wave; the rest wait for more solved neighbours. A pixel whose
@@ -502,9 +517,9 @@ def search_refined(
         order[done] = tab.orders[rows_best[take]]
         error[done] = e[take]
         in_front[done] = False
-        front = np.concatenate([front[~take], grow(done)])
+        front = np.concatenate([front[~take], grow(done[order[done] <= stop_above])])
     order = order.reshape(rows + 2, pc)[1:-1, 1:-1]
     error = error.reshape(rows + 2, pc)[1:-1, 1:-1]
     out = np.where(m, order, np.nan)
     err = np.where(m, error, np.nan)
-    return RGBResult(out, err, _reliable(out, err, max_error))
+    return RGBResult(out, err, _reliable(out, err, max_error) & ~(out > stop_above))

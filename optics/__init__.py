@@ -15,7 +15,14 @@ from .fields import Boussinesq, DiametralDisc, StressField, TwistedStress, Unifo
 from .grid import PixelGrid, RaySamples, sample_points, sample_rays
 from .jones import characteristic, integrate_path, retarder, rotator, secondary_principal
 from .opticalmap import OpticalMap, integrate_layers, integrate_samples, optical_map
-from .photo import PhotoModel, crack_tip_field, indent_field, photograph, residual_birefringence
+from .photo import (
+    PhotoModel,
+    crack_tip_field,
+    indent_field,
+    photograph,
+    residual_birefringence,
+    white_light_photograph,
+)
 from .polariscope import (
     SIX_STEPS,
     Arrangement,
@@ -61,6 +68,7 @@ __all__ = [
     "crack_tip_field",
     "indent_field",
     "photograph",
+    "white_light_photograph",
     "residual_birefringence",
     "plane_polariscope",
     "retarder",

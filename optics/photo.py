@@ -26,11 +26,18 @@ import imageio.v3 as iio
 import numpy as np
 from scipy.ndimage import convolve, gaussian_filter, zoom
 
-from .camera import Camera
+from .camera import Camera, Spectrum, white_light_image
 from .jones import qmul, retarder
 from .polariscope import Arrangement, intensity
 
-__all__ = ["PhotoModel", "crack_tip_field", "indent_field", "residual_birefringence", "photograph"]
+__all__ = [
+    "PhotoModel",
+    "crack_tip_field",
+    "indent_field",
+    "residual_birefringence",
+    "photograph",
+    "white_light_photograph",
+]
 
 
 @dataclass(frozen=True)
@@ -219,6 +226,89 @@ def photograph(
         if model.bayer:
             linear = _bayer(linear)
     img = replace(camera, sensitivities="mono").encode(linear, seed)
+    if model.jpeg_quality is not None:
+        img = _jpeg(
+            img if img.dtype == np.uint8 else (img // 257).astype(np.uint8), model.jpeg_quality
+        )
+    return img
+
+
+def white_light_photograph(
+    q: np.ndarray,
+    spectrum: Spectrum,
+    camera: Camera,
+    model: PhotoModel,
+    *,
+    seed: int | None = 0,
+    white_balance=(1.0, 1.0, 1.0),
+    tone_gamma: float = 1.0,
+    arrangement: Arrangement | None = None,
+) -> np.ndarray:
+    """A white-light colour photograph (8/16-bit) of specimen quaternions.
+
+    :func:`optics.camera.white_light_image` in linear RGB, then what a laboratory camera
+    adds (the same effects and order as :func:`photograph`): residual birefringence,
+    vignetting, glare, a white balance that is not the light's, a tone curve that is not
+    the camera's nominal one, shot and read noise, the encoding (sRGB for the CIE
+    observer), quantisation, a Bayer mosaic and JPEG. Seeded: the same inputs give the
+    same image bit for bit.
+
+    Parameters
+    ----------
+    q : (rows, cols, W, 4) float array
+        Path quaternions at ``spectrum.wavelengths``.
+    spectrum : Spectrum
+    camera : Camera
+    model : PhotoModel
+        Its residual birefringence (added at every wavelength as a retarder of the same
+        retardation in rad), vignetting, glare, Bayer mosaic and JPEG quality.
+    seed : int or None
+        Seed of the camera noise.
+    white_balance : (3,) floats
+        Gains of the linear R, G, B channels (1, 1, 1: balanced on the light).
+    tone_gamma : float
+        Linear values are raised to 1 / ``tone_gamma`` before the encoding (1: the
+        camera's nominal curve; 1.2: a brighter, flatter tone curve).
+    arrangement : Arrangement, optional
+        Default: the dark-field circular polariscope.
+
+    Returns
+    -------
+    (rows, cols, 3) uint8 or uint16 array
+
+    Raises
+    ------
+    ValueError
+        ``tone_gamma`` not > 0, or a white balance that is not three gains > 0.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.optics import PSM4_ASSUMED, Camera, PhotoModel, light_source
+    >>> from fringekit.optics import retarder, white_light_photograph
+    >>> led = light_source("LED")
+    >>> k = PSM4_ASSUMED.relative_retardation(led.wavelengths)
+    >>> q = retarder(2 * np.pi * np.linspace(0, 5, 64)[None, :, None] * k, np.pi / 8)
+    >>> lab = PhotoModel(vignetting=0.2, jpeg_quality=90)
+    >>> cam = Camera(full_well=2e4)
+    >>> img = white_light_photograph(q, led, cam, lab, white_balance=(1.1, 1, 0.9))
+    >>> img.dtype.name, img.shape
+    ('uint8', (1, 64, 3))
+    """
+    gains = np.asarray(white_balance, float)
+    if gains.shape != (3,) or not np.all(gains > 0):
+        raise ValueError(f"white_balance = {white_balance!r} is not allowed; give 3 gains > 0")
+    if not tone_gamma > 0:
+        raise ValueError(f"tone_gamma = {tone_gamma!r} is not allowed; it must be > 0")
+    q = np.asarray(q, float)
+    if model.residual_rms_rad > 0:
+        q = qmul(q, residual_birefringence(q.shape[:2], model)[:, :, None, :])
+    linear = white_light_image(q, spectrum, camera, arrangement, linear=True)
+    linear = linear * _vignetting(q.shape[:2], model.vignetting)[..., None] * gains + model.glare
+    linear = np.clip(linear, 0.0, None) ** (1.0 / tone_gamma)
+    if model.bayer:
+        linear = _bayer(linear)
+    img = camera.encode(linear, seed)
     if model.jpeg_quality is not None:
         img = _jpeg(
             img if img.dtype == np.uint8 else (img // 257).astype(np.uint8), model.jpeg_quality

@@ -112,7 +112,7 @@ def _region_options(an) -> None:
         "--anchor-order",
         type=finite,
         default=0.0,
-        help="(phase, mono) fringe order of the image border ring",
+        help="fringe order of the image border ring (phase, mono; rgb without --seed)",
     )
 
 
@@ -143,7 +143,12 @@ def _rgb_options(g) -> None:
     )
     g.add_argument("--light", default="LED", help="(rgb) light of the synthetic chart")
     g.add_argument("--camera", default="CIE1931", help="(rgb) camera of the synthetic chart")
-    g.add_argument("--max-order", type=in_range(MAX_ORDER), default=4.0, help="(rgb) chart range")
+    g.add_argument(
+        "--max-order",
+        type=in_range(MAX_ORDER),
+        default=7.0,
+        help="(rgb) chart range (fringe orders; colours wash out past about 6.5)",
+    )
     g.add_argument(
         "--exposure",
         type=in_range("optics.exposure"),
@@ -156,10 +161,25 @@ def _rgb_options(g) -> None:
         type=finite,
         action="append",
         metavar=("ROW", "COL", "N"),
-        help="(rgb) pixel of known order: refined search from it",
+        help="(rgb) pixel of known order: the refined search starts from it (and from "
+        "--order-at); without either, from the image border at --anchor-order",
     )
     g.add_argument(
         "--window", type=in_range(WINDOW), default=0.25, help="(rgb) refined window (fringe)"
+    )
+    g.add_argument(
+        "--search",
+        choices=("refined", "plain"),
+        default="refined",
+        help="(rgb) refined: follow the fringe order from the seeds (to about order 6.5); "
+        "plain: every pixel against the whole table (to about order 3)",
+    )
+    g.add_argument(
+        "--adapt",
+        choices=("auto", "seeds", "off"),
+        default="auto",
+        help="(rgb, refined) fit the table's colours to the image: to the seeds and the "
+        "pixels solved below order 3 (auto), to the seeds only (a no-load region), or not",
     )
 
 
@@ -197,7 +217,7 @@ def add_parser(sub) -> None:
         action="append",
         metavar=("ROW", "COL", "N"),
         default=None,
-        help="(phase, mono) a pixel of known fringe order N, the lowest order about it (it "
+        help="a pixel of known fringe order N, the lowest order about it (it "
         "also fixes the sign), instead of the image border at --anchor-order; repeat it "
         "for every low point the count cannot reach by counting up (a disc's two ends)",
     )
@@ -265,6 +285,8 @@ def run(args: argparse.Namespace) -> int:
             args.exposure,
             tuple(tuple(s) for s in args.seed or []),
             args.window,
+            args.search,
+            args.adapt,
         ),
         "mono": lambda: MonoOptions(args.field, args.flat, args.smooth_px),
     }

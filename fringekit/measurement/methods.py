@@ -9,40 +9,79 @@ import numpy as np
 from fringekit.analysis import (
     MIN_COLOUR_SPREAD,
     CalibrationTable,
+    border_anchor,
     colour_spread,
     count_fringe_order,
     load_image,
     load_six_step,
     resolve_ambiguity,
     search,
-    search_refined,
+    search_adapted,
     six_step,
     subtract_reference,
     unwrap_fringe_order,
 )
 from fringekit.errors import InputError
-from fringekit.measurement.regions import data_region, order_anchors
+from fringekit.measurement.regions import data_region, order_anchors, order_at_anchor
 from fringekit.optics import PSM4_ASSUMED, Camera, colour_chart, light_source
 
-__all__ = ["MAX_FOLD_DISAGREEMENT", "analyse_phase", "analyse_rgb"]
+__all__ = [
+    "MAX_FOLD_DISAGREEMENT",
+    "MAX_SEED_MISFIT",
+    "analyse_phase",
+    "analyse_rgb",
+    "default_colour_table",
+]
 
 
 def _table(colour_table, chart: dict | None) -> CalibrationTable:
     if colour_table is not None:
         return CalibrationTable.from_csv(colour_table)
-    chart = chart or {}
+    return default_colour_table(**(chart or {}))
+
+
+def default_colour_table(
+    light: str = "LED", camera: str = "CIE1931", max_order: float = 7.0, exposure: float = 0.9
+) -> CalibrationTable:
+    """The colour table ``analyze --method rgb`` searches without ``--colour-table``.
+
+    The optics' colour chart of PSM-4 (:func:`fringekit.optics.colour_chart`) in the light
+    and camera named, on the wavelength grid ``predict`` renders white light on, 0.002
+    fringe per row, scaled by the camera's exposure and, for the CIE observer (fringekit's
+    PNGs, most cameras' JPEGs), sRGB-encoded: the colours an image carries.
+
+    Parameters
+    ----------
+    light : str
+        Light source (:func:`fringekit.optics.light_source`).
+    camera : str
+        Camera sensitivities (:class:`fringekit.optics.Camera`).
+    max_order : float
+        Highest fringe order of the table.
+    exposure : float
+        Fraction of full scale of a white pixel.
+
+    Returns
+    -------
+    CalibrationTable
+
+    Examples
+    --------
+    >>> from fringekit.measurement.methods import default_colour_table
+    >>> t = default_colour_table(max_order=4.0)
+    >>> len(t), float(t.orders[-1]), t.rgb[0].round(3).tolist()
+    (2001, 4.0, [0.0, 0.0, 0.0])
+    """
     lam = PSM4_ASSUMED.wavenumber_grid(31)  # the grid predict renders white light on
     orders, rgb = colour_chart(
         PSM4_ASSUMED,
-        light_source(chart.get("light", "LED"), lam),
-        Camera(sensitivities=chart.get("camera", "CIE1931")),
-        max_order=chart.get("max_order", 4.0),
-        n=2001,
+        light_source(light, lam),
+        Camera(sensitivities=camera),
+        max_order=max_order,
+        n=int(np.ceil(max_order * 500)) + 1,  # 0.002 fringe per row
     )
-    # the chart is linear RGB at exposure 1; images carry the camera's exposure and, for
-    # the CIE observer (fringekit's PNGs, most cameras' JPEGs), the sRGB encoding
-    rgb = np.clip(rgb * chart.get("exposure", 0.9), 0, 1)
-    if chart.get("camera", "CIE1931") == "CIE1931":
+    rgb = np.clip(rgb * exposure, 0, 1)
+    if camera == "CIE1931":
         rgb = np.clip(colour.cctf_encoding(rgb, function="sRGB"), 0, 1)
     return CalibrationTable.from_chart(orders, rgb, "synthetic colour chart (optics)")
 
@@ -50,6 +89,12 @@ def _table(colour_table, chart: dict | None) -> CalibrationTable:
 #: Share of the region where the two fold resolutions may differ by more than a quarter
 #: fringe before analyze warns.
 MAX_FOLD_DISAGREEMENT = 0.05
+
+#: Median colour distance of the rgb method's seeds to the table's colour at their orders
+#: ([0, 1] scale) before analyze warns. Seeds at the right order measured 0.01-0.07 with
+#: the table's camera and 0.10-0.13 with another white balance, exposure and tone curve;
+#: a border assumed at order 0 that lies at 0.5-2, 0.77-1.5.
+MAX_SEED_MISFIT = 0.3
 
 
 def analyse_phase(
@@ -81,7 +126,13 @@ def analyse_phase(
                 "allowed: the same camera view"
             )
         res = subtract_reference(res, six_step(ref, mask=mask, min_modulation=min_modulation))
-    anchor, known = order_anchors(frames[0].shape, res.valid, order_at, anchor_order)
+    anchor, known = order_anchors(
+        frames[0].shape,
+        res.valid,
+        order_at,
+        anchor_order,
+        "not masked, modulation above --min-modulation",
+    )
     if np.ndim(known) == 0:  # the border ring at --anchor-order
         by_iso = unwrap_fringe_order(
             res, resolve_ambiguity(res), anchor_mask=anchor, anchor_order=known
@@ -142,8 +193,56 @@ def _no_modulation(paths, frames, modulation, min_modulation) -> str:
     )
 
 
-def analyse_rgb(paths, dark, mask_args, *, colour_table=None, chart=None, seeds=(), window=0.25):
-    """One colour image -> (order, reliable, extra maps, summary part, mask)."""
+def _rgb_seeds(shape, mask, seeds, order_at, anchor_order) -> tuple[np.ndarray, str]:
+    """The refined search's seeds as a map of orders (NaN off them) and where they came
+    from: the ``--seed`` pixels and the ``--order-at`` discs, else the region's border
+    ring at ``--anchor-order`` (as phase and mono)."""
+    known = np.full(shape[:2], np.nan)
+    for r, c, n in seeds:
+        rr, cc = int(round(r)), int(round(c))
+        if not (0 <= rr < shape[0] and 0 <= cc < shape[1]) or not mask[rr, cc]:
+            raise InputError(
+                f"--seed {r:g} {c:g} {n:g}: the pixel is outside the image or the region of "
+                f"interest; allowed: a pixel with data in the {shape[0]} x {shape[1]} image"
+            )
+        known[rr, cc] = n
+    anchor, orders = order_at_anchor(
+        shape, mask, order_at, "in the region of interest, not clipped to white"
+    )
+    if anchor is not None:
+        known = np.where(anchor, orders, known)
+    if np.isfinite(known).any():
+        return known, "--seed/--order-at pixels"
+    ring = border_anchor(mask)
+    if not ring.any():
+        raise InputError(
+            "no pixel of the region of interest lies on the image border, where the rgb "
+            f"method's continuity search starts at --anchor-order ({anchor_order:g}); "
+            "allowed: --seed ROW COL N or --order-at ROW COL N (a pixel of known order), "
+            "or --search plain"
+        )
+    return np.where(ring, float(anchor_order), np.nan), "border at --anchor-order"
+
+
+def analyse_rgb(
+    paths,
+    dark,
+    mask_args,
+    *,
+    colour_table=None,
+    chart=None,
+    seeds=(),
+    window=0.25,
+    search_mode="refined",
+    adapt="auto",
+    order_at=(),
+    anchor_order=0.0,
+):
+    """One colour image -> (order, reliable, extra maps, summary part, mask).
+
+    ``search_mode="refined"`` (the default): the continuity search with colour adaptation
+    (:func:`analysis.search_adapted`) from the seeds (:func:`_rgb_seeds`); ``"plain"``:
+    every pixel against the whole table (reliable to about order 3)."""
     if len(paths) != 1:
         raise InputError(f"the rgb method takes one colour image, got {len(paths)}")
     frame = load_image(paths[0], dark=dark)
@@ -155,9 +254,16 @@ def analyse_rgb(paths, dark, mask_args, *, colour_table=None, chart=None, seeds=
     mask, no_data_px = data_region(frame.data, mask_args)
     mask &= ~np.all(frame.data >= 1.0, axis=-1)
     table = _table(colour_table, chart)
-    if seeds:
-        seed_list = [((r, c), o) for r, c, o in seeds]
-        rr = search_refined(frame.data, table, seed_list, mask=mask, window=window)
+    info = {"refined": search_mode == "refined", "adapt": "off", "reach": None}
+    misfit = 0.0  # the seeds' colour distance to the table at their orders
+    if search_mode == "refined":
+        known, origin = _rgb_seeds(frame.data.shape, mask, seeds, order_at, anchor_order)
+        _check_seed_range(known, table, window)
+        rr = search_adapted(frame.data, table, known, mask=mask, window=window, adapt=adapt)
+        info.update(adapt=adapt, reach=rr.reach, seeds=origin, adaptation_px=rr.adaptation.pixels)
+        info["adaptation"] = rr.adaptation.coefficients.round(4).tolist()
+        misfit = _seed_misfit(frame.data, table, known)
+        info["seed_colour_misfit"] = misfit
     else:
         rr = search(frame.data, table, mask=mask)
     reliable = rr.reliable  # an order within MAX_COLOUR_ERROR of a table colour
@@ -167,8 +273,8 @@ def analyse_rgb(paths, dark, mask_args, *, colour_table=None, chart=None, seeds=
             "table": table.source,
             "rows": len(table),
             "orders": [float(table.orders[0]), float(table.orders[-1])],
-            "refined": bool(seeds),
             "colour_spread": spread,
+            **info,
         }
     }
     if spread < MIN_COLOUR_SPREAD:  # single-colour light: colour cannot tell orders apart
@@ -179,5 +285,34 @@ def analyse_rgb(paths, dark, mask_args, *, colour_table=None, chart=None, seeds=
             "tell fringe orders apart; the rgb method needs white light (six phase-stepped "
             "images: --method phase)"
         )
+    elif misfit > MAX_SEED_MISFIT:
+        part["extra_warning"] = (
+            f"the seeds' colours do not match the colour table at their orders (median "
+            f"colour distance {misfit:.2f}, more than {MAX_SEED_MISFIT:g}; seeds from the "
+            f"{origin}): the orders read from them may be off by a fringe or more; check "
+            "--anchor-order, --order-at or --seed"
+        )
     part["no_data_px"] = no_data_px
     return rr.order, reliable, {"colour_error": rr.error}, part, mask
+
+
+def _seed_misfit(image, table: CalibrationTable, known) -> float:
+    """Median colour distance of the seed pixels to the table's colour at their orders
+    (a border assumed at order 0 that is at order 1 is black in the table, not yellow)."""
+    seeded = np.isfinite(known)
+    n = known[seeded]
+    rgb = np.column_stack([np.interp(n, table.orders, table.rgb[:, k]) for k in range(3)])
+    return float(np.median(np.linalg.norm(image[seeded] - rgb, axis=1)))
+
+
+def _check_seed_range(known, table, window) -> None:
+    """Every seed order inside the colour table's range, or a one-line error."""
+    o = known[np.isfinite(known)]
+    lo, hi = table.orders[0] - window, table.orders[-1] + window
+    if o.size and (o.min() < lo or o.max() > hi):
+        bad = float(o[(o < lo) | (o > hi)][0])
+        raise InputError(
+            f"seed order {bad:g} (--seed, --order-at or --anchor-order) is outside the colour "
+            f"table's orders {table.orders[0]:g}..{table.orders[-1]:g}; allowed: an order in "
+            "that range (raise --max-order for the synthetic chart)"
+        )

@@ -132,9 +132,17 @@ class RGBOptions:
     exposure : float
         The chart's exposure (fraction of full scale).
     seeds : sequence of (row, col, order)
-        Pixels of known order that start the refined search.
+        Pixels of known order that start the refined search (with ``order_at``; without
+        either it starts from the region's border at ``anchor_order``, as phase and mono).
     window : float
         Half-width of the refined search about the neighbours' order (fringe).
+    search : {"refined", "plain"}
+        ``refined``: fringe-order continuity from the seeds (refined TFP), to about order
+        6.5; ``plain``: every pixel against the whole table, to about order 3.
+    adapt : {"auto", "seeds", "off"}
+        Colour adaptation of the table to the image (refined search): to the seeds and
+        the pixels the search solves below order 3 (``auto``), to the seeds only (a
+        no-load region), or none.
 
     Examples
     --------
@@ -146,12 +154,18 @@ class RGBOptions:
     colour_table: str | None = None
     light: str = "LED"
     camera: str = "CIE1931"
-    max_order: float = 4.0
+    max_order: float = 7.0
     exposure: float = 0.9
     seeds: tuple = ()
     window: float = 0.25
+    search: str = "refined"
+    adapt: str = "auto"
 
     def __post_init__(self):
+        if self.search not in ("refined", "plain"):
+            raise InputError(f"--search {self.search} is not allowed; use refined or plain")
+        if self.adapt not in ("auto", "seeds", "off"):
+            raise InputError(f"--adapt {self.adapt} is not allowed; use auto, seeds or off")
         for name in ("max_order", "exposure", "window"):
             v = getattr(self, name)
             if not (np.isfinite(v) and v > 0):
@@ -172,6 +186,8 @@ class RGBOptions:
             "chart": chart,
             "seeds": seeds,
             "window": self.window,
+            "search_mode": self.search,
+            "adapt": self.adapt,
         }
 
 

@@ -257,7 +257,10 @@ def analyze(
     elif method == "mono":
         res = analyse_mono(paths, dark, mask_args, anchor_order, order_at, dataclasses.asdict(opts))
     else:
-        res = analyse_rgb(paths, dark, mask_args, **opts.as_kwargs())
+        kw = opts.as_kwargs()
+        res = analyse_rgb(
+            paths, dark, mask_args, order_at=order_at, anchor_order=anchor_order, **kw
+        )
     order, reliable, maps, part, mask = res
     summary: dict = {"method": method, "images": paths}
     if disc is not None:

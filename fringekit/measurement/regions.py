@@ -130,9 +130,10 @@ def region_mask(
 ORDER_AT_RADIUS_PX = 3.0
 
 
-def order_at_anchor(shape, valid, order_at):
+def order_at_anchor(shape, valid, order_at, valid_is: str = "in the region of interest"):
     """(anchor mask, anchor orders (rows, cols), NaN off the anchors) from ``--order-at``
-    points (row, col, order), each checked; (None, None) without any."""
+    points (row, col, order), each checked; (None, None) without any. ``valid_is`` says
+    in the error what makes a pixel valid for the method."""
     if not order_at:
         return None, None
     anchor = np.zeros(shape[:2], bool)
@@ -142,20 +143,22 @@ def order_at_anchor(shape, valid, order_at):
         if not (disc & valid).any():
             raise InputError(
                 f"--order-at {r:g} {c:g} {n:g}: no valid pixel within {ORDER_AT_RADIUS_PX:g} px "
-                f"of ({r:g}, {c:g}); allowed: a point inside the image with fringe data (not "
-                "masked, modulation above --min-modulation)"
+                f"of ({r:g}, {c:g}); allowed: a point inside the image with fringe data "
+                f"({valid_is})"
             )
         anchor |= disc & valid
         orders[disc & valid] = n
     return anchor, orders
 
 
-def order_anchors(shape, valid, order_at, anchor_order: float):
+def order_anchors(
+    shape, valid, order_at, anchor_order: float, valid_is: str = "in the region of interest"
+):
     """The anchors of the count or the unwrap: the ``--order-at`` points when given (mask,
     orders map NaN off them), else the valid pixels on the image border at
     ``--anchor-order`` (mask, that order); an error naming the options when there are
-    none."""
-    anchor, orders = order_at_anchor(shape, valid, order_at)
+    none. ``valid_is`` as :func:`order_at_anchor`."""
+    anchor, orders = order_at_anchor(shape, valid, order_at, valid_is)
     if anchor is not None:
         return anchor, orders
     anchor = border_anchor(valid)

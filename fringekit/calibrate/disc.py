@@ -213,13 +213,6 @@ def _fit(discs, geometry, D, t, field, shared, residual_field):
         fit = fit_disc_series(discs, geometry, diameter=D, thickness=t, field=field)
         _check_loads(fit, [d.name for d in discs])
         return fit, 0.0
-    if worst > REFUSE_RESIDUAL and residual_field == "auto":
-        raise RefusedError(
-            f"--disc: Frocht's field with a uniform residual order leaves an RMS residual of "
-            f"{100 * worst:.0f} % of the fringe amplitude; a frozen field that varies over the "
-            f"disc needs a load series: at least {MIN_SERIES} photographs at distinct loads "
-            f"(given {distinct}; a zero-load --reference counts)"
-        )
     return fit, worst
 
 
@@ -338,11 +331,20 @@ def calibrate_disc(
     discs = [DiscImage(p, P, n) for p, P, n in zip(photos, all_loads, names, strict=True)]
     fit, worst = _fit(discs, geometry, D, t, field, reference is not None, residual_field)
     if worst > REFUSE_RESIDUAL:
+        distinct = len(set(all_loads))
+        series = (
+            f"; a frozen stress that varies over the disc needs a load series of at least "
+            f"{MIN_SERIES} photographs at distinct loads (given {distinct}; a zero-load "
+            "--reference counts)"
+            if residual_field == "auto" and distinct < MIN_SERIES
+            else ""
+        )
         raise RefusedError(
             f"--disc: Frocht's field leaves an RMS residual of "
             f"{'over 100' if worst > 1 else f'{100 * worst:.0f}'} % of the fringe "
             "amplitude: the photographs are not explained as a disc in diametral compression "
             "(check --load-N, --diameter-mm, --field, the disc found, or give --centre/--radius-px)"
+            + series
         )
     warnings = []
     if worst > WARN_RESIDUAL:

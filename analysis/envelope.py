@@ -86,9 +86,9 @@ class Envelope:
 MIN_BAND_PX = 64
 
 
-def band_labels(u: np.ndarray, mask: np.ndarray, min_px: int = MIN_BAND_PX):
+def band_labels(u: np.ndarray, mask: np.ndarray, min_px: int = MIN_BAND_PX, cut_dense: bool = True):
     """Bright (u > 0.5) and dark bands of a normalised image, islands < ``min_px`` removed,
-    and the fringes too dense to resolve cut out.
+    and (``cut_dense``) the fringes too dense to resolve cut out.
 
     Returns (labels (rows, cols) int, 0 outside ``mask`` and on unresolved fringes; bright
     (n_bands + 1,) bool per label, index 0 unused). Dark bands are 4-connected and bright
@@ -103,6 +103,8 @@ def band_labels(u: np.ndarray, mask: np.ndarray, min_px: int = MIN_BAND_PX):
     bright = remove_small_objects(bright & mask, max_size=min_px) | (bright & ~mask)
     bright = remove_small_holes(bright | ~mask, max_size=min_px) & mask
     labels, is_bright = _label(bright, mask)
+    if not cut_dense:
+        return labels, is_bright
     dense = unresolved(labels) | _thin(bright, mask)
     if dense.any():
         labels, is_bright = _label(bright, mask & ~dense)

@@ -266,6 +266,7 @@ def count_fringe_order(
         smooth_px=0.0,
         anchor_mask=anchor_mask,
         anchor_order=anchor_order,
+        cut_dense=False,
     )
     flip = np.sin(TWO_PI * np.nan_to_num(mo.order)) < 0
     iso = np.where(flip, result.isoclinic + np.pi / 2, result.isoclinic)

@@ -216,6 +216,25 @@ def _fit(discs, geometry, D, t, field, shared, residual_field):
     return fit, worst
 
 
+def _unexplained(worst: float, distinct: int, residual_field: str) -> RefusedError:
+    """The refusal of photographs the disc fit does not explain (RMS residual ``worst``,
+    a fraction of the fringe amplitude, from ``distinct`` loads)."""
+    series = (
+        f"; a frozen stress that varies over the disc needs a load series of at least "
+        f"{MIN_SERIES} photographs at distinct loads (given {distinct}; a zero-load "
+        "--reference counts)"
+        if residual_field == "auto" and distinct < MIN_SERIES
+        else ""
+    )
+    return RefusedError(
+        f"--disc: Frocht's field leaves an RMS residual of "
+        f"{'over 100' if worst > 1 else f'{100 * worst:.0f}'} % of the fringe "
+        "amplitude: the photographs are not explained as a disc in diametral compression "
+        "(check --load-N, --diameter-mm, --field, the disc found, or give --centre/--radius-px)"
+        + series
+    )
+
+
 def calibrate_disc(
     images,
     *,
@@ -331,21 +350,7 @@ def calibrate_disc(
     discs = [DiscImage(p, P, n) for p, P, n in zip(photos, all_loads, names, strict=True)]
     fit, worst = _fit(discs, geometry, D, t, field, reference is not None, residual_field)
     if worst > REFUSE_RESIDUAL:
-        distinct = len(set(all_loads))
-        series = (
-            f"; a frozen stress that varies over the disc needs a load series of at least "
-            f"{MIN_SERIES} photographs at distinct loads (given {distinct}; a zero-load "
-            "--reference counts)"
-            if residual_field == "auto" and distinct < MIN_SERIES
-            else ""
-        )
-        raise RefusedError(
-            f"--disc: Frocht's field leaves an RMS residual of "
-            f"{'over 100' if worst > 1 else f'{100 * worst:.0f}'} % of the fringe "
-            "amplitude: the photographs are not explained as a disc in diametral compression "
-            "(check --load-N, --diameter-mm, --field, the disc found, or give --centre/--radius-px)"
-            + series
-        )
+        raise _unexplained(worst, len(set(all_loads)), residual_field)
     warnings = []
     if worst > WARN_RESIDUAL:
         warnings.append(

@@ -30,7 +30,7 @@ def _compare(a, b) -> tuple[float, float]:
     return depth, float(np.abs(sb - sa).max() / np.abs(sa).max())
 
 
-@pytest.mark.parametrize("friction", [0.0, math.inf])
+@pytest.mark.parametrize("friction", [0.0, pytest.param(math.inf, marks=pytest.mark.slow)])
 def test_a_sheet_k_times_stiffer_carries_k_times_the_load_at_the_same_shape(small_meshes, friction):
     """2 N on the 4 MPa sheet against 2.3 N on a 4.6 MPa one (coarse block, 4 mm
     polycarbonate): the same depth and the same stresses divided by 1.15, to 5e-4, and

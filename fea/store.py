@@ -211,8 +211,12 @@ def cache_entry(
     >>> path.parent.as_posix(), path.suffix
     ('c/solutions', '.npz')
     """
+    return _entry_path(cache_dir, solution_key(mesh, indenters, materials, contact, settings))
+
+
+def _entry_path(cache_dir, key: str) -> Path:
+    """The cache file of solution key ``key`` under ``cache_dir`` (default cache if None)."""
     root = Path(cache_dir) if cache_dir is not None else default_cache_dir()
-    key = solution_key(mesh, indenters, materials, contact, settings)
     return root / "solutions" / f"{key[:32]}.npz"
 
 
@@ -235,10 +239,9 @@ def solve_cached(
     stats : SolveStats, or None when the states came from the cache
     path : where the states are (or would be) cached
     """
-    root = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     inputs = solution_inputs(mesh, indenters, materials, contact, settings)
     key = hashlib.sha256(inputs.encode()).hexdigest()
-    path = root / "solutions" / f"{key[:32]}.npz"
+    path = _entry_path(cache_dir, key)
     if use_cache and path.exists():
         try:
             sols = load_solutions(path, mesh, key=key)

@@ -18,7 +18,15 @@ from .calibrate import (
 )
 from .circles import Circle, disc_by_symmetry, find_disc, find_discs
 from .compare import Comparison, Profile, compare_maps, line_profile
-from .images import SIX_STEP_ORDER, Frame, image_noise_sd, load_image, load_six_step, normalise
+from .images import (
+    SIX_STEP_ORDER,
+    Frame,
+    image_noise_sd,
+    load_image,
+    load_six_step,
+    normalise,
+    read_pixels,
+)
 from .masks import border_anchor, check_mask, circle_mask, exclude_circle, polygon_mask
 from .mono import (
     AGREE_MIN,
@@ -98,6 +106,7 @@ __all__ = [
     "load_six_step",
     "image_noise_sd",
     "normalise",
+    "read_pixels",
     "polygon_mask",
     "principal_stress_difference",
     "resolve_ambiguity",

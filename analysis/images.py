@@ -16,7 +16,15 @@ import png
 import tifffile
 from scipy import ndimage
 
-__all__ = ["Frame", "load_image", "load_six_step", "image_noise_sd", "normalise", "SIX_STEP_ORDER"]
+__all__ = [
+    "Frame",
+    "load_image",
+    "load_six_step",
+    "image_noise_sd",
+    "normalise",
+    "read_pixels",
+    "SIX_STEP_ORDER",
+]
 
 #: The arrangement of a six-step set (the table of ``docs/theory.md``, Ramesh 2000): image k is
 #: taken with quarter-wave plates (xi, eta) and analyser beta of row k, polariser at pi/2.
@@ -177,8 +185,43 @@ def _read_16_bit_png(path: Path) -> np.ndarray:
     return img.reshape(height, width, planes) if planes > 1 else img.reshape(height, width)
 
 
-def _read_frame(path) -> Frame:
-    """One image file as a Frame, without the emptiness check (a dark frame may be flat)."""
+def read_pixels(path) -> np.ndarray:
+    """The pixels of one PNG/TIFF/JPEG file as stored, unscaled: what :func:`load_image`
+    reads before it scales them to [0, 1].
+
+    16-bit colour PNGs keep their full depth (Pillow would cut them to 8 bits); JPEG and
+    PNG photographs are turned by the camera's EXIF orientation, as a viewer shows them.
+
+    Parameters
+    ----------
+    path : str or Path
+        An image file.
+
+    Returns
+    -------
+    numpy.ndarray
+        (rows, cols) grey or (rows, cols, channels) with 2 (grey and alpha), 3 (RGB) or 4
+        (RGBA) channels, of the file's type (uint8, uint16, or float for a float TIFF); a
+        multi-page TIFF gives (pages, rows, cols).
+
+    Raises
+    ------
+    FileNotFoundError, ValueError
+        A missing file, a folder, or a file that is not a readable image (one line naming
+        the file).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> import imageio.v3 as iio
+    >>> import numpy as np
+    >>> from fringekit.analysis import read_pixels
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     iio.imwrite(f"{d}/deep.png", np.array([[0, 1000], [65535, 7]], np.uint16))
+    ...     pixels = read_pixels(f"{d}/deep.png")
+    >>> pixels.dtype, pixels.tolist()
+    (dtype('uint16'), [[0, 1000], [65535, 7]])
+    """
     path = Path(path)
     if path.is_dir():
         raise ValueError(f"{path} is a folder; give an image file (PNG, TIFF or JPEG)")
@@ -194,6 +237,12 @@ def _read_frame(path) -> Frame:
     except Exception as exc:  # imageio raises many types (and multi-line advice)
         first = (str(exc).strip().splitlines() or [type(exc).__name__])[0][:120]
         raise ValueError(f"{path}: not a readable PNG/TIFF/JPEG image ({first})") from None
+    return img
+
+
+def _read_frame(path) -> Frame:
+    """One image file as a Frame, without the emptiness check (a dark frame may be flat)."""
+    img = read_pixels(path)
     if img.ndim == 3 and img.shape[2] not in (2, 3, 4) and img.shape[0] > 1:
         raise ValueError(
             f"{path}: holds {img.shape[0]} pages, a stack where one image is expected (six "

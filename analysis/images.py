@@ -228,12 +228,15 @@ def read_pixels(path) -> np.ndarray:
     if not path.is_file():
         raise FileNotFoundError(f"image file {str(path)!r} does not exist")
     try:
+        # The plugins are named (the ones imageio picks for these files): left to choose,
+        # imageio tries a file Pillow cannot read as a video when PyAV is installed, and
+        # reports that attempt's failure instead.
         if _is_16_bit_png(path):
             img = _read_16_bit_png(path)
-        else:
-            # the camera's EXIF orientation, as a viewer shows the photograph (JPEG, PNG)
-            rotate = path.suffix.lower() not in (".tif", ".tiff")
-            img = iio.imread(path, rotate=True) if rotate else iio.imread(path)
+        elif path.suffix.lower() in (".tif", ".tiff"):
+            img = iio.imread(path, plugin="tifffile")
+        else:  # the camera's EXIF orientation, as a viewer shows the photograph (JPEG, PNG)
+            img = iio.imread(path, plugin="pillow", rotate=True)
     except Exception as exc:  # imageio raises many types (and multi-line advice)
         first = (str(exc).strip().splitlines() or [type(exc).__name__])[0][:120]
         raise ValueError(f"{path}: not a readable PNG/TIFF/JPEG image ({first})") from None

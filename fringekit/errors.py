@@ -4,8 +4,9 @@ Every error a user can meet derives from :class:`FringekitError`, so one ``excep
 them all, and the command line maps each family to one exit status:
 
 - :class:`InputError` (exit 2): an input that is not allowed, found before work starts: a
-  config key, an option, a file, an output folder. :class:`ConfigError` (a config key) and
-  :class:`LibraryError` (a library folder) are input errors.
+  config key, an option, a file, an output folder. :class:`ConfigError` (a config key),
+  :class:`LibraryError` (a library folder) and :class:`SourceError` (a frame source) are
+  input errors.
 - :class:`RefusedError` (exit 2): inputs that are each valid but that the method cannot
   stand behind together, such as an image the response library cannot explain.
 - :class:`ComputeError` (exit 1): a computation that did not finish (the contact solver did
@@ -34,6 +35,7 @@ __all__ = [
     "Interrupted",
     "LibraryError",
     "RefusedError",
+    "SourceError",
 ]
 
 
@@ -88,6 +90,23 @@ class LibraryError(InputError):
     Traceback (most recent call last):
     ...
     fringekit.errors.LibraryError: --library ...: no manifest.json (not a library folder, ...
+    """
+
+
+class SourceError(InputError):
+    """A frame source that cannot be read (the SOURCE of ``fringekit track``): a path that
+    does not exist, an empty folder, a video that does not decode, a camera that does not
+    open, or a frame unlike the first one. The message names the source or the frame, the
+    value and what is allowed. A frame's error is raised at that frame, after the earlier
+    frames were yielded.
+
+    Examples
+    --------
+    >>> from fringekit.tracking import open_source
+    >>> open_source("camera:abc")
+    Traceback (most recent call last):
+    ...
+    fringekit.errors.SourceError: SOURCE camera:abc is not allowed; a camera is camera:N ...
     """
 
 

@@ -161,8 +161,17 @@ def _module_name(path: Path) -> str:
 
 #: Imports kept inside functions on purpose, each optional or heavy and needed on one path
 #: only: PARDISO (x86 only), fTetWild (mesher = "tetwild"), Dask's cluster (sweeps and
-#: library builds), VTK through pyvista (VTU files, FEM fields) and matplotlib.tri with it.
-LAZY_IMPORTS = {"pypardiso", "pytetwild", "dask.distributed", "pyvista", "matplotlib.tri", "colour"}
+#: library builds), VTK through pyvista (VTU files, FEM fields) and matplotlib.tri with it,
+#: OpenCV (the optional extra fringekit[camera], for ``fringekit track camera:N`` only).
+LAZY_IMPORTS = {
+    "pypardiso",
+    "pytetwild",
+    "dask.distributed",
+    "pyvista",
+    "matplotlib.tri",
+    "colour",
+    "cv2",
+}
 
 
 def test_imports_sit_at_the_top_of_their_modules():

@@ -221,9 +221,11 @@ class ImageModel:
             return intensity(q, self.setup["arrangements"][0]) @ self.setup["to_rgb"]
         return np.stack([intensity(q[:, 0], a) for a in self.setup["arrangements"]], axis=1)
 
-    def jacobian(self, p: np.ndarray, diameters, step: float = 1e-3) -> np.ndarray:
+    def jacobian(self, p: np.ndarray, diameters, step: float = 1e-3, which=None) -> np.ndarray:
         """Forward-difference Jacobian (P * C, n) of :meth:`residual` (``keep`` must be
-        set), ``step`` times max(1, |p|) as scipy's 2-point rule.
+        set), ``step`` times max(1, |p|) as scipy's 2-point rule; ``which``: the indices of
+        the indenters whose columns are made (default all), the array then (P * C,
+        5 len(which)), their columns in that order.
 
         A column moves one indenter: only its field is sampled again, the others' sum is
         reused. An indenter's five columns and their base are synthesised as one batch
@@ -238,8 +240,9 @@ class ImageModel:
         own = [self.lib.slabs(ind, xy)[0] for ind in inds]
         total = np.sum(own, axis=0) if own else np.zeros((P, 1, 2), np.float32)
         use = self.usable & self.keep
-        J = np.empty((int(use.size * self.measured.shape[1]), p.size))
-        for i in range(len(inds)):  # a handful of indenters; each batch is vectorised
+        which = range(len(inds)) if which is None else [int(i) for i in which]
+        J = np.empty((int(use.size * self.measured.shape[1]), N_PARAMS * len(which)))
+        for col, i in enumerate(which):  # a handful of indenters; each batch is vectorised
             sl = slice(i * N_PARAMS, (i + 1) * N_PARAMS)
             h = step * np.maximum(1.0, np.abs(p[sl]))
             batch = [total]
@@ -250,7 +253,9 @@ class ImageModel:
             close = exact_rays(xy, inds[i : i + 1], self.exact)
             lin = self.intensities(np.concatenate(batch), inds, np.tile(close, len(batch)))
             res = [self._residual_from(m, use) for m in lin.reshape(len(batch), P, -1)]
-            J[:, sl] = (np.stack(res[1:], axis=1) - res[0][:, None]) / h
+            J[:, col * N_PARAMS : (col + 1) * N_PARAMS] = (
+                np.stack(res[1:], axis=1) - res[0][:, None]
+            ) / h
         return J
 
     def _residual_of(self, ab: np.ndarray, indenters, use: np.ndarray) -> np.ndarray:

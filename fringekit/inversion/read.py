@@ -15,7 +15,7 @@ from fringekit.measurement.mono import colour_as_grey
 from fringekit.measurement.regions import no_data_regions
 from fringekit.optics import PixelGrid
 
-__all__ = ["pixel_grid", "read_measurement", "sensor_config"]
+__all__ = ["frame_measurement", "pixel_grid", "read_measurement", "sensor_config"]
 
 
 def _decode(frame, camera_name: str, colour: bool) -> np.ndarray:
@@ -23,6 +23,22 @@ def _decode(frame, camera_name: str, colour: bool) -> np.ndarray:
     if colour and camera_name == "CIE1931":
         return np.clip(cs.cctf_decoding(frame.data, function="sRGB"), 0.0, 1.0)
     return frame.data
+
+
+def frame_measurement(frame, method: str, camera_name: str):
+    """(linear (rows, cols, C), raw (rows, cols, C), saturated (rows, cols), note) of one
+    :class:`~fringekit.analysis.Frame` read by ``method`` ``"rgb"`` or ``"mono"``: the
+    colour image sRGB-decoded for the CIE observer, or its grey channel (the note says which
+    channel of a colour photograph of monochromatic light is read; one whose channels
+    disagree is refused, naming ``--method mono``)."""
+    name = frame.source
+    if method == "rgb" and frame.data.ndim != 3:
+        raise ConfigError(f"--method rgb needs a colour image; {name} is grey")
+    note = "" if method == "rgb" else colour_as_grey(frame.data, None, name, "--method mono")
+    data = frame.data if method == "rgb" or frame.data.ndim == 2 else grey_channel(frame.data)
+    raw = data.reshape(*data.shape[:2], -1)
+    lin = _decode(frame, camera_name, True).reshape(raw.shape) if method == "rgb" else raw
+    return lin, raw, frame.saturated, note
 
 
 def read_measurement(paths, method: str | None, camera_name: str):
@@ -44,16 +60,7 @@ def read_measurement(paths, method: str | None, camera_name: str):
         sat = np.any([f.saturated for f in frames], axis=0)
         note = ""
     else:
-        f = load_image(paths[0])
-        if method == "rgb" and f.data.ndim != 3:
-            raise ConfigError(f"--method rgb needs a colour image; {paths[0]} is grey")
-        note = "" if method == "rgb" else colour_as_grey(f.data, None, paths[0], "--method mono")
-        data = f.data if method == "rgb" or f.data.ndim == 2 else grey_channel(f.data)
-        raw = data.reshape(*data.shape[:2], -1)
-        lin = (
-            _decode(f, camera_name, method == "rgb").reshape(raw.shape) if method == "rgb" else raw
-        )
-        sat = f.saturated
+        lin, raw, sat, note = frame_measurement(load_image(paths[0]), method, camera_name)
     nodata = no_data_regions(raw)
     rows, cols = raw.shape[:2]
     usable = (~sat & ~nodata).ravel()

@@ -177,7 +177,9 @@ def parameter_sd(jac, residual, n_used: int) -> np.ndarray:
     return np.sqrt(np.clip(np.diag(cov), 0.0, None))
 
 
-def stated_sd(jac, residual, shape, params, model_sd=MODEL_SD) -> tuple[np.ndarray, np.ndarray]:
+def stated_sd(
+    jac, residual, shape, params, model_sd=MODEL_SD, area=None
+) -> tuple[np.ndarray, np.ndarray]:
     """The stated 1-sigma of every indenter's parameters, and the correlation areas they
     rest on.
 
@@ -205,6 +207,9 @@ def stated_sd(jac, residual, shape, params, model_sd=MODEL_SD) -> tuple[np.ndarr
         x, y (mm), Fz, Fx, Fy (N) of each indenter.
     model_sd : (5,) array
         The floor: 1-sigma of x and y (mm), and of Fz, Fx and Fy as fractions of Fz.
+    area : (n, 5) array, optional
+        Correlation areas to use instead of measuring them (a tracker measures them
+        every few frames: they change slowly while the image does).
 
     Returns
     -------
@@ -241,8 +246,10 @@ def stated_sd(jac, residual, shape, params, model_sd=MODEL_SD) -> tuple[np.ndarr
     mask = np.any(image != 0.0, axis=-1)
     J = np.asarray(jac, float)[: rows * cols * C].reshape(rows, cols, C, -1)
     q = np.asarray(params, float).reshape(-1, N_PARAMS)
-    area = np.array([correlation_area(J[..., k] * image, mask) for k in range(J.shape[-1])])
-    area = area.reshape(q.shape)
+    if area is None:
+        area = np.array(
+            [correlation_area(J[..., k] * image, mask) for k in range(J.shape[-1])]
+        ).reshape(q.shape)
     sd = parameter_sd(jac, r, int(np.count_nonzero(r))).reshape(q.shape) * np.sqrt(area)
     scale = np.concatenate([np.ones((len(q), 2)), np.repeat(q[:, 2:3], 3, axis=1)], axis=1)
     floor = np.asarray(model_sd, float) * scale

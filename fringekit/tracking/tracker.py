@@ -1,0 +1,416 @@
+"""Contacts followed through a stream of frames: each frame's fit starts from the last.
+
+A frame of a stream differs little from the one before it, so the inverse need not start
+from scratch (:func:`fringekit.inversion.fit.invert_image`: detection, a start scan, two
+fits, a basin search and model selection, 2-10 s for four contacts). :class:`Tracker`
+does that once, when the first contact appears, and then per frame:
+
+1. **Warm fit.** Every contact's x, y, Fz, Fx, Fy start at the previous frame's answer
+   moved on by its last change (constant velocity), and Gauss-Newton steps with a
+   Jacobian kept from an earlier frame (the chord method: J. M. Ortega and W. C.
+   Rheinboldt, *Iterative Solution of Nonlinear Equations in Several Variables*, 1970,
+   sec. 7.1) bring them to the least-squares answer on every ``stride``-th pixel, the
+   exposure's gain and offset solved exactly at every step as in ``invert``. The
+   Jacobian (finite differences, one batch per contact) is made again only when a
+   contact has moved more than ``JAC_MOVE_MM`` or its loads by more than ``JAC_LOAD`` of
+   the largest library load since it was made, or when a step fails to lower the cost.
+   A step costs one synthesis of the image: 9-14 ms for four contacts at 64 x 64 fitted
+   pixels.
+2. **Checks.** The residual near each contact, in fringe amplitudes, is compared with its
+   own running median over ``HISTORY`` frames: above ``JUMP`` times it (and above
+   ``invert``'s warning level) the frame is *recovered*: each contact's tangential basin
+   is searched (:func:`fringekit.inversion.hop.hop`) and a robust joint fit run, within
+   the same frame. A contact whose normal load is no longer significant (below 3 sd or
+   half the library's first load) is *released*; the residual image is searched for a
+   new contact (``invert``'s detection, the present ones excluded), which is *touched*:
+   started from the library's scan and fitted with the others.
+3. **Identity.** Each contact keeps the id it got at its touch until its release: the
+   parameters of a contact are one block of the fit, carried from frame to frame, so
+   two contacts that pass each other keep their blocks (two spheres' axes stay a
+   diameter apart, and a frame moves them far less).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from fringekit.inversion.detect import detect, noise_sd
+from fringekit.inversion.fit import (
+    EXACT_MM,
+    WINDOW_MM,
+    _bounds,
+    _prune,
+    _start,
+    fit_indenters,
+    invert_image,
+    subsample,
+)
+from fringekit.inversion.hop import hop
+from fringekit.inversion.model import N_PARAMS, ImageModel, range_penalty, unpack
+from fringekit.inversion.uncertainty import model_sd, stated_sd
+from fringekit.inversion.verdict import WARN_RESIDUAL
+from fringekit.library.synth import superpose
+
+__all__ = [
+    "HISTORY",
+    "JAC_LOAD",
+    "JAC_MOVE_MM",
+    "JUMP",
+    "FTOL",
+    "TRACK_STRIDE",
+    "TrackedFrame",
+    "Tracker",
+]
+
+#: Every this many pixels in both directions are fitted per frame (invert's last stage
+#: fits every 2nd; four times fewer pixels make a frame four times faster).
+TRACK_STRIDE = 4
+#: Gauss-Newton steps per frame at most.
+CHORD_STEPS = 6
+#: The Jacobian is made again when a contact has moved this far (mm) since it was made...
+JAC_MOVE_MM = 0.05
+#: ... or one of its loads changed by this fraction of the library's largest load.
+JAC_LOAD = 0.03
+#: A frame is recovered when the residual near a contact exceeds this many times its
+#: running median over HISTORY frames (and invert's warning level).
+JUMP = 2.0
+HISTORY = 10
+#: The fit has converged when a step lowers the cost by less than this fraction of it
+#: (the parameters then move by a small fraction of their sd), or moves no parameter by
+#: more than STEP_TOL (mm and N).
+FTOL = 1e-3
+STEP_TOL = 1e-5
+#: The correlation areas behind the stated sd (a Fourier transform per parameter) are
+#: measured again every this many frames, and after every event.
+AREA_EVERY = 10
+
+
+@dataclass(frozen=True)
+class TrackedFrame:
+    """One frame's contacts.
+
+    Attributes
+    ----------
+    index : int
+        The frame's position in the stream.
+    time_s : float
+        Its time (s) from the stream's start (NaN when the stream has no clock).
+    ids : (n,) int array
+        Each contact's id, kept from its touch to its release.
+    params : (n, 5) array
+        x, y (mm), Fz, Fx, Fy (N).
+    sd : (n, 5) array
+        Their stated 1-sigma (as ``invert``'s).
+    residual_rms : (n,) array
+        The residual within 3 mm of each contact, in fringe amplitudes.
+    reliable : (n,) bool array
+        Residual below ``invert``'s warning level.
+    events : tuple of str
+        What happened besides a warm fit: ``"start"``, ``"touch <id>"``,
+        ``"release <id>"``, ``"recover"``.
+    times_s : dict
+        Seconds spent per stage of this frame.
+    """
+
+    index: int
+    time_s: float
+    ids: np.ndarray
+    params: np.ndarray
+    sd: np.ndarray
+    residual_rms: np.ndarray
+    reliable: np.ndarray
+    events: tuple = ()
+    times_s: dict = field(default_factory=dict)
+
+
+class Tracker:
+    """Follow every contact of a library's sensor through a stream of images.
+
+    Parameters
+    ----------
+    blank : ImageModel
+        The image model of the stream's frames (library, pixel grid, method, optics);
+        its measured image is replaced frame by frame.
+    stride : int
+        Every ``stride``-th pixel in both directions is fitted per frame.
+
+    Examples
+    --------
+    See :func:`fringekit.tracking.track`, which feeds a tracker from a frame source.
+    """
+
+    def __init__(self, blank: ImageModel, stride: int = TRACK_STRIDE):
+        self.blank = blank
+        self.stride = int(stride)
+        self.p = np.zeros(0)
+        self.diam: list = []
+        self.ids = np.zeros(0, int)
+        self.next_id = 1
+        self.noise: float | None = None
+        self.jac: np.ndarray | None = None
+        self.p_jac = np.zeros(0)
+        self.last_step = np.zeros(0)
+        self.history: list[list[float]] = []
+        self.area: np.ndarray | None = None
+        self.area_age = 0
+        self.last: tuple | None = None  # (p, residuals, gains) of the last evaluation
+
+    def step(self, measured, usable, nodata, index: int, time_s: float) -> TrackedFrame:
+        """The contacts of one frame: linear intensities ``measured`` (P, C), ``usable``
+        and ``nodata`` (P,) bool, as :class:`ImageModel` holds them."""
+        t0 = time.perf_counter()
+        full = replace(self.blank, measured=measured, usable=usable, nodata=nodata)
+        sub = replace(subsample(full, self.stride), exact=EXACT_MM * 1e-3)
+        if self.noise is None:
+            self.noise = noise_sd(full)
+        events: list[str] = []
+        times: dict = {}
+        before = (self.p.copy(), self.ids.copy())
+        if not self.diam:
+            self._start(full, events)
+            times["start_s"] = time.perf_counter() - t0
+        else:
+            if not self._warm(sub):
+                self._recover(sub, events)
+            times["fit_s"] = time.perf_counter() - t0
+        t1 = time.perf_counter()
+        frame = self._check(sub, events) if self.diam else None
+        times["check_s"] = time.perf_counter() - t1
+        times["frame_s"] = time.perf_counter() - t0
+        if frame is None:
+            z = np.zeros((0, N_PARAMS))
+            e = np.zeros(0)
+            return TrackedFrame(index, time_s, np.zeros(0, int), z, z, e, e.astype(bool),
+                                tuple(events), times)
+        sd, rms = frame
+        same = len(before[1]) == len(self.ids) and np.array_equal(before[1], self.ids)
+        self.last_step = self.p - before[0] if same else np.zeros_like(self.p)
+        q = self.p.reshape(-1, N_PARAMS).copy()
+        ok = np.asarray(rms <= WARN_RESIDUAL, bool)
+        return TrackedFrame(index, time_s, self.ids.copy(), q, sd, rms, ok, tuple(events), times)
+
+    # -- the stages ---------------------------------------------------------------------
+
+    def _start(self, full: ImageModel, events: list) -> None:
+        """No contact tracked: look for one; when found, the whole inverse (cold)."""
+        if not len(detect(subsample(full, 2), self.noise)):
+            return
+        res = invert_image(full, noise=self.noise)
+        if not len(res.params):
+            return
+        self._reset(res.params.ravel(), list(res.diameters))
+        self.ids = np.arange(self.next_id, self.next_id + len(self.diam))
+        self.next_id += len(self.diam)
+        events.append("start")
+
+    def _reset(self, p: np.ndarray, diam: list) -> None:
+        self.p, self.diam = np.asarray(p, float).copy(), list(diam)
+        self.jac = None
+        self.last = None
+        self.last_step = np.zeros_like(self.p)
+        self.history = [[] for _ in self.diam]
+
+    def _warm(self, sub: ImageModel) -> bool:
+        """The chord Gauss-Newton fit from the previous answer moved on by its change;
+        whether it converged (else the robust fit of :meth:`_recover` follows)."""
+        lo, hi = _bounds(sub, len(self.diam))
+        p = np.clip(self.p + self.last_step, lo, hi)
+        fixed = replace(sub, keep=sub.outside_contacts(unpack(p, self.diam)))
+        self._refresh(fixed, p, self._stale(p))
+        r, gains = self._residual(fixed, p)
+        cost = float(r @ r)
+        self.last = (p, r, gains)
+        fresh, done = False, False
+        for _ in range(CHORD_STEPS):  # a few steps; each one synthesis of the image
+            step = self._solve(p, r)
+            pn = np.clip(p + step, lo, hi)
+            rn, gains = self._residual(fixed, pn)
+            cn = float(rn @ rn)
+            if cn > cost:
+                if fresh:
+                    done = cn <= cost * (1 + FTOL)  # at the noise floor already
+                    break
+                self._refresh(fixed, p, np.arange(len(self.diam)))
+                fresh = True
+                continue
+            self._broyden(pn - p, rn[: len(self.jac)] - r[: len(self.jac)])
+            done = cost - cn <= FTOL * cost or bool(np.all(np.abs(pn - p) <= STEP_TOL))
+            p, r, cost = pn, rn, cn
+            self.last = (p, r, gains)
+            if done:
+                break
+        self.p = p
+        return done
+
+    def _stale(self, p: np.ndarray) -> np.ndarray:
+        """The contacts (indices) whose Jacobian columns are due: moved JAC_MOVE_MM or
+        their loads by JAC_LOAD of the library's largest since they were made."""
+        if self.jac is None or len(self.p_jac) != len(p):
+            return np.arange(len(self.diam))
+        d = np.abs(p - self.p_jac).reshape(-1, N_PARAMS)
+        load = JAC_LOAD * self.blank.lib.max_load_N
+        due = (np.hypot(d[:, 0], d[:, 1]) > JAC_MOVE_MM) | np.any(d[:, 2:] > load, axis=1)
+        return np.flatnonzero(due)
+
+    def _refresh(self, fixed: ImageModel, p: np.ndarray, which) -> None:
+        """Make the Jacobian columns of the contacts ``which`` again at ``p``."""
+        which = np.asarray(which, int)
+        if not len(which):
+            return
+        cols = (which[:, None] * N_PARAMS + np.arange(N_PARAMS)).ravel()
+        part = fixed.jacobian(p, self.diam, which=which)
+        if self.jac is None or len(which) == len(self.diam) or len(self.p_jac) != len(p):
+            self.jac = np.zeros((part.shape[0], len(p)))
+            self.p_jac = p.copy()
+        self.jac[:, cols] = part
+        self.p_jac[cols] = p[cols]
+
+    def _broyden(self, dp: np.ndarray, dr: np.ndarray) -> None:
+        """Broyden's rank-one update of the kept Jacobian along an accepted step (C. G.
+        Broyden, "A class of methods for solving nonlinear simultaneous equations", Math.
+        Comp. 19, 1965): the image's change ``dr`` is then exact along ``dp``."""
+        nn = float(dp @ dp)
+        if nn > 0:
+            self.jac += np.outer(dr - self.jac @ dp, dp / nn)
+
+    def _residual(self, fixed: ImageModel, p: np.ndarray):
+        """Residuals of the image (P * C,) and of the range penalty, and the gains (C,)."""
+        inds = unpack(p, self.diam)
+        ab, _ = superpose(fixed.lib, inds, fixed.xy)
+        use = fixed.usable & fixed.keep
+        fitted, gains, _ = fixed.project(fixed.intensities(ab, inds), use)
+        res = fixed.measured - fitted
+        res[~use] = 0.0
+        pen, _ = range_penalty(p, fixed.lib.max_ratio, 3.0 * self.noise)
+        return np.concatenate([res.ravel(), pen]), gains
+
+    def _solve(self, p: np.ndarray, r: np.ndarray) -> np.ndarray:
+        """The Gauss-Newton step of residuals ``r`` with the kept Jacobian (the range
+        penalty's rows made at ``p``), slightly damped (Levenberg)."""
+        _, jp = range_penalty(p, self.blank.lib.max_ratio, 3.0 * self.noise)
+        J = np.vstack([self.jac, jp])
+        A = J.T @ J
+        A[np.diag_indices_from(A)] *= 1.0 + 1e-9
+        A[np.diag_indices_from(A)] += 1e-30
+        return -np.linalg.solve(A, J.T @ r)
+
+    def _check(self, sub: ImageModel, events: list):
+        """Residuals, recovery, release and touch of this frame; returns (sd (n, 5),
+        residual_rms (n,)) of the contacts left, or None when none is."""
+        fixed, rms, r = self._evaluate(sub)
+        if self._jumped(rms):
+            self._recover(sub, events)
+            fixed, rms, r = self._evaluate(sub)
+        sd = self._sd(fixed, r, events)
+        changed = self._release(sd, events)
+        if changed and self.diam:
+            fixed, rms, r = self._evaluate(sub)
+        if self.diam and self._touch(fixed, r, events):
+            changed = True
+            fixed, rms, r = self._evaluate(sub)
+        if not self.diam:
+            return None
+        if changed:
+            sd = self._sd(fixed, r, events)
+        for h, v in zip(self.history, rms, strict=True):
+            h.append(float(v))
+            del h[:-HISTORY]
+        return sd, rms
+
+    def _evaluate(self, sub: ImageModel):
+        """(the model with the pixels outside the contacts kept, residual near each
+        contact (n,), residuals) at the present parameters."""
+        fixed = replace(sub, keep=sub.outside_contacts(unpack(self.p, self.diam)))
+        last = self.last
+        if last is not None and len(last[0]) == len(self.p) and np.array_equal(last[0], self.p):
+            r, gains = last[1], last[2]
+        else:
+            r, gains = self._residual(fixed, self.p)
+        return fixed, self._near(fixed, r, gains), r
+
+    def _near(self, fixed: ImageModel, r: np.ndarray, gains: np.ndarray) -> np.ndarray:
+        """Residual RMS within WINDOW_MM of each contact (n,), in fringe amplitudes, of
+        the residuals ``r`` (image and penalty) with the fitted ``gains``."""
+        n_img = fixed.measured.size
+        img = r[:n_img].reshape(fixed.measured.shape)
+        use = fixed.usable & fixed.keep
+        amp = float(np.mean(np.abs(gains)))
+        xy = fixed.xy * 1e3
+        rms = []
+        for v in self.p.reshape(-1, N_PARAMS):  # a handful of contacts
+            m = use & (np.hypot(xy[:, 0] - v[0], xy[:, 1] - v[1]) < WINDOW_MM)
+            ok = amp > 0 and m.any()
+            rms.append(float(np.sqrt(np.mean(img[m] ** 2)) / amp) if ok else np.inf)
+        return np.array(rms)
+
+    def _jumped(self, rms: np.ndarray) -> bool:
+        for v, h in zip(rms, self.history, strict=True):
+            if len(h) >= 3 and v > max(JUMP * float(np.median(h)), WARN_RESIDUAL):
+                return True
+        return False
+
+    def _recover(self, sub: ImageModel, events: list) -> None:
+        """Each contact's tangential basin searched, then a robust joint fit."""
+        p, _ = hop(sub, self.p, self.diam, self.noise)
+        res = fit_indenters(sub, p, self.diam, self.noise)
+        self._keep_history(res.x)
+        events.append("recover")
+
+    def _keep_history(self, p: np.ndarray) -> None:
+        """New parameters for the same contacts: their history and Jacobian kept (its
+        columns are made again where they moved, :meth:`_stale`)."""
+        self.p = np.asarray(p, float).copy()
+        self.last = None
+
+    def _sd(self, fixed: ImageModel, r: np.ndarray, events: list) -> np.ndarray:
+        """The stated 1-sigma (n, 5), the correlation areas measured every AREA_EVERY
+        frames and after every event."""
+        self._refresh(fixed, self.p, self._stale(self.p))
+        _, jp = range_penalty(self.p, fixed.lib.max_ratio, 3.0 * self.noise)
+        shape = (*fixed.grid.shape, fixed.measured.shape[1])
+        q = self.p.reshape(-1, N_PARAMS)
+        fresh = events or self.area is None or self.area.shape != q.shape
+        fresh = fresh or self.area_age >= AREA_EVERY
+        J = np.vstack([self.jac, jp])
+        sd, area = stated_sd(
+            J, r, shape, q, model_sd(fixed.lib.shear_ratio), None if fresh else self.area
+        )
+        self.area, self.area_age = area, 0 if fresh else self.area_age + 1
+        return sd
+
+    def _release(self, sd: np.ndarray, events: list) -> bool:
+        """Contacts whose normal load is no longer significant (or that met a stronger
+        one) are released, their ids retired."""
+        p, diam, kept = _prune(self.p, sd.ravel(), self.diam, self.blank.lib)
+        if len(kept) == len(self.diam):
+            return False
+        for i in np.setdiff1d(np.arange(len(self.diam)), kept):
+            events.append(f"release {int(self.ids[i])}")
+        hist = [self.history[i] for i in kept]
+        self.ids = self.ids[kept]
+        self._reset(p, diam)
+        self.history = hist
+        return True
+
+    def _touch(self, fixed: ImageModel, r: np.ndarray, events: list) -> bool:
+        """A new contact in the residual image (away from the present ones): started
+        from the library's scan and fitted jointly with the others."""
+        img = r[: fixed.measured.size].reshape(fixed.measured.shape)
+        resid = replace(fixed, measured=img, keep=None)
+        axes = self.p.reshape(-1, N_PARAMS)[:, :2]
+        new = detect(resid, self.noise, exclude=axes)
+        if not len(new):
+            return False
+        pn, dn = _start(fixed, new)
+        res = fit_indenters(fixed, np.concatenate([self.p, pn]), self.diam + dn, self.noise)
+        hist = self.history + [[] for _ in dn]
+        ids = np.arange(self.next_id, self.next_id + len(dn))
+        self.next_id += len(dn)
+        self.ids = np.concatenate([self.ids, ids])
+        self._reset(res.x, self.diam + dn)
+        self.history = hist
+        events.extend(f"touch {int(i)}" for i in ids)
+        return True

@@ -15,7 +15,8 @@ The application layer's entry point. Subcommands:
   fringe value from a disc; ``estimate MAPS --calibration FILE``: the load back.
 - ``sweep SWEEP.toml``: a grid or list of cases on Dask, resumable.
 - ``library build [CONFIG]``: a sensor's response library;
-  ``invert IMAGE... --library DIR``: every indenter's position and load.
+  ``invert IMAGE... --library DIR``: every indenter's position and load;
+  ``track SOURCE --library DIR``: every contact's load through a video or camera stream.
 
 One module per subcommand (``fringekit.cli.<name>``) holds its parser and its handler;
 each handler reads its inputs, runs the computation (the API, or a run function beside it
@@ -42,6 +43,7 @@ from fringekit.cli import (
     mesh,
     predict,
     sweep,
+    track,
 )
 from fringekit.cli.options import Parser
 from fringekit.errors import ComputeError, FringekitError, Interrupted
@@ -51,7 +53,19 @@ __all__ = ["main"]
 
 #: The subcommands in the order ``fringekit --help`` lists them; each module holds its
 #: parser (``add_parser``) and its handler (``run``).
-SUBCOMMANDS = (predict, config, analyze, compare, calibrate, estimate, sweep, mesh, library, invert)
+SUBCOMMANDS = (
+    predict,
+    config,
+    analyze,
+    compare,
+    calibrate,
+    estimate,
+    sweep,
+    mesh,
+    library,
+    invert,
+    track,
+)
 
 
 def _parser() -> Parser:

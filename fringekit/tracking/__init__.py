@@ -1,9 +1,12 @@
 """Tracking: every contact's load read off a stream of frames (``fringekit track``).
 
-The frame sources of :mod:`fringekit.tracking.source`: :func:`open_source` opens a folder
-of images, a video file or a camera as a :class:`FrameSource` of :class:`RawFrame`
-objects; :func:`write_video` (:mod:`fringekit.tracking.write`) writes frames to a video
-file.
+:func:`track` -> :class:`Track` follows every contact through a stream
+(:class:`~fringekit.tracking.tracker.Tracker`: a warm-started fit per frame; recovery,
+touch and release within the frame); :func:`library_frames` writes frames of known loads
+synthesised from a library. The frame sources (:mod:`fringekit.tracking.source`):
+:func:`open_source` opens a folder of images, a video file or a camera as a
+:class:`FrameSource` of :class:`RawFrame` objects; :func:`write_video`
+(:mod:`fringekit.tracking.write`) writes frames to a video file.
 """
 
 from fringekit.tracking.source import (
@@ -16,10 +19,19 @@ from fringekit.tracking.source import (
     VideoSource,
     open_source,
 )
+from fringekit.tracking.stream import TRACK_COLUMNS, Track, track
+from fringekit.tracking.synthetic import library_frames
+from fringekit.tracking.tracker import TrackedFrame, Tracker
 from fringekit.tracking.write import write_video
 
 __all__ = [
     "IMAGE_SUFFIXES",
+    "TRACK_COLUMNS",
+    "Track",
+    "TrackedFrame",
+    "Tracker",
+    "library_frames",
+    "track",
     "VIDEO_SUFFIXES",
     "CameraSource",
     "FolderSource",

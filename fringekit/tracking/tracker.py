@@ -183,8 +183,9 @@ class Tracker:
         if frame is None:
             z = np.zeros((0, N_PARAMS))
             e = np.zeros(0)
-            return TrackedFrame(index, time_s, np.zeros(0, int), z, z, e, e.astype(bool),
-                                tuple(events), times)
+            return TrackedFrame(
+                index, time_s, np.zeros(0, int), z, z, e, e.astype(bool), tuple(events), times
+            )
         sd, rms = frame
         same = len(before[1]) == len(self.ids) and np.array_equal(before[1], self.ids)
         self.last_step = self.p - before[0] if same else np.zeros_like(self.p)

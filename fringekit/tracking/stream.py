@@ -1,0 +1,359 @@
+"""``fringekit track`` as an API: :func:`track` reads every contact's load off a stream of
+frames, :class:`Track` holds them as a table and writes them.
+
+:func:`track` computes and writes nothing; :meth:`Track.write` gives the folder of
+``fringekit track``:
+
+- ``loads.csv``: one row per contact per frame, exactly the columns
+  :data:`TRACK_COLUMNS`: the frame, its time (s), the contact's id (kept from its touch to
+  its release), position (mm, the frame of ``predict`` and ``invert``), load vector (N),
+  their 1-sigma, ``residual_rms`` (as ``invert``'s) and ``reliable``;
+- ``summary.json``: the source, library, method, frames read / solved / dropped, the
+  frames per second achieved, the time per stage, every event (start, touch, release,
+  recover) and warning, and why the stream stopped when it did not end;
+- ``loads.png``: each contact's normal and tangential load against time, with its 1-sigma
+  band.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from fringekit.analysis import normalise
+from fringekit.config.files import load_config
+from fringekit.config.inputs import optics_setup
+from fringekit.errors import ConfigError, SourceError
+from fringekit.inversion.read import frame_measurement, sensor_config
+from fringekit.library.store import Library, check_sensor, load_library
+from fringekit.measurement.regions import no_data_regions
+from fringekit.output.folders import atomic_write
+from fringekit.tracking.figure import loads_figure
+from fringekit.tracking.source import FrameSource, open_source
+from fringekit.tracking.synthetic import blank_model
+from fringekit.tracking.tracker import TRACK_STRIDE, TrackedFrame, Tracker
+
+__all__ = ["TRACK_COLUMNS", "Track", "track"]
+
+TRACK_COLUMNS = (
+    "frame",
+    "time_s",
+    "id",
+    "x_mm",
+    "y_mm",
+    "Fx_N",
+    "Fy_N",
+    "Fz_N",
+    "sx_mm",
+    "sy_mm",
+    "sFx_N",
+    "sFy_N",
+    "sFz_N",
+    "residual_rms",
+    "reliable",
+)
+#: The columns of TRACK_COLUMNS that come from the parameters (x, y, Fz, Fx, Fy order).
+_PARAM_COLUMNS = {"x_mm": 0, "y_mm": 1, "Fz_N": 2, "Fx_N": 3, "Fy_N": 4}
+
+
+@dataclass(frozen=True)
+class Track:
+    """Every contact's position and load vector through a stream of frames.
+
+    Attributes
+    ----------
+    frames : tuple of TrackedFrame
+        One per frame solved, in stream order.
+    summary : dict
+        What ``summary.json`` holds.
+
+    Examples
+    --------
+    See :func:`track`; the table's columns are those of ``loads.csv``:
+
+    >>> import fringekit
+    >>> fringekit.tracking.TRACK_COLUMNS[:4]
+    ('frame', 'time_s', 'id', 'x_mm')
+    """
+
+    frames: tuple
+    summary: dict = field(repr=False)
+
+    def table(self) -> dict[str, np.ndarray]:
+        """The loads as columns named :data:`TRACK_COLUMNS`, one row per contact per frame
+        (mm, N, s)."""
+        rows = [f for f in self.frames for _ in f.ids]
+        n = len(rows)
+        if not n:
+            return {k: np.zeros(0) for k in TRACK_COLUMNS}
+        p = np.concatenate([f.params for f in self.frames if len(f.ids)])
+        s = np.concatenate([f.sd for f in self.frames if len(f.ids)])
+        out = {
+            "frame": np.array([f.index for f in rows], int),
+            "time_s": np.array([f.time_s for f in rows], float),
+            "id": np.concatenate([f.ids for f in self.frames]).astype(int),
+        }
+        for k, j in _PARAM_COLUMNS.items():
+            out[k] = p[:, j]
+            out["s" + k] = s[:, j]
+        out["residual_rms"] = np.concatenate([f.residual_rms for f in self.frames])
+        out["reliable"] = np.concatenate([f.reliable for f in self.frames]).astype(bool)
+        return {k: out[k] for k in TRACK_COLUMNS}
+
+    def write(self, folder: str | os.PathLike) -> Path:
+        """Write ``loads.csv``, ``summary.json`` and ``loads.png`` into ``folder``
+        (created if missing; files of those names are replaced); return it."""
+        out = Path(folder)
+        out.mkdir(parents=True, exist_ok=True)
+        table = self.table()
+        with open(out / "loads.csv", "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(TRACK_COLUMNS)
+            for row in zip(*(table[k] for k in TRACK_COLUMNS), strict=True):
+                w.writerow([_cell(x) for x in row])
+        loads_figure(out / "loads.png", table)
+        atomic_write(out / "summary.json", json.dumps(self.summary, indent=2))
+        return out
+
+
+def _cell(x) -> str:
+    if isinstance(x, (bool, np.bool_)):
+        return "true" if x else "false"
+    if isinstance(x, (int, np.integer)):
+        return str(int(x))
+    return f"{float(x):.6g}"
+
+
+def _measurement(raw: np.ndarray, method: str, camera: str, name: str):
+    """(measured (P, C), usable (P,), nodata (P,), note) of one decoded frame; a colour
+    frame whose three channels are equal is a grey one."""
+    if (
+        raw.ndim == 3
+        and np.array_equal(raw[..., 0], raw[..., 1])
+        and np.array_equal(raw[..., 0], raw[..., 2])
+    ):
+        raw = raw[..., 0]
+    lin, data, sat, note = frame_measurement(normalise(raw, source=name), method, camera)
+    nodata = no_data_regions(data)
+    usable = (~sat & ~nodata).ravel()
+    return lin.reshape(usable.size, -1), usable, nodata.ravel(), note
+
+
+def _method(method: str | None, raw: np.ndarray) -> str:
+    """``--method``: rgb or mono (phase needs six images per state, which a stream of
+    single frames does not give); default rgb for colour frames, mono for grey ones."""
+    if method == "phase":
+        raise ConfigError(
+            "--method phase: a stream gives one image per frame, and the phase method "
+            "needs six phase-stepped images per load state; use rgb or mono"
+        )
+    if method not in (None, "rgb", "mono"):
+        raise ConfigError(f"--method {method!r} is not allowed; give rgb or mono")
+    if method is not None:
+        return method
+    grey = raw.ndim == 2 or (
+        np.array_equal(raw[..., 0], raw[..., 1]) and np.array_equal(raw[..., 0], raw[..., 2])
+    )
+    return "mono" if grey else "rgb"
+
+
+def _sensor(lib: Library, sensor) -> tuple[dict, str]:
+    """The stream's sensor config (``--sensor``, checked against the library's), else the
+    library's own."""
+    if sensor is None:
+        return load_config(lib.folder / "config.toml"), str(lib.folder / "config.toml")
+    cfg, where = sensor_config(sensor, [lib.folder])
+    check_sensor(lib, cfg, where)
+    return cfg, where
+
+
+def _times(frames: list[TrackedFrame]) -> dict:
+    """Per-stage seconds summed over the frames, and the warm frames' median and 95th
+    percentile."""
+    out: dict = {}
+    for f in frames:
+        for k, v in f.times_s.items():
+            out[k] = out.get(k, 0.0) + v
+    warm = [f.times_s["frame_s"] for f in frames if not f.events and len(f.ids)]
+    if warm:
+        out["warm_frame_median_s"] = float(np.median(warm))
+        out["warm_frame_p95_s"] = float(np.percentile(warm, 95))
+    return out
+
+
+def track(
+    source: str | os.PathLike | FrameSource,
+    library: Library | str | os.PathLike,
+    *,
+    pixel_mm: float,
+    origin_px: tuple[float, float] | None = None,
+    method: str | None = None,
+    sensor: str | os.PathLike | None = None,
+    stride: int = TRACK_STRIDE,
+    fps: float | None = None,
+    max_frames: int | None = None,
+    progress: bool = False,
+    on_frame=None,
+) -> Track:
+    """Every contact's position and load vector through a stream of frames.
+
+    The first frame with fringes is solved as ``invert`` solves an image; every later
+    frame starts from the one before (:class:`~fringekit.tracking.tracker.Tracker`).
+
+    Parameters
+    ----------
+    source : path, str or FrameSource
+        A folder of images (name order), a video file (.mp4, .avi, .mkv, .mov) or
+        ``camera:N`` (:func:`~fringekit.tracking.source.open_source`).
+    library : Library or path
+        A response library of the sensor (``fringekit library build``).
+    pixel_mm : float
+        The pixel pitch on the sheet (mm).
+    origin_px : (row, col), optional
+        The pixel of the sensor origin; default the image centre.
+    method : {"rgb", "mono"}, optional
+        Default rgb for colour frames, mono for grey ones.
+    sensor : path, optional
+        The sensor's config (checked against the library's); default the library's own.
+    stride : int
+        Every ``stride``-th pixel in both directions is fitted per frame (default 4).
+    fps : float, optional
+        The frame rate of a folder of frames (their ``time_s``), or one that replaces a
+        video's.
+    max_frames : int, optional
+        Stop after this many frames.
+    progress : bool
+        A progress bar (frames of a file source; the rate of a camera's).
+    on_frame : callable, optional
+        Called with (TrackedFrame, decoded image) after every frame (a live view).
+
+    Returns
+    -------
+    Track
+        Nothing is written. A stream that stops at a bad frame (another size, an
+        unreadable file) or at Ctrl-C returns the frames solved before it, with
+        ``summary["stopped"]`` saying why.
+
+    Raises
+    ------
+    ConfigError, LibraryError, SourceError
+        A bad option, library or source, before the first frame.
+
+    Examples
+    --------
+    Two frames of a library-synthesised contact, 2 N then 2.2 N, tracked back:
+
+    >>> import tempfile, numpy as np, fringekit
+    >>> from fringekit.tracking import library_frames
+    >>> lib = fringekit.build_library("small", tempfile.mkdtemp() + "/lib",
+    ...                               loads=[1, 2, 3], ratios=[0, 0.4], progress=False)
+    >>> folder = tempfile.mkdtemp()
+    >>> truth = [[(0.5, -0.3, 2.0, 0.0, 0.0)], [(0.5, -0.3, 2.2, 0.0, 0.0)]]
+    >>> library_frames(lib, truth, folder, pixels=64, pixel_mm=0.2)
+    2
+    >>> t = fringekit.tracking.track(folder, lib, pixel_mm=0.2)
+    >>> np.round(t.table()["Fz_N"], 2).tolist()
+    [2.0, 2.2]
+    """
+    lib = library if isinstance(library, Library) else load_library(library)
+    if not (np.isfinite(pixel_mm) and pixel_mm > 0):
+        raise ConfigError(
+            f"--pixel-mm {pixel_mm} is not allowed; give the pitch on the sheet (mm, > 0)"
+        )
+    if int(stride) != stride or not 1 <= stride <= 16:
+        raise ConfigError(f"--stride {stride} is not allowed; give a whole number 1-16")
+    cfg, where = _sensor(lib, sensor)
+    optics = optics_setup(cfg)
+    src = source if isinstance(source, FrameSource) else open_source(str(source), fps=fps)
+    run = _Run(lib, cfg, optics, src, pixel_mm, origin_px, method, int(stride), on_frame)
+    with src:
+        run.loop(max_frames, progress)
+    summary = run.summary(where)
+    return Track(tuple(run.frames), summary)
+
+
+class _Run:
+    """One pass over a source: the tracker made at the first frame, the frames solved,
+    the notes, and why it stopped."""
+
+    def __init__(self, lib, cfg, optics, src, pixel_mm, origin_px, method, stride, on_frame):
+        self.lib, self.cfg, self.optics, self.src = lib, cfg, optics, src
+        self.pixel_mm, self.origin_px, self.method = pixel_mm, origin_px, method
+        self.stride, self.on_frame = stride, on_frame
+        self.tracker: Tracker | None = None
+        self.frames: list[TrackedFrame] = []
+        self.read = 0
+        self.notes: list[str] = []
+        self.stopped: dict | None = None
+        self.t_loop = 0.0
+
+    def loop(self, max_frames, progress: bool) -> None:
+        bar = tqdm(total=self.src.n_frames, unit="frame", desc="track", disable=not progress)
+        t0 = time.perf_counter()
+        try:
+            for raw in self.src:
+                self.read += 1
+                self.frames.append(self._solve(raw))
+                bar.update(1)
+                if self.on_frame is not None:
+                    self.on_frame(self.frames[-1], raw.image)
+                if max_frames is not None and self.read >= max_frames:
+                    break
+        except SourceError as exc:
+            self.stopped = {"after_frames": len(self.frames), "reason": str(exc)}
+        except KeyboardInterrupt:
+            self.stopped = {"after_frames": len(self.frames), "reason": "interrupted (Ctrl-C)"}
+        finally:
+            bar.close()
+            self.t_loop = time.perf_counter() - t0
+
+    def _solve(self, raw) -> TrackedFrame:
+        img = raw.image
+        if self.tracker is None:
+            self.method = _method(self.method, img)
+            blank = blank_model(
+                self.lib, self.cfg, img.shape[:2], self.pixel_mm, self.method, self.origin_px
+            )
+            self.tracker = Tracker(blank, self.stride)
+        camera = self.optics.camera.sensitivities
+        measured, usable, nodata, note = _measurement(img, self.method, camera, raw.name)
+        if note and note not in self.notes:
+            self.notes.append(note)
+        return self.tracker.step(measured, usable, nodata, raw.index, raw.time_s)
+
+    def summary(self, where: str) -> dict:
+        solved = len(self.frames)
+        events = [{"frame": f.index, "events": list(f.events)} for f in self.frames if f.events]
+        unreliable = int(sum(int(np.sum(~f.reliable)) for f in self.frames))
+        warnings = list(self.notes)
+        if unreliable:
+            warnings.append(
+                f"{unreliable} contact-frame(s) are flagged not reliable (their residual "
+                "near the contact is above invert's warning level): see loads.csv"
+            )
+        return {
+            "source": {"kind": self.src.kind, "spec": self.src.spec, "fps": self.src.fps},
+            "library": str(self.lib.folder),
+            "sensor_config": where,
+            "method": self.method,
+            "pixel_mm": self.pixel_mm,
+            "origin_px": list(self.origin_px) if self.origin_px is not None else None,
+            "stride": self.stride,
+            "frames_read": self.read,
+            "frames_solved": solved,
+            "frames_dropped": int(self.src.dropped),
+            "fps_achieved": solved / self.t_loop if self.t_loop > 0 else None,
+            "contacts": sorted({int(i) for f in self.frames for i in f.ids}),
+            "noise_sd": self.tracker.noise if self.tracker is not None else None,
+            "events": events,
+            "warnings": warnings,
+            "stopped": self.stopped,
+            "times_s": {**_times(self.frames), "total_s": self.t_loop},
+        }

@@ -32,6 +32,7 @@ from fringekit.config.files import load_config
 from fringekit.config.inputs import optics_setup
 from fringekit.errors import ConfigError, SourceError
 from fringekit.inversion.read import frame_measurement, sensor_config
+from fringekit.inversion.verdict import InvertError
 from fringekit.library.store import Library, check_sensor, load_library
 from fringekit.measurement.regions import no_data_regions
 from fringekit.output.folders import atomic_write
@@ -292,6 +293,7 @@ class _Run:
         self.read = 0
         self.notes: list[str] = []
         self.stopped: dict | None = None
+        self.refused: list[dict] = []
         self.t_loop = 0.0
 
     def loop(self, max_frames, progress: bool) -> None:
@@ -300,7 +302,11 @@ class _Run:
         try:
             for raw in self.src:
                 self.read += 1
-                self.frames.append(self._solve(raw))
+                try:
+                    self.frames.append(self._solve(raw))
+                except InvertError as exc:  # this frame only: the next one starts afresh
+                    self.refused.append({"frame": raw.index, "reason": str(exc)})
+                    self.tracker.reset()
                 bar.update(1)
                 if self.on_frame is not None:
                     self.on_frame(self.frames[-1], raw.image)
@@ -333,6 +339,11 @@ class _Run:
         events = [{"frame": f.index, "events": list(f.events)} for f in self.frames if f.events]
         unreliable = int(sum(int(np.sum(~f.reliable)) for f in self.frames))
         warnings = list(self.notes)
+        if self.refused:
+            warnings.append(
+                f"{len(self.refused)} frame(s) the library cannot explain were left out "
+                f"(the first, frame {self.refused[0]['frame']}: {self.refused[0]['reason']})"
+            )
         if unreliable:
             warnings.append(
                 f"{unreliable} contact-frame(s) are flagged not reliable (their residual "
@@ -353,6 +364,7 @@ class _Run:
             "contacts": sorted({int(i) for f in self.frames for i in f.ids}),
             "noise_sd": self.tracker.noise if self.tracker is not None else None,
             "events": events,
+            "frames_refused": self.refused,
             "warnings": warnings,
             "stopped": self.stopped,
             "times_s": {**_times(self.frames), "total_s": self.t_loop},

@@ -26,9 +26,18 @@ __all__ = ["blank_model", "library_frames", "synthesise_frame"]
 
 
 def synthesise_frame(
-    model: ImageModel, contacts, *, camera="CIE1931", gain=0.8, offset=0.02, noise=0.0, rng=None
+    model: ImageModel,
+    contacts,
+    *,
+    camera="CIE1931",
+    gain=0.8,
+    offset=0.02,
+    noise=0.0,
+    rng=None,
+    bit_depth: int = 8,
 ):
-    """One 8-bit frame (rows, cols) or (rows, cols, 3) uint8 of ``contacts``: rows of
+    """One frame (rows, cols) or (rows, cols, 3) uint8 (uint16 at ``bit_depth`` 16) of
+    ``contacts``: rows of
     (x_mm, y_mm, Fz_N, Fx_N, Fy_N) on spheres of the library's first diameter; ``model``
     gives the library, grid, method and optics, ``camera`` the camera's sensitivities
     (CIE1931 frames are sRGB-encoded)."""
@@ -46,7 +55,8 @@ def synthesise_frame(
             img = np.clip(cs.cctf_encoding(img, function="sRGB"), 0.0, 1.0)
     else:
         img = img[:, 0].reshape(rows, cols)
-    return np.round(img * 255).astype(np.uint8)
+    top = 65535 if bit_depth == 16 else 255
+    return np.round(img * top).astype(np.uint16 if bit_depth == 16 else np.uint8)
 
 
 def library_frames(
@@ -59,8 +69,10 @@ def library_frames(
     method: str = "mono",
     noise: float = 0.0,
     seed: int = 0,
+    bit_depth: int = 8,
 ) -> int:
-    """Write one PNG per frame (``frame_0000.png``, ...) into ``folder``; return how many.
+    """Write one image per frame (``frame_0000.png``, ...; TIFF for 16-bit colour) into
+    ``folder``; return how many.
 
     Parameters
     ----------
@@ -79,6 +91,8 @@ def library_frames(
         Camera noise sd (of full scale) before 8-bit quantisation.
     seed : int
         Seed of the noise (the same frames on every run).
+    bit_depth : {8, 16}
+        Quantisation of the frames.
 
     Returns
     -------
@@ -93,10 +107,15 @@ def library_frames(
     camera = optics_setup(cfg).camera.sensitivities
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)
+    if bit_depth not in (8, 16):
+        raise ValueError(f"bit_depth {bit_depth} is not allowed; give 8 or 16")
     rng = np.random.default_rng(seed)
     for i, contacts in enumerate(frames):  # frames: each one image synthesis
-        img = synthesise_frame(model, contacts, camera=camera, noise=noise, rng=rng)
-        write_image(out / f"frame_{i:04d}.png", img)
+        img = synthesise_frame(
+            model, contacts, camera=camera, noise=noise, rng=rng, bit_depth=bit_depth
+        )
+        suffix = "tif" if bit_depth == 16 and img.ndim == 3 else "png"
+        write_image(out / f"frame_{i:04d}.{suffix}", img)
     return len(frames)
 
 

@@ -36,10 +36,12 @@ import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from scipy.optimize import linear_sum_assignment
 
 from fringekit.inversion.detect import detect, noise_sd
 from fringekit.inversion.fit import (
     EXACT_MM,
+    MIN_LOAD_FRACTION,
     WINDOW_MM,
     _bounds,
     _prune,
@@ -51,7 +53,7 @@ from fringekit.inversion.fit import (
 from fringekit.inversion.hop import hop
 from fringekit.inversion.model import N_PARAMS, ImageModel, range_penalty, unpack
 from fringekit.inversion.uncertainty import model_sd, stated_sd
-from fringekit.inversion.verdict import WARN_RESIDUAL
+from fringekit.inversion.verdict import WARN_RESIDUAL, InvertError
 from fringekit.library.synth import superpose
 
 __all__ = [
@@ -68,6 +70,15 @@ __all__ = [
 #: Every this many pixels in both directions are fitted per frame (invert's last stage
 #: fits every 2nd; four times fewer pixels make a frame four times faster).
 TRACK_STRIDE = 4
+#: A contact is matched to a detection within this distance (mm) of it: less than a
+#: sphere diameter (3.5 mm), the least distance between two contacts' axes.
+GATE_MM = 3.0
+#: A new contact found in a warm frame's residual lies this far (mm) inside the frame
+#: at least (a residual at the frame's edge is more often a misfit of the field there).
+BORDER_MM = 1.0
+#: A frame more than this many frames after the last one solved (a camera's dropped
+#: frames) is searched afresh (:meth:`Tracker._redetect`) before its warm fit is trusted.
+MAX_GAP = 3
 #: Gauss-Newton steps per frame at most.
 CHORD_STEPS = 6
 #: The Jacobian is made again when a contact has moved this far (mm) since it was made...
@@ -78,10 +89,10 @@ JAC_LOAD = 0.03
 #: running median over HISTORY frames (and invert's warning level).
 JUMP = 2.0
 HISTORY = 10
-#: The fit has converged when a step lowers the cost by less than this fraction of it
-#: (the parameters then move by a small fraction of their sd), or moves no parameter by
-#: more than STEP_TOL (mm and N).
-FTOL = 1e-3
+#: The fit has converged when a step lowers the cost by less than this many noise
+#: variances (chi-square by FTOL: the parameters then move by a small fraction of their
+#: sd), or moves no parameter by more than STEP_TOL (mm and N).
+FTOL = 0.1
 STEP_TOL = 1e-5
 #: The correlation areas behind the stated sd (a Fourier transform per parameter) are
 #: measured again every this many frames, and after every event.
@@ -126,6 +137,20 @@ class TrackedFrame:
     times_s: dict = field(default_factory=dict)
 
 
+def _velocity(before, after, gap: int) -> np.ndarray:
+    """Each contact's change per frame (its parameters' block) from ``before`` to
+    ``after`` ((p, ids) pairs) over ``gap`` frames; zero for a contact new in ``after``."""
+    p0, ids0 = before
+    p1, ids1 = after
+    q0, q1 = p0.reshape(-1, N_PARAMS), p1.reshape(-1, N_PARAMS)
+    v = np.zeros_like(q1)
+    for k, i in enumerate(ids1):  # a handful of contacts
+        j = np.flatnonzero(ids0 == i)
+        if len(j):
+            v[k] = (q1[k] - q0[j[0]]) / gap
+    return v.ravel()
+
+
 class Tracker:
     """Follow every contact of a library's sensor through a stream of images.
 
@@ -157,6 +182,8 @@ class Tracker:
         self.area: np.ndarray | None = None
         self.area_age = 0
         self.last: tuple | None = None  # (p, residuals, gains) of the last evaluation
+        self.index: int | None = None  # the last frame's
+        self.p_before = np.zeros(0)  # the parameters of the frame before
 
     def step(self, measured, usable, nodata, index: int, time_s: float) -> TrackedFrame:
         """The contacts of one frame: linear intensities ``measured`` (P, C), ``usable``
@@ -169,15 +196,23 @@ class Tracker:
         events: list[str] = []
         times: dict = {}
         before = (self.p.copy(), self.ids.copy())
+        self.p_before = before[0]
+        gap = index - self.index if self.index is not None else 1
+        self.index = index
+        converged = True
         if not self.diam:
             self._start(full, events)
             times["start_s"] = time.perf_counter() - t0
+        elif gap > MAX_GAP:  # the contacts moved unseen: look for them again
+            suspect = np.ones(len(self.diam), bool)
+            if not self._redetect(sub, full, events, suspect, gate=np.inf):
+                converged = self._warm(sub, gap)
+            times["fit_s"] = time.perf_counter() - t0
         else:
-            if not self._warm(sub):
-                self._recover(sub, events)
+            converged = self._warm(sub, max(gap, 1))
             times["fit_s"] = time.perf_counter() - t0
         t1 = time.perf_counter()
-        frame = self._check(sub, events) if self.diam else None
+        frame = self._check(sub, full, converged, events) if self.diam else None
         times["check_s"] = time.perf_counter() - t1
         times["frame_s"] = time.perf_counter() - t0
         if frame is None:
@@ -187,11 +222,16 @@ class Tracker:
                 index, time_s, np.zeros(0, int), z, z, e, e.astype(bool), tuple(events), times
             )
         sd, rms = frame
-        same = len(before[1]) == len(self.ids) and np.array_equal(before[1], self.ids)
-        self.last_step = self.p - before[0] if same else np.zeros_like(self.p)
+        self.last_step = _velocity(before, (self.p, self.ids), max(gap, 1))
         q = self.p.reshape(-1, N_PARAMS).copy()
         ok = np.asarray(rms <= WARN_RESIDUAL, bool)
         return TrackedFrame(index, time_s, self.ids.copy(), q, sd, rms, ok, tuple(events), times)
+
+    def reset(self) -> None:
+        """Forget every contact (the next frame starts afresh, new ids)."""
+        self._reset(np.zeros(0), [])
+        self.ids = np.zeros(0, int)
+        self.index = None
 
     # -- the stages ---------------------------------------------------------------------
 
@@ -214,11 +254,11 @@ class Tracker:
         self.last_step = np.zeros_like(self.p)
         self.history = [[] for _ in self.diam]
 
-    def _warm(self, sub: ImageModel) -> bool:
+    def _warm(self, sub: ImageModel, gap: int = 1) -> bool:
         """The chord Gauss-Newton fit from the previous answer moved on by its change;
         whether it converged (else the robust fit of :meth:`_recover` follows)."""
         lo, hi = _bounds(sub, len(self.diam))
-        p = np.clip(self.p + self.last_step, lo, hi)
+        p = np.clip(self.p + gap * self.last_step, lo, hi)
         fixed = replace(sub, keep=sub.outside_contacts(unpack(p, self.diam)))
         self._refresh(fixed, p, self._stale(p))
         r, gains = self._residual(fixed, p)
@@ -232,19 +272,25 @@ class Tracker:
             cn = float(rn @ rn)
             if cn > cost:
                 if fresh:
-                    done = cn <= cost * (1 + FTOL)  # at the noise floor already
+                    done = cn <= cost + self._ftol(cost)  # at the noise floor already
                     break
                 self._refresh(fixed, p, np.arange(len(self.diam)))
                 fresh = True
                 continue
             self._broyden(pn - p, rn[: len(self.jac)] - r[: len(self.jac)])
-            done = cost - cn <= FTOL * cost or bool(np.all(np.abs(pn - p) <= STEP_TOL))
+            done = cost - cn <= self._ftol(cost) or bool(np.all(np.abs(pn - p) <= STEP_TOL))
             p, r, cost = pn, rn, cn
             self.last = (p, r, gains)
             if done:
                 break
         self.p = p
         return done
+
+    def _ftol(self, cost: float) -> float:
+        """The least decrease of the cost that is worth another step: FTOL of the noise
+        variance (a change of chi-square by FTOL, the parameters then move by a small
+        fraction of their sd), or 1e-6 of the cost where the misfit is the model's."""
+        return max(FTOL * self.noise**2, 1e-6 * cost)
 
     def _stale(self, p: np.ndarray) -> np.ndarray:
         """The contacts (indices) whose Jacobian columns are due: moved JAC_MOVE_MM or
@@ -298,28 +344,55 @@ class Tracker:
         A[np.diag_indices_from(A)] += 1e-30
         return -np.linalg.solve(A, J.T @ r)
 
-    def _check(self, sub: ImageModel, events: list):
-        """Residuals, recovery, release and touch of this frame; returns (sd (n, 5),
-        residual_rms (n,)) of the contacts left, or None when none is."""
+    def _check(self, sub: ImageModel, full: ImageModel, converged: bool, events: list):
+        """Touch, recovery and release of this frame; returns (sd (n, 5), residual_rms
+        (n,)) of the contacts left, or None when none is.
+
+        A warm fit that did not converge is fitted again robustly. One that left a
+        contact's residual far above its usual level is searched in the image itself
+        (:meth:`_redetect`: a new contact spoils the fit of its neighbours, so the
+        residual would point everywhere); without a detection the frame is recovered. A
+        contact the release would drop though it bore a clear load a frame before is
+        searched for likewise. Then the release, and a search of the residual image for
+        a new contact still too light to disturb the fit (:meth:`_touch`).
+        """
+        if not converged:  # the steps ran out: a robust fit from where they got
+            self._keep_history(fit_indenters(sub, self.p, self.diam, self.noise).x)
         fixed, rms, r = self._evaluate(sub)
-        if self._jumped(rms):
-            self._recover(sub, events)
+        if self._jumped(rms) and "redetect" not in events:
+            if not self._redetect(fixed, full, events, self._jumps(rms)):
+                self._recover(self._fine(full), events)
             fixed, rms, r = self._evaluate(sub)
         sd = self._sd(fixed, r, events)
-        changed = self._release(sd, events)
-        if changed and self.diam:
+        lost = self._lost(sd)
+        if lost.any() and "redetect" not in events and self._redetect(fixed, full, events, lost):
             fixed, rms, r = self._evaluate(sub)
-        if self.diam and self._touch(fixed, r, events):
-            changed = True
+            sd = self._sd(fixed, r, events)
+        if self._release(sd, events) and self.diam:
             fixed, rms, r = self._evaluate(sub)
+            sd = self._sd(fixed, r, events)
+        quiet = not ({"start", "redetect"} & set(events))  # (those searched already)
+        if self.diam and quiet and self._touch(fixed, r, rms, events, full):
+            fixed, rms, r = self._evaluate(sub)
+            sd = self._sd(fixed, r, events)
         if not self.diam:
             return None
-        if changed:
-            sd = self._sd(fixed, r, events)
         for h, v in zip(self.history, rms, strict=True):
             h.append(float(v))
             del h[:-HISTORY]
         return sd, rms
+
+    def _floor(self, rms: np.ndarray, r: np.ndarray) -> float:
+        """The noise level a new contact's residual must stand out of: the camera's, or
+        the fit's own misfit near the contacts (residual_rms times the fringe amplitude),
+        whichever is larger."""
+        amp = float(np.mean(np.abs(self.last[2]))) if self.last is not None else 0.0
+        finite = rms[np.isfinite(rms)]
+        misfit = float(np.median(finite)) * amp if len(finite) else 0.0
+        return max(self.noise, misfit)
+
+    def _axes(self) -> np.ndarray:
+        return self.p.reshape(-1, N_PARAMS)[:, :2]
 
     def _evaluate(self, sub: ImageModel):
         """(the model with the pixels outside the contacts kept, residual near each
@@ -347,11 +420,110 @@ class Tracker:
             rms.append(float(np.sqrt(np.mean(img[m] ** 2)) / amp) if ok else np.inf)
         return np.array(rms)
 
+    def _jumps(self, rms: np.ndarray) -> np.ndarray:
+        """(n,) bool: the contacts whose residual is far above its running median (JUMP
+        times it, and above invert's warning level), or above JUMP times that level at
+        all."""
+        out = np.zeros(len(rms), bool)
+        for k, (v, h) in enumerate(zip(rms, self.history, strict=True)):
+            usual = JUMP * float(np.median(h)) if len(h) >= 3 else np.inf
+            out[k] = v > max(min(usual, JUMP * WARN_RESIDUAL), WARN_RESIDUAL)
+        return out
+
     def _jumped(self, rms: np.ndarray) -> bool:
-        for v, h in zip(rms, self.history, strict=True):
-            if len(h) >= 3 and v > max(JUMP * float(np.median(h)), WARN_RESIDUAL):
-                return True
-        return False
+        return bool(self._jumps(rms).any())
+
+    def _lost(self, sd: np.ndarray) -> np.ndarray:
+        """(n,) bool: the contacts the release would drop (normal load not significant,
+        or the axis within a sphere of a stronger one's) that bore more than twice the
+        release level in the frame before: moved faster than the warm fit can follow,
+        more likely than lifted that fast."""
+        out = np.zeros(len(self.diam), bool)
+        if len(self.p_before) != len(self.p):
+            return out
+        _, _, kept = _prune(self.p, sd.ravel(), self.diam, self.blank.lib)
+        gone = np.setdiff1d(np.arange(len(self.diam)), kept)
+        was = self.p_before.reshape(-1, N_PARAMS)[gone, 2]
+        out[gone] = was > 2 * MIN_LOAD_FRACTION * self.blank.lib.load_N[1]
+        return out
+
+    def _redetect(
+        self, fixed: ImageModel, full: ImageModel, events: list, suspect, gate: float = GATE_MM
+    ) -> bool:
+        """Detection in the frame itself (every 2nd pixel): each ``suspect`` contact
+        ((n,) bool) moves to the candidate within ``gate`` (mm) of it (one-to-one, the
+        least total distance: linear assignment) and is started there from the library's
+        scan; the strongest candidate that no contact took and that lies farther than
+        GATE_MM from every contact is a new one (touched); all are fitted jointly and
+        their basins searched. Whether detection found anything."""
+        fine = self._fine(full)
+        cand = detect(subsample(full, 2), self.noise)
+        if not len(cand):
+            return False
+        axes = self._axes()
+        dist = np.hypot(*(axes[:, None, :] - cand[None, :, :]).transpose(2, 0, 1))
+        cost = np.where((dist <= gate) & np.asarray(suspect, bool)[:, None], dist, 1e6)
+        rows, cols = linear_sum_assignment(cost)
+        ok = cost[rows, cols] < 1e6
+        rows, cols = rows[ok], cols[ok]
+        p = self.p.copy().reshape(-1, N_PARAMS)
+        if len(cols):
+            start, _ = _start(fine, cand[cols])
+            p[rows] = start.reshape(-1, N_PARAMS)
+        free = np.setdiff1d(np.arange(len(cand)), cols)
+        far = [k for k in free if np.all(np.delete(dist[:, k], rows) > GATE_MM)][:1]
+        pn, dn = _start(fine, cand[far]) if far else (np.zeros(0), [])
+        diam = self.diam + dn
+        x = fit_indenters(fine, np.concatenate([p.ravel(), pn]), diam, self.noise).x
+        x, moved = hop(fine, x, diam, self.noise)
+        if moved:
+            x = fit_indenters(fine, x, diam, self.noise).x
+        ids = np.arange(self.next_id, self.next_id + len(dn))
+        self.next_id += len(dn)
+        hist = self.history + [[] for _ in dn]
+        self.ids = np.concatenate([self.ids, ids])
+        self._reset(x, diam)
+        self.history = hist
+        events.append("redetect")
+        events.extend(f"touch {int(i)}" for i in ids)
+        _, rms, _ = self._evaluate(replace(subsample(full, self.stride), exact=fine.exact))
+        if np.any(rms > WARN_RESIDUAL):  # still not explained: the whole inverse
+            self._cold(full, events)
+        return True
+
+    def _cold(self, full: ImageModel, events: list) -> None:
+        """The whole inverse of this frame (as ``invert``), its contacts given the ids of
+        the present ones they lie nearest to (linear assignment; new ids for the rest,
+        which are touched; present ones left without a match are released)."""
+        try:
+            res = invert_image(full, noise=self.noise)
+        except InvertError:
+            return
+        q = res.params
+        old = self._axes()
+        dist = np.hypot(*(old[:, None, :] - q[None, :, :2]).transpose(2, 0, 1))
+        rows, cols = linear_sum_assignment(dist) if dist.size else ([], [])
+        ids = np.zeros(len(q), int)
+        ids[cols] = self.ids[rows]
+        new = np.setdiff1d(np.arange(len(q)), cols)
+        ids[new] = np.arange(self.next_id, self.next_id + len(new))
+        self.next_id += len(new)
+        gone = np.setdiff1d(np.arange(len(old)), rows)
+        for i in self.ids[gone]:
+            t = f"touch {int(i)}"
+            events.remove(t) if t in events else events.append(f"release {int(i)}")
+        events.extend(f"touch {int(i)}" for i in ids[new])
+        hist = [self.history[r] for r in rows] + [[] for _ in new]
+        order = np.concatenate([np.asarray(cols, int), new])
+        self.ids = ids[order]
+        self._reset(q[order].ravel(), [res.diameters[k] for k in order])
+        self.history = hist
+        events.append("restart")
+
+    def _fine(self, full: ImageModel) -> ImageModel:
+        """The model the robust fits of events run on: every 2nd pixel (as ``invert``'s
+        last stage), the Jones integration near the axes."""
+        return replace(subsample(full, min(2, self.stride)), exact=EXACT_MM * 1e-3)
 
     def _recover(self, sub: ImageModel, events: list) -> None:
         """Each contact's tangential basin searched, then a robust joint fit."""
@@ -389,29 +561,46 @@ class Tracker:
         if len(kept) == len(self.diam):
             return False
         for i in np.setdiff1d(np.arange(len(self.diam)), kept):
-            events.append(f"release {int(self.ids[i])}")
+            touched = f"touch {int(self.ids[i])}"
+            if touched in events:  # found and dropped in one frame: never a contact
+                events.remove(touched)
+            else:
+                events.append(f"release {int(self.ids[i])}")
         hist = [self.history[i] for i in kept]
         self.ids = self.ids[kept]
         self._reset(p, diam)
         self.history = hist
         return True
 
-    def _touch(self, fixed: ImageModel, r: np.ndarray, events: list) -> bool:
-        """A new contact in the residual image (away from the present ones): started
-        from the library's scan and fitted jointly with the others."""
+    def _touch(self, fixed: ImageModel, r: np.ndarray, rms: np.ndarray, events: list, full) -> bool:
+        """The strongest new contact in the residual image, at least BORDER_MM inside the
+        frame and a sphere from the others, added (one a frame: a new contact's rings
+        can make several residual peaks, and a second one is found in the next frame)."""
         img = r[: fixed.measured.size].reshape(fixed.measured.shape)
-        resid = replace(fixed, measured=img, keep=None)
-        axes = self.p.reshape(-1, N_PARAMS)[:, :2]
-        new = detect(resid, self.noise, exclude=axes)
-        if not len(new):
-            return False
+        floor = self._floor(rms, r)
+        new = detect(replace(fixed, measured=img, keep=None), floor, exclude=self._axes())
+        xy = fixed.xy * 1e3
+        lo, hi = xy.min(axis=0) + BORDER_MM, xy.max(axis=0) - BORDER_MM
+        new = new[np.all((new >= lo) & (new <= hi), axis=1)] if len(new) else new
+        return bool(len(new)) and self._add(self._fine(full), new[:1], events)
+
+    def _add(self, fixed: ImageModel, new: np.ndarray, events: list) -> bool:
+        """New contacts at ``new`` (k, 2) (mm): started from the library's scan, fitted
+        jointly with the others (robust loss), each one's basin searched; whether any."""
         pn, dn = _start(fixed, new)
-        res = fit_indenters(fixed, np.concatenate([self.p, pn]), self.diam + dn, self.noise)
+        if not dn:
+            return False
+        p = np.concatenate([self.p, pn])
+        diam = self.diam + dn
+        res = fit_indenters(fixed, p, diam, self.noise)
+        p, moved = hop(fixed, res.x, diam, self.noise)
+        if moved:
+            p = fit_indenters(fixed, p, diam, self.noise).x
         hist = self.history + [[] for _ in dn]
         ids = np.arange(self.next_id, self.next_id + len(dn))
         self.next_id += len(dn)
         self.ids = np.concatenate([self.ids, ids])
-        self._reset(res.x, self.diam + dn)
+        self._reset(p, diam)
         self.history = hist
         events.extend(f"touch {int(i)}" for i in ids)
         return True

@@ -1,0 +1,229 @@
+"""fringekit track: library-synthesised streams tracked back to their loads, contact ids
+through a touch, a release and two contacts passing each other, a video against the same
+frames as files, a live camera through a stand-in capture, and the bad streams."""
+
+from __future__ import annotations
+
+import csv
+import json
+import threading
+
+import numpy as np
+import pytest
+from library_fixtures import TINY, sensor_config
+
+import fringekit
+from fringekit.analysis import read_pixels
+from fringekit.cli.main import main
+from fringekit.config.files import to_toml
+from fringekit.errors import LibraryError
+from fringekit.tracking import TRACK_COLUMNS, library_frames, open_source, track, write_video
+
+PX, PIXEL_MM = 64, 0.25  # 16 x 16 mm frames of the tiny library's sensor
+
+
+def _moving(k: int):
+    """Two contacts: one sliding 0.2 mm a frame while its load rises, one moving 0.5 mm a
+    frame (x, y mm, Fz, Fx, Fy N)."""
+    return [(-4.0 + 0.2 * k, 3.5, 2.5 + 0.1 * k, 0.3, 0.0), (3.0, -4.0 + 0.5 * k, 3.0, 0.0, 0.3)]
+
+
+def _matched(frame, truth) -> np.ndarray:
+    """The truth rows (n, 5) nearest to each tracked contact of ``frame``."""
+    t = np.asarray(truth, float)
+    j = [int(np.argmin(np.hypot(*(t[:, :2] - row[:2]).T))) for row in frame.params]
+    return t[j]
+
+
+def test_a_library_stream_is_tracked_back_to_its_loads(tiny_library, tmp_path):
+    """16-bit frames of the library's own model: every warm-started frame gives back
+    positions to 1e-3 mm and loads to 1e-3 of Fz, with the ids of the first frame."""
+    frames = [_moving(k) for k in range(6)]
+    library_frames(tiny_library, frames, tmp_path, pixels=PX, pixel_mm=PIXEL_MM, bit_depth=16)
+    t = track(tmp_path, tiny_library, pixel_mm=PIXEL_MM)
+    assert [f.index for f in t.frames] == list(range(6))
+    assert t.frames[0].events == ("start",)
+    assert all(f.events == () for f in t.frames[1:])  # warm fits only
+    first = {int(i): row[:2] for i, row in zip(t.frames[0].ids, t.frames[0].params, strict=True)}
+    for f, truth in zip(t.frames, frames, strict=True):
+        want = _matched(f, truth)
+        scale = np.array([1.0, 1.0, 1.0, 1.0, 1.0]) * np.array([1, 1, *[want[0, 2]] * 3])
+        assert np.all(np.abs(f.params - want) <= 1e-3 * scale), (f.index, f.params - want)
+        for i, row in zip(f.ids, f.params, strict=True):  # each id stays on its contact
+            assert np.hypot(*(row[:2] - first[int(i)])) < 3.0
+    assert t.summary["frames_solved"] == 6 and t.summary["contacts"] == [1, 2]
+
+
+def _events(t) -> dict:
+    return {f.index: f.events for f in t.frames if f.events}
+
+
+@pytest.mark.slow
+def test_a_touch_a_release_and_a_crossing_keep_their_ids(tiny_library, tmp_path):
+    """C and D slide 0.75 mm a frame past each other 4.4 mm apart, A touches at frame 3,
+    B is lifted at frame 5: each contact keeps one id, and the touch and the release are
+    read in their own frame."""
+
+    def frame(k):
+        out = [(-2.2, -3.0 + 0.75 * k, 2.5, 0.0, 0.2), (2.2, 3.0 - 0.75 * k, 3.0, 0.2, 0.0)]
+        if k >= 3:
+            out.append((5.0, -5.0, 3.0, 0.0, 0.0))  # A touches
+        if k < 5:
+            out.append((-5.0, 5.0, 2.5, 0.0, -0.2))  # B is lifted
+        return out
+
+    frames = [frame(k) for k in range(8)]
+    library_frames(tiny_library, frames, tmp_path, pixels=80, pixel_mm=PIXEL_MM, noise=0.003)
+    t = track(tmp_path, tiny_library, pixel_mm=PIXEL_MM)
+    names = {(-2.2, 2.5): "C", (2.2, 3.0): "D", (5.0, 3.0): "A", (-5.0, 2.5): "B"}
+    owner: dict[int, str] = {}
+    seen: dict[str, set] = {}
+    for f, truth in zip(t.frames, frames, strict=True):
+        assert len(f.ids) == len(truth), (f.index, f.ids, f.events)
+        want = _matched(f, truth)
+        assert np.all(np.hypot(*(f.params[:, :2] - want[:, :2]).T) < 0.05), f.index
+        for i, w in zip(f.ids, want, strict=True):
+            name = names[(w[0], w[2])]
+            seen.setdefault(name, set()).add(int(i))
+            assert owner.setdefault(int(i), name) == name, f"id {i}: {owner[int(i)]} -> {name}"
+    assert all(len(ids) == 1 for ids in seen.values()), seen
+    touched = [e for f in t.frames for e in f.events if e.startswith("touch")]
+    released = [(f.index, e) for f in t.frames for e in f.events if e.startswith("release")]
+    assert touched == [f"touch {next(iter(seen['A']))}"]
+    assert "touch" in " ".join(t.frames[3].events)
+    assert released == [(5, f"release {next(iter(seen['B']))}")]
+
+
+@pytest.mark.slow
+def test_a_video_gives_the_loads_of_its_frames(tiny_library, tmp_path):
+    """The same frames as PNG files and as a lossless video: the same table."""
+    frames = [_moving(k) for k in range(4)]
+    folder = tmp_path / "frames"
+    library_frames(tiny_library, frames, folder, pixels=PX, pixel_mm=PIXEL_MM, noise=0.003)
+    video = tmp_path / "stream.mkv"
+    write_video(video, (read_pixels(p) for p in sorted(folder.iterdir())), 10.0, lossless=True)
+    a = track(folder, tiny_library, pixel_mm=PIXEL_MM).table()
+    b = track(video, tiny_library, pixel_mm=PIXEL_MM).table()
+    for k in ("frame", "id", "x_mm", "y_mm", "Fz_N", "Fx_N", "Fy_N", "sFz_N"):
+        np.testing.assert_array_equal(a[k], b[k], err_msg=k)
+
+
+class _Capture:
+    """A camera at OpenCV's seam: BGR frames of a list, read as fast as asked; after
+    ``hold`` frames it waits until released (so that frames are dropped while the tracker
+    works on the first)."""
+
+    def __init__(self, frames):
+        self.frames, self.reads = frames, 0
+        self.go = threading.Event()
+
+    def isOpened(self):  # noqa: N802 (OpenCV's name)
+        return True
+
+    def get(self, prop):
+        return 10.0 if prop == 5 else 0.0
+
+    def read(self):
+        if self.reads >= len(self.frames):
+            return False, None
+        self.reads += 1
+        return True, self.frames[self.reads - 1][..., ::-1].copy()
+
+    def release(self):
+        pass
+
+
+@pytest.mark.slow
+def test_a_camera_stream_solves_the_newest_frame_and_counts_the_dropped(tiny_library, tmp_path):
+    frames = [_moving(k) for k in range(12)]
+    folder = tmp_path / "frames"
+    library_frames(tiny_library, frames, folder, pixels=PX, pixel_mm=PIXEL_MM)
+    rgb = [np.repeat(read_pixels(p)[..., None], 3, axis=2) for p in sorted(folder.iterdir())]
+    src = open_source("camera:0", capture_factory=lambda n: _Capture(rgb))
+    t = track(src, tiny_library, pixel_mm=PIXEL_MM, method="mono")
+    s = t.summary
+    assert s["source"]["kind"] == "camera"
+    assert s["frames_solved"] + s["frames_dropped"] == 12, s
+    assert s["frames_dropped"] > 0  # the cold start took longer than the stream
+    for f in t.frames:  # each solved frame is the frame of its index
+        want = _matched(f, frames[f.index])
+        assert np.all(np.abs(f.params[:, :2] - want[:, :2]) < 0.02), f.index
+
+
+def _rows(path):
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+@pytest.mark.slow
+def test_the_command_writes_loads_and_keeps_what_a_bad_frame_stopped(
+    tiny_library, tmp_path, capsys
+):
+    """A frame of another size ends the stream: exit 2 in one line, the frames before it
+    in loads.csv and summary.json (which says where and why it stopped)."""
+    folder = tmp_path / "frames"
+    library_frames(
+        tiny_library, [_moving(k) for k in range(3)], folder, pixels=PX, pixel_mm=PIXEL_MM
+    )
+    library_frames(tiny_library, [_moving(3)], tmp_path / "big", pixels=PX + 8, pixel_mm=PIXEL_MM)
+    (tmp_path / "big" / "frame_0000.png").rename(folder / "frame_0003.png")
+    out = tmp_path / "out"
+    lib = str(tiny_library.folder)
+    code = main(
+        ["track", str(folder), "--library", lib, "--pixel-mm", "0.25", "--out", str(out), "--quiet"]
+    )
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "stopped after 3 frame(s)" in err and "frame_0003.png" in err
+    rows = _rows(out / "loads.csv")
+    assert tuple(rows[0]) == TRACK_COLUMNS
+    assert sorted({r["frame"] for r in rows}) == ["0", "1", "2"]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["stopped"]["after_frames"] == 3
+    assert (out / "loads.png").is_file()
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["camera:abc"], ["camera:abc"]),
+        (["nowhere"], ["nowhere"]),
+        (["FRAMES", "--pixel-mm", "0"], ["--pixel-mm", "0"]),
+        (["FRAMES", "--method", "phase"], ["--method", "phase"]),
+    ],
+)
+def test_bad_streams_are_one_line_and_write_nothing(tiny_library, tmp_path, capsys, args, words):
+    folder = tmp_path / "frames"
+    library_frames(tiny_library, [_moving(0)], folder, pixels=PX, pixel_mm=PIXEL_MM)
+    args = [str(folder) if a == "FRAMES" else a for a in args]
+    if "--pixel-mm" not in args:
+        args += ["--pixel-mm", "0.25"]
+    out = tmp_path / "out"
+    code = main(["track", *args, "--library", str(tiny_library.folder), "--out", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2
+    assert len(err) == 1 and all(w in err[0] for w in words), err
+    assert not out.exists()
+
+
+def test_a_zero_length_video_and_another_sensor_are_refused(tiny_library, tmp_path, capsys):
+    empty = tmp_path / "empty.mp4"
+    empty.write_bytes(b"")
+    out = tmp_path / "out"
+    lib = ["--library", str(tiny_library.folder), "--pixel-mm", "0.25", "--out", str(out)]
+    assert main(["track", str(empty), *lib]) == 2
+    assert "empty.mp4" in capsys.readouterr().err
+    assert not out.exists()
+    other = tmp_path / "other.toml"
+    other.write_text(to_toml(sensor_config(**TINY, **{"sheet.thickness_mm": 2.0})))
+    with pytest.raises(LibraryError, match="thickness_mm"):
+        track(tmp_path, tiny_library, pixel_mm=0.25, sensor=other)
+
+
+@pytest.mark.slow
+def test_invert_agrees_with_the_first_frame_of_track(tiny_library, tmp_path):
+    library_frames(tiny_library, [_moving(0)], tmp_path, pixels=PX, pixel_mm=PIXEL_MM, noise=0.003)
+    inv = fringekit.invert(tmp_path / "frame_0000.png", tiny_library, pixel_mm=PIXEL_MM)
+    t = track(tmp_path, tiny_library, pixel_mm=PIXEL_MM)
+    a, b = inv.result.params, t.frames[0].params
+    np.testing.assert_allclose(a[np.argsort(a[:, 0])], b[np.argsort(b[:, 0])], atol=1e-9)

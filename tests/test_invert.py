@@ -516,7 +516,7 @@ def test_the_start_scans_the_tangential_load(test_library, method):
 
     model = _model(test_library, method, TWO)
     coarse = inv.subsample(model, 4)
-    p, diam = inv._start(coarse, _truth(TWO)[:, :2])
+    p, diam = inv.start_params(coarse, _truth(TWO)[:, :2])
     heads = 1 if method == "mono" else 2
     for got, want in zip(p.reshape(-1, 5)[:heads], _truth(TWO)[:heads], strict=True):
         turn = np.degrees(np.arctan2(got[4], got[3]) - np.arctan2(want[4], want[3]))

@@ -171,6 +171,7 @@ LAZY_IMPORTS = {
     "matplotlib.tri",
     "colour",
     "cv2",
+    "matplotlib.pyplot",  # a window (track --show) picks a GUI backend: only when asked
 }
 
 

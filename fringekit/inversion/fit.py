@@ -51,9 +51,12 @@ __all__ = [
     "InvertResult",
     "at_box_edge",
     "fit_all",
+    "fit_bounds",
     "fit_indenters",
     "invert_image",
+    "prune",
     "select_indenters",
+    "start_params",
     "subsample",
 ]
 
@@ -131,7 +134,7 @@ def _far(model: ImageModel) -> ImageModel:
     return replace(model, inner=FAR_MM * 1e-3, exact=False)
 
 
-def _start(model: ImageModel, pos_mm: np.ndarray, sheared: bool = True):
+def start_params(model: ImageModel, pos_mm: np.ndarray, sheared: bool = True):
     """Starting parameters and diameters for candidates: the load (and diameter) of
     START_LOADS normal loads whose one-indenter image fits the candidate's far field
     (FAR_MM out to WINDOW_MM + FAR_MM, the pixels nearer to it than to any other
@@ -170,7 +173,7 @@ def _start(model: ImageModel, pos_mm: np.ndarray, sheared: bool = True):
     return (np.concatenate(p) if p else np.zeros(0)), diam
 
 
-def _bounds(model: ImageModel, n: int):
+def fit_bounds(model: ImageModel, n: int):
     lib = model.lib
     xy = model.xy * 1e3
     lo_xy, hi_xy = xy.min(axis=0) - 1.0, xy.max(axis=0) + 1.0
@@ -186,7 +189,7 @@ def fit_indenters(model: ImageModel, p0, diam, noise: float, box=None, ftol=FIT_
     changes by less than ``ftol`` of itself (at the default 1e-6 the parameters then move
     by far less than their sd). ``box`` (mm): the axes stay within it of where they
     start."""
-    lo, hi = _bounds(model, len(diam))
+    lo, hi = fit_bounds(model, len(diam))
     if box is not None:
         w = np.tile([box, box, np.inf, np.inf, np.inf], len(diam))
         lo, hi = np.maximum(lo, p0 - w), np.minimum(hi, p0 + w)
@@ -214,7 +217,7 @@ def fit_indenters(model: ImageModel, p0, diam, noise: float, box=None, ftol=FIT_
     )
 
 
-def _prune(p: np.ndarray, sd: np.ndarray, diam: list, lib) -> tuple[np.ndarray, list, list]:
+def prune(p: np.ndarray, sd: np.ndarray, diam: list, lib) -> tuple[np.ndarray, list, list]:
     """Drop indenters whose normal load is not significant, and the weaker of two whose
     axes are closer than their spheres allow (centres at least a diameter apart); returns
     (parameters, diameters, indices kept)."""
@@ -351,7 +354,7 @@ def select_indenters(model, coarse, fine, pos, noise, sheared: bool, max_rounds:
     positions ``pos`` (mm): (p, diameters, the last fit's result, evaluations); each stage
     a safe point of ``budget``."""
     budget = budget or Budget(math.inf)
-    p, diam = _start(coarse, pos, sheared)
+    p, diam = start_params(coarse, pos, sheared)
     if budget.spent("start scan", f"{len(diam)} start(s)"):
         return p, diam, None, 0
     anchors = _axes(p).copy()  # where detection put the axes
@@ -362,7 +365,7 @@ def select_indenters(model, coarse, fine, pos, noise, sheared: bool, max_rounds:
         if res is None or round_ == max_rounds or budget.stopped:
             break
         sd = parameter_sd(res.jac, res.fun, int(np.count_nonzero(res.fun)))
-        p2, diam2, kept = _prune(p, sd, diam, model.lib)
+        p2, diam2, kept = prune(p, sd, diam, model.lib)
         gone = np.setdiff1d(np.arange(len(diam)), kept)
         dropped = np.concatenate([dropped, _axes(p, gone), anchors[gone]])  # fitted, detected
         fitted_img, _, _, outside = fine.fitted(unpack(p2, diam2))
@@ -378,12 +381,12 @@ def select_indenters(model, coarse, fine, pos, noise, sheared: bool, max_rounds:
                 p, res, its = _refit(_exact(fine), p2, diam2, noise, its)
                 diam = diam2
             break
-        pn, dn = _start(coarse, new, sheared)
+        pn, dn = start_params(coarse, new, sheared)
         p, diam = np.concatenate([p2, pn]), diam2 + dn
         anchors = np.concatenate([anchors[kept], _axes(pn)])
     if res is not None and not budget.stopped:  # the last fit may have let two meet
         sd = parameter_sd(res.jac, res.fun, int(np.count_nonzero(res.fun)))
-        p2, diam2, _ = _prune(p, sd, diam, model.lib)
+        p2, diam2, _ = prune(p, sd, diam, model.lib)
         if len(diam2) < len(diam):  # the basins are searched already
             p, res, its = _refit(_exact(fine), p2, diam2, noise, its)
             diam = diam2

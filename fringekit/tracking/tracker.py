@@ -43,25 +43,22 @@ from fringekit.inversion.fit import (
     EXACT_MM,
     MIN_LOAD_FRACTION,
     WINDOW_MM,
-    _bounds,
-    _prune,
-    _start,
+    fit_bounds,
     fit_indenters,
     invert_image,
+    prune,
+    start_params,
     subsample,
 )
 from fringekit.inversion.hop import hop
-from fringekit.inversion.model import N_PARAMS, ImageModel, range_penalty, unpack
+from fringekit.inversion.model import N_PARAMS, ImageModel, unpack
 from fringekit.inversion.uncertainty import model_sd, stated_sd
 from fringekit.inversion.verdict import WARN_RESIDUAL, InvertError
-from fringekit.library.synth import superpose
+from fringekit.tracking.warm import ChordFit
 
 __all__ = [
     "HISTORY",
-    "JAC_LOAD",
-    "JAC_MOVE_MM",
     "JUMP",
-    "FTOL",
     "TRACK_STRIDE",
     "TrackedFrame",
     "Tracker",
@@ -79,21 +76,10 @@ BORDER_MM = 1.0
 #: A frame more than this many frames after the last one solved (a camera's dropped
 #: frames) is searched afresh (:meth:`Tracker._redetect`) before its warm fit is trusted.
 MAX_GAP = 3
-#: Gauss-Newton steps per frame at most.
-CHORD_STEPS = 6
-#: The Jacobian is made again when a contact has moved this far (mm) since it was made...
-JAC_MOVE_MM = 0.05
-#: ... or one of its loads changed by this fraction of the library's largest load.
-JAC_LOAD = 0.03
 #: A frame is recovered when the residual near a contact exceeds this many times its
 #: running median over HISTORY frames (and invert's warning level).
 JUMP = 2.0
 HISTORY = 10
-#: The fit has converged when a step lowers the cost by less than this many noise
-#: variances (chi-square by FTOL: the parameters then move by a small fraction of their
-#: sd), or moves no parameter by more than STEP_TOL (mm and N).
-FTOL = 0.1
-STEP_TOL = 1e-5
 #: The correlation areas behind the stated sd (a Fourier transform per parameter) are
 #: measured again every this many frames, and after every event.
 AREA_EVERY = 10
@@ -175,13 +161,11 @@ class Tracker:
         self.ids = np.zeros(0, int)
         self.next_id = 1
         self.noise: float | None = None
-        self.jac: np.ndarray | None = None
-        self.p_jac = np.zeros(0)
+        self.chord = ChordFit(0.0)
         self.last_step = np.zeros(0)
         self.history: list[list[float]] = []
         self.area: np.ndarray | None = None
         self.area_age = 0
-        self.last: tuple | None = None  # (p, residuals, gains) of the last evaluation
         self.index: int | None = None  # the last frame's
         self.p_before = np.zeros(0)  # the parameters of the frame before
 
@@ -193,6 +177,7 @@ class Tracker:
         sub = replace(subsample(full, self.stride), exact=EXACT_MM * 1e-3)
         if self.noise is None:
             self.noise = noise_sd(full)
+            self.chord.noise = self.noise
         events: list[str] = []
         times: dict = {}
         before = (self.p.copy(), self.ids.copy())
@@ -249,100 +234,18 @@ class Tracker:
 
     def _reset(self, p: np.ndarray, diam: list) -> None:
         self.p, self.diam = np.asarray(p, float).copy(), list(diam)
-        self.jac = None
-        self.last = None
+        self.chord.forget()
         self.last_step = np.zeros_like(self.p)
         self.history = [[] for _ in self.diam]
 
     def _warm(self, sub: ImageModel, gap: int = 1) -> bool:
-        """The chord Gauss-Newton fit from the previous answer moved on by its change;
-        whether it converged (else the robust fit of :meth:`_recover` follows)."""
-        lo, hi = _bounds(sub, len(self.diam))
-        p = np.clip(self.p + gap * self.last_step, lo, hi)
-        fixed = replace(sub, keep=sub.outside_contacts(unpack(p, self.diam)))
-        self._refresh(fixed, p, self._stale(p))
-        r, gains = self._residual(fixed, p)
-        cost = float(r @ r)
-        self.last = (p, r, gains)
-        fresh, done = False, False
-        for _ in range(CHORD_STEPS):  # a few steps; each one synthesis of the image
-            step = self._solve(p, r)
-            pn = np.clip(p + step, lo, hi)
-            rn, gains = self._residual(fixed, pn)
-            cn = float(rn @ rn)
-            if cn > cost:
-                if fresh:
-                    done = cn <= cost + self._ftol(cost)  # at the noise floor already
-                    break
-                self._refresh(fixed, p, np.arange(len(self.diam)))
-                fresh = True
-                continue
-            self._broyden(pn - p, rn[: len(self.jac)] - r[: len(self.jac)])
-            done = cost - cn <= self._ftol(cost) or bool(np.all(np.abs(pn - p) <= STEP_TOL))
-            p, r, cost = pn, rn, cn
-            self.last = (p, r, gains)
-            if done:
-                break
-        self.p = p
+        """The chord fit (:class:`~fringekit.tracking.warm.ChordFit`) from the previous
+        answer moved on by its change over ``gap`` frames; whether it converged."""
+        lo, hi = fit_bounds(sub, len(self.diam))
+        self.p, done = self.chord.run(
+            sub, np.clip(self.p + gap * self.last_step, lo, hi), self.diam
+        )
         return done
-
-    def _ftol(self, cost: float) -> float:
-        """The least decrease of the cost that is worth another step: FTOL of the noise
-        variance (a change of chi-square by FTOL, the parameters then move by a small
-        fraction of their sd), or 1e-6 of the cost where the misfit is the model's."""
-        return max(FTOL * self.noise**2, 1e-6 * cost)
-
-    def _stale(self, p: np.ndarray) -> np.ndarray:
-        """The contacts (indices) whose Jacobian columns are due: moved JAC_MOVE_MM or
-        their loads by JAC_LOAD of the library's largest since they were made."""
-        if self.jac is None or len(self.p_jac) != len(p):
-            return np.arange(len(self.diam))
-        d = np.abs(p - self.p_jac).reshape(-1, N_PARAMS)
-        load = JAC_LOAD * self.blank.lib.max_load_N
-        due = (np.hypot(d[:, 0], d[:, 1]) > JAC_MOVE_MM) | np.any(d[:, 2:] > load, axis=1)
-        return np.flatnonzero(due)
-
-    def _refresh(self, fixed: ImageModel, p: np.ndarray, which) -> None:
-        """Make the Jacobian columns of the contacts ``which`` again at ``p``."""
-        which = np.asarray(which, int)
-        if not len(which):
-            return
-        cols = (which[:, None] * N_PARAMS + np.arange(N_PARAMS)).ravel()
-        part = fixed.jacobian(p, self.diam, which=which)
-        if self.jac is None or len(which) == len(self.diam) or len(self.p_jac) != len(p):
-            self.jac = np.zeros((part.shape[0], len(p)))
-            self.p_jac = p.copy()
-        self.jac[:, cols] = part
-        self.p_jac[cols] = p[cols]
-
-    def _broyden(self, dp: np.ndarray, dr: np.ndarray) -> None:
-        """Broyden's rank-one update of the kept Jacobian along an accepted step (C. G.
-        Broyden, "A class of methods for solving nonlinear simultaneous equations", Math.
-        Comp. 19, 1965): the image's change ``dr`` is then exact along ``dp``."""
-        nn = float(dp @ dp)
-        if nn > 0:
-            self.jac += np.outer(dr - self.jac @ dp, dp / nn)
-
-    def _residual(self, fixed: ImageModel, p: np.ndarray):
-        """Residuals of the image (P * C,) and of the range penalty, and the gains (C,)."""
-        inds = unpack(p, self.diam)
-        ab, _ = superpose(fixed.lib, inds, fixed.xy)
-        use = fixed.usable & fixed.keep
-        fitted, gains, _ = fixed.project(fixed.intensities(ab, inds), use)
-        res = fixed.measured - fitted
-        res[~use] = 0.0
-        pen, _ = range_penalty(p, fixed.lib.max_ratio, 3.0 * self.noise)
-        return np.concatenate([res.ravel(), pen]), gains
-
-    def _solve(self, p: np.ndarray, r: np.ndarray) -> np.ndarray:
-        """The Gauss-Newton step of residuals ``r`` with the kept Jacobian (the range
-        penalty's rows made at ``p``), slightly damped (Levenberg)."""
-        _, jp = range_penalty(p, self.blank.lib.max_ratio, 3.0 * self.noise)
-        J = np.vstack([self.jac, jp])
-        A = J.T @ J
-        A[np.diag_indices_from(A)] *= 1.0 + 1e-9
-        A[np.diag_indices_from(A)] += 1e-30
-        return -np.linalg.solve(A, J.T @ r)
 
     def _check(self, sub: ImageModel, full: ImageModel, converged: bool, events: list):
         """Touch, recovery and release of this frame; returns (sd (n, 5), residual_rms
@@ -386,7 +289,8 @@ class Tracker:
         """The noise level a new contact's residual must stand out of: the camera's, or
         the fit's own misfit near the contacts (residual_rms times the fringe amplitude),
         whichever is larger."""
-        amp = float(np.mean(np.abs(self.last[2]))) if self.last is not None else 0.0
+        last = self.chord.last
+        amp = float(np.mean(np.abs(last[2]))) if last is not None else 0.0
         finite = rms[np.isfinite(rms)]
         misfit = float(np.median(finite)) * amp if len(finite) else 0.0
         return max(self.noise, misfit)
@@ -398,11 +302,11 @@ class Tracker:
         """(the model with the pixels outside the contacts kept, residual near each
         contact (n,), residuals) at the present parameters."""
         fixed = replace(sub, keep=sub.outside_contacts(unpack(self.p, self.diam)))
-        last = self.last
+        last = self.chord.last
         if last is not None and len(last[0]) == len(self.p) and np.array_equal(last[0], self.p):
             r, gains = last[1], last[2]
         else:
-            r, gains = self._residual(fixed, self.p)
+            r, gains = self.chord.residual(fixed, self.p, self.diam)
         return fixed, self._near(fixed, r, gains), r
 
     def _near(self, fixed: ImageModel, r: np.ndarray, gains: np.ndarray) -> np.ndarray:
@@ -441,7 +345,7 @@ class Tracker:
         out = np.zeros(len(self.diam), bool)
         if len(self.p_before) != len(self.p):
             return out
-        _, _, kept = _prune(self.p, sd.ravel(), self.diam, self.blank.lib)
+        _, _, kept = prune(self.p, sd.ravel(), self.diam, self.blank.lib)
         gone = np.setdiff1d(np.arange(len(self.diam)), kept)
         was = self.p_before.reshape(-1, N_PARAMS)[gone, 2]
         out[gone] = was > 2 * MIN_LOAD_FRACTION * self.blank.lib.load_N[1]
@@ -468,11 +372,11 @@ class Tracker:
         rows, cols = rows[ok], cols[ok]
         p = self.p.copy().reshape(-1, N_PARAMS)
         if len(cols):
-            start, _ = _start(fine, cand[cols])
+            start, _ = start_params(fine, cand[cols])
             p[rows] = start.reshape(-1, N_PARAMS)
         free = np.setdiff1d(np.arange(len(cand)), cols)
         far = [k for k in free if np.all(np.delete(dist[:, k], rows) > GATE_MM)][:1]
-        pn, dn = _start(fine, cand[far]) if far else (np.zeros(0), [])
+        pn, dn = start_params(fine, cand[far]) if far else (np.zeros(0), [])
         diam = self.diam + dn
         x = fit_indenters(fine, np.concatenate([p.ravel(), pn]), diam, self.noise).x
         x, moved = hop(fine, x, diam, self.noise)
@@ -536,18 +440,18 @@ class Tracker:
         """New parameters for the same contacts: their history and Jacobian kept (its
         columns are made again where they moved, :meth:`_stale`)."""
         self.p = np.asarray(p, float).copy()
-        self.last = None
+        self.chord.last = None
 
     def _sd(self, fixed: ImageModel, r: np.ndarray, events: list) -> np.ndarray:
         """The stated 1-sigma (n, 5), the correlation areas measured every AREA_EVERY
         frames and after every event."""
-        self._refresh(fixed, self.p, self._stale(self.p))
-        _, jp = range_penalty(self.p, fixed.lib.max_ratio, 3.0 * self.noise)
+        lib = fixed.lib
+        self.chord.refresh(fixed, self.p, self.diam, self.chord.stale(self.p, self.diam, lib))
         shape = (*fixed.grid.shape, fixed.measured.shape[1])
         q = self.p.reshape(-1, N_PARAMS)
         fresh = events or self.area is None or self.area.shape != q.shape
         fresh = fresh or self.area_age >= AREA_EVERY
-        J = np.vstack([self.jac, jp])
+        J = self.chord.full_jacobian(self.p, lib)
         sd, area = stated_sd(
             J, r, shape, q, model_sd(fixed.lib.shear_ratio), None if fresh else self.area
         )
@@ -557,7 +461,7 @@ class Tracker:
     def _release(self, sd: np.ndarray, events: list) -> bool:
         """Contacts whose normal load is no longer significant (or that met a stronger
         one) are released, their ids retired."""
-        p, diam, kept = _prune(self.p, sd.ravel(), self.diam, self.blank.lib)
+        p, diam, kept = prune(self.p, sd.ravel(), self.diam, self.blank.lib)
         if len(kept) == len(self.diam):
             return False
         for i in np.setdiff1d(np.arange(len(self.diam)), kept):
@@ -587,7 +491,7 @@ class Tracker:
     def _add(self, fixed: ImageModel, new: np.ndarray, events: list) -> bool:
         """New contacts at ``new`` (k, 2) (mm): started from the library's scan, fitted
         jointly with the others (robust loss), each one's basin searched; whether any."""
-        pn, dn = _start(fixed, new)
+        pn, dn = start_params(fixed, new)
         if not dn:
             return False
         p = np.concatenate([self.p, pn])

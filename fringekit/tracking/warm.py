@@ -1,0 +1,159 @@
+"""The warm fit of a tracked frame: Gauss-Newton steps with a Jacobian kept from frame to
+frame (the chord method: J. M. Ortega and W. C. Rheinboldt, *Iterative Solution of
+Nonlinear Equations in Several Variables*, 1970, sec. 7.1).
+
+The fit is ``invert``'s (:class:`~fringekit.inversion.model.ImageModel`: the library's
+superposed fields through the polariscope, the exposure's gain and offset solved exactly
+at every evaluation, the range penalty of the tangential load). What differs is the
+Jacobian: finite differences cost one batch of syntheses per contact, so a contact's
+columns are made again only when it has moved more than JAC_MOVE_MM, or its loads by
+more than JAC_LOAD of the library's largest, since they were made; between, Broyden's
+rank-one update keeps them exact along the steps taken. A step that raises the cost
+makes every column again. A contact's columns are the spatial pattern of its fringes:
+they turn over within a fringe spacing (about 0.5 mm near a contact), so a Jacobian kept
+over larger moves steers the fit to a point where the residual is orthogonal to the
+wrong columns, not to the minimum.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from fringekit.inversion.fit import fit_bounds
+from fringekit.inversion.model import N_PARAMS, ImageModel, range_penalty, unpack
+from fringekit.library.synth import superpose
+
+__all__ = ["CHORD_STEPS", "FTOL", "JAC_LOAD", "JAC_MOVE_MM", "STEP_TOL", "ChordFit"]
+
+#: Gauss-Newton steps per frame at most.
+CHORD_STEPS = 6
+#: The Jacobian is made again when a contact has moved this far (mm) since it was made...
+JAC_MOVE_MM = 0.05
+#: ... or one of its loads changed by this fraction of the library's largest load.
+JAC_LOAD = 0.03
+#: The fit has converged when a step lowers the cost by less than this many noise
+#: variances (chi-square by FTOL: the parameters then move by a small fraction of their
+#: sd), or moves no parameter by more than STEP_TOL (mm and N).
+FTOL = 0.1
+STEP_TOL = 1e-5
+
+
+class ChordFit:
+    """The warm fit's state: the Jacobian kept (image rows, one block of five columns per
+    contact), the parameters it was made at, and the last evaluation.
+
+    Parameters
+    ----------
+    noise : float
+        The frames' noise sd (intensity): the range penalty's scale and the convergence
+        test's unit.
+
+    Examples
+    --------
+    See :class:`~fringekit.tracking.tracker.Tracker`, which runs one per stream.
+    """
+
+    def __init__(self, noise: float):
+        self.noise = float(noise)
+        self.jac: np.ndarray | None = None
+        self.p_jac = np.zeros(0)
+        self.last: tuple | None = None  # (p, residuals, gains) of the last evaluation
+
+    def forget(self) -> None:
+        """Another set of contacts: the Jacobian and the last evaluation are void."""
+        self.jac = None
+        self.last = None
+
+    def run(self, sub: ImageModel, p: np.ndarray, diam: list) -> tuple[np.ndarray, bool]:
+        """Chord steps from ``p`` (n * 5,) on ``sub``: (the parameters, whether the fit
+        converged)."""
+        lo, hi = fit_bounds(sub, len(diam))
+        fixed = replace(sub, keep=sub.outside_contacts(unpack(p, diam)))
+        self.refresh(fixed, p, diam, self.stale(p, diam, sub.lib))
+        r, gains = self.residual(fixed, p, diam)
+        cost = float(r @ r)
+        self.last = (p, r, gains)
+        fresh, done = False, False
+        for _ in range(CHORD_STEPS):  # a few steps; each one synthesis of the image
+            step = self._solve(p, r, sub.lib)
+            pn = np.clip(p + step, lo, hi)
+            rn, gains = self.residual(fixed, pn, diam)
+            cn = float(rn @ rn)
+            if cn > cost:
+                if fresh:
+                    done = cn <= cost + self._ftol(cost)  # at the noise floor already
+                    break
+                self.refresh(fixed, p, diam, np.arange(len(diam)))
+                fresh = True
+                continue
+            self._broyden(pn - p, rn[: len(self.jac)] - r[: len(self.jac)])
+            done = cost - cn <= self._ftol(cost) or bool(np.all(np.abs(pn - p) <= STEP_TOL))
+            p, r, cost = pn, rn, cn
+            self.last = (p, r, gains)
+            if done:
+                break
+        return p, done
+
+    def _ftol(self, cost: float) -> float:
+        """The least decrease of the cost that is worth another step: FTOL of the noise
+        variance (a change of chi-square by FTOL, the parameters then move by a small
+        fraction of their sd), or 1e-6 of the cost where the misfit is the model's."""
+        return max(FTOL * self.noise**2, 1e-6 * cost)
+
+    def stale(self, p: np.ndarray, diam: list, lib) -> np.ndarray:
+        """The contacts (indices) whose Jacobian columns are due: moved JAC_MOVE_MM or
+        their loads by JAC_LOAD of the library's largest since they were made."""
+        if self.jac is None or len(self.p_jac) != len(p):
+            return np.arange(len(diam))
+        d = np.abs(p - self.p_jac).reshape(-1, N_PARAMS)
+        load = JAC_LOAD * lib.max_load_N
+        due = (np.hypot(d[:, 0], d[:, 1]) > JAC_MOVE_MM) | np.any(d[:, 2:] > load, axis=1)
+        return np.flatnonzero(due)
+
+    def refresh(self, fixed: ImageModel, p: np.ndarray, diam: list, which) -> None:
+        """Make the Jacobian columns of the contacts ``which`` again at ``p``."""
+        which = np.asarray(which, int)
+        if not len(which):
+            return
+        cols = (which[:, None] * N_PARAMS + np.arange(N_PARAMS)).ravel()
+        part = fixed.jacobian(p, diam, which=which)
+        if self.jac is None or len(which) == len(diam) or len(self.p_jac) != len(p):
+            self.jac = np.zeros((part.shape[0], len(p)))
+            self.p_jac = p.copy()
+        self.jac[:, cols] = part
+        self.p_jac[cols] = p[cols]
+
+    def _broyden(self, dp: np.ndarray, dr: np.ndarray) -> None:
+        """Broyden's rank-one update of the kept Jacobian along an accepted step (C. G.
+        Broyden, "A class of methods for solving nonlinear simultaneous equations", Math.
+        Comp. 19, 1965): the image's change ``dr`` is then exact along ``dp``."""
+        nn = float(dp @ dp)
+        if nn > 0:
+            self.jac += np.outer(dr - self.jac @ dp, dp / nn)
+
+    def residual(self, fixed: ImageModel, p: np.ndarray, diam: list):
+        """Residuals of the image (P * C,) and of the range penalty, and the gains (C,)."""
+        inds = unpack(p, diam)
+        ab, _ = superpose(fixed.lib, inds, fixed.xy)
+        use = fixed.usable & fixed.keep
+        fitted, gains, _ = fixed.project(fixed.intensities(ab, inds), use)
+        res = fixed.measured - fitted
+        res[~use] = 0.0
+        pen, _ = range_penalty(p, fixed.lib.max_ratio, 3.0 * self.noise)
+        return np.concatenate([res.ravel(), pen]), gains
+
+    def full_jacobian(self, p: np.ndarray, lib) -> np.ndarray:
+        """The kept Jacobian with the range penalty's rows made at ``p``."""
+        _, jp = range_penalty(p, lib.max_ratio, 3.0 * self.noise)
+        return np.vstack([self.jac, jp])
+
+    def _solve(self, p: np.ndarray, r: np.ndarray, lib) -> np.ndarray:
+        """The Gauss-Newton step of residuals ``r`` with the kept Jacobian, slightly
+        damped (Levenberg)."""
+        J = self.full_jacobian(p, lib)
+        A = J.T @ J
+        A[np.diag_indices_from(A)] *= 1.0 + 1e-9
+        A[np.diag_indices_from(A)] += 1e-30
+        return -np.linalg.solve(A, J.T @ r)

@@ -54,11 +54,12 @@ myst_enable_extensions = ["deflist"]
 # -- API reference: one page per module, generated from its __all__ -----------------------
 #: The modules whose ``__all__`` the reference documents, with a line on each.
 API_MODULES = {
-    "fringekit": "the application: configs, predict, analyse, calibrate, libraries, invert",
+    "fringekit": "the application: configs, predict, analyse, calibrate, libraries, invert, track",
     "fringekit.meshes": "stage 1: sensor geometry and quadratic tetrahedral meshes",
     "fringekit.fea": "stage 2: hyperelastic contact solver",
     "fringekit.optics": "stage 3: through-thickness optics, polariscopes, light and camera",
     "fringekit.analysis": "image analysis: fringe images to fringe order and stress",
+    "fringekit.tracking": "streams: every contact's load through a video, frames or a camera",
 }
 GROUPS = ("Functions", "Classes", "Exceptions", "Data")
 

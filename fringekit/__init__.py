@@ -11,6 +11,8 @@ files of the matching ``fringekit`` command.
 - :func:`build_library`, :meth:`Library.open` - response libraries;
 - :func:`invert` -> :class:`Inversion` - every indenter's position and load vector read
   off one image;
+- :func:`track` -> :class:`Track` - every contact's position and load vector through a
+  video, a folder of frames or a live camera;
 - :func:`calibrate_disc` -> :class:`DiscCalibration` - the material fringe value from
   disc photographs.
 
@@ -25,7 +27,7 @@ Examples
 >>> cfg["indenter.load_N"]
 [4.0]
 >>> sorted(name for name in fringekit.__all__ if name[0].islower() and name[0] != "_")
-['analyze', 'build_library', 'calibrate_disc', 'invert', 'predict']
+['analyze', 'build_library', 'calibrate_disc', 'invert', 'predict', 'track']
 """
 
 from __future__ import annotations
@@ -66,6 +68,7 @@ from fringekit.errors import (  # noqa: E402
     Interrupted,
     LibraryError,
     RefusedError,
+    SourceError,
 )
 from fringekit.inversion import Inversion, InvertError, invert  # noqa: E402
 from fringekit.library import Library, build_library  # noqa: E402
@@ -78,6 +81,7 @@ from fringekit.measurement import (  # noqa: E402
     analyze,
 )
 from fringekit.prediction import PredictError, Prediction, predict  # noqa: E402
+from fringekit.tracking import Track, track  # noqa: E402
 
 __all__ = [
     "Analysis",
@@ -99,10 +103,13 @@ __all__ = [
     "RGBOptions",
     "RefusedError",
     "Region",
+    "SourceError",
+    "Track",
     "__version__",
     "analyze",
     "build_library",
     "calibrate_disc",
     "invert",
     "predict",
+    "track",
 ]

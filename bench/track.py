@@ -1,0 +1,229 @@
+"""Benchmark ``fringekit track`` on a library-synthesised stream of known loads.
+
+Usage: python bench/track.py [--frames 200] [--pixels 256] [--methods mono rgb]
+       [--stride 4] [--noise 0.005] [--library DIR] [--work DIR] [--json FILE]
+       (--work default: bench/out/track, ignored by git)
+
+The sensor is examples/coarse_sensor.toml (20 mm sheet, the tests' sensor) with its
+library of 1-4 N x 5 tangential ratios (built once into the work folder, about 2 min on
+2 cores). The stream (sequence (b) of the tracking issue): FRAMES frames of PIXELS x
+PIXELS over 16 mm, 8-bit with camera noise NOISE (of full scale), five contacts of
+3.5 mm spheres:
+
+- S slides 3 mm along x at 2.5 N with 0.5 N tangential load along the slide;
+- P1 and P2 pass each other 4.4 mm apart (7 and 7 mm of travel, opposite ways);
+- T touches mid-way (its load ramps from 0 to 3 N over 15 % of the stream);
+- R is lifted (3 N to 0 over 15 % of the stream).
+
+A contact counts as present in a frame when its normal load is at least the release
+level (half the library's first load). Prints the cold start (the first frame: the whole
+inverse), the warm frames' median and 95th percentile time, frames per second, the
+errors of every present contact against the truth (Fz in N, tangential magnitude in N and
+direction in degrees where it is at least 0.1 N, position in mm), identity swaps, and
+missed and spurious contacts per frame, and the frames by which the touch and the lift
+were read late; ``--json`` writes it all, with the peak memory.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from fringekit.config.files import load_config
+from fringekit.library.build import DEFAULT_RATIOS, build_library
+from fringekit.library.store import load_library
+from fringekit.tracking import library_frames, track
+
+ROOT = Path(__file__).resolve().parents[1]
+SENSOR = ROOT / "examples" / "coarse_sensor.toml"
+LOADS = (1.0, 1.4, 2.0, 2.8, 4.0)
+FIELD_MM = 16.0
+
+
+def _ramp(t: float, t0: float, t1: float) -> float:
+    return float(np.clip((t - t0) / (t1 - t0), 0.0, 1.0))
+
+
+def contacts(t: float) -> dict[str, tuple]:
+    """The five contacts at stream time t in [0, 1]: name -> (x, y mm, Fz, Fx, Fy N)."""
+    return {
+        "S": (-6.0 + 3.0 * t, 5.5, 2.5, 0.5, 0.0),
+        "P1": (-2.2, -5.0 + 6.5 * t, 3.0, 0.0, 0.4),
+        "P2": (2.2, 3.0 - 7.0 * t, 2.0, -0.3, 0.0),
+        "T": (5.5, 4.5, 3.0 * _ramp(t, 0.40, 0.55), 0.0, 0.0),
+        "R": (-6.0, -6.5, 3.0 * (1.0 - _ramp(t, 0.30, 0.45)), 0.0, 0.0),
+    }
+
+
+def stream(n: int) -> list[dict[str, tuple]]:
+    return [contacts(k / max(n - 1, 1)) for k in range(n)]
+
+
+def _library(work: Path, given: str | None):
+    if given:
+        return load_library(given)
+    folder = work / "library"
+    if not (folder / "manifest.json").is_file():
+        print(f"building the library into {folder} ...", flush=True)
+        build_library(
+            load_config(SENSOR),
+            folder,
+            loads=LOADS,
+            ratios=DEFAULT_RATIOS,
+            cache_dir=work / "cache",
+            progress=True,
+        )
+    return load_library(folder)
+
+
+def _score_frame(frame, truth: dict, level: float, labels: dict) -> dict:
+    """Errors of one frame's contacts against the present truth ones (nearest within
+    1 mm), their id labels (id -> name, for swaps), missed and spurious counts."""
+    present = {k: v for k, v in truth.items() if v[2] >= level}
+    names = list(present)
+    t = np.array([present[k] for k in names]).reshape(-1, 5)
+    out = {"errors": [], "missed": 0, "spurious": 0, "swaps": 0, "seen": set()}
+    for i, row in zip(frame.ids, frame.params, strict=True):
+        d = np.hypot(*(t[:, :2] - row[:2]).T) if len(t) else np.array([])
+        if not len(d) or d.min() > 1.0:
+            out["spurious"] += 1
+            continue
+        name = names[int(np.argmin(d))]
+        out["seen"].add(name)
+        if labels.setdefault(int(i), name) != name:
+            out["swaps"] += 1
+            labels[int(i)] = name
+        w = present[name]
+        ft, ft_true = np.hypot(row[3], row[4]), np.hypot(w[3], w[4])
+        ang = np.degrees(
+            np.angle(np.exp(1j * (np.arctan2(row[4], row[3]) - np.arctan2(w[4], w[3]))))
+        )
+        out["errors"].append(
+            {
+                "name": name,
+                "fz_N": row[2] - w[2],
+                "ft_N": ft - ft_true,
+                "dir_deg": float(ang) if ft_true >= 0.1 else None,
+                "pos_mm": float(np.hypot(row[0] - w[0], row[1] - w[1])),
+            }
+        )
+    out["missed"] = len(set(names) - out["seen"])
+    return out
+
+
+def score(t, truths: list[dict], level: float) -> dict:
+    """The stream's scores (module docstring)."""
+    labels: dict = {}
+    frames = [_score_frame(f, truths[f.index], level, labels) for f in t.frames]
+    errs = [e for f in frames for e in f["errors"]]
+
+    def stat(key, absolute=True):
+        v = np.array([e[key] for e in errs if e[key] is not None], float)
+        v = np.abs(v) if absolute else v
+        return (
+            {
+                "median": float(np.median(v)),
+                "p95": float(np.percentile(v, 95)),
+                "max": float(v.max()),
+            }
+            if len(v)
+            else None
+        )
+
+    def first(name, present: bool):
+        want = [k for k, tr in enumerate(truths) if (tr[name][2] >= level) == present]
+        got = [
+            f.index for f, s in zip(t.frames, frames, strict=True) if (name in s["seen"]) == present
+        ]
+        start = want[0] if present else [k for k in want if k > 0][0]
+        late = [k for k in got if k >= start]
+        return (late[0] - start) if late else None
+
+    return {
+        "fz_N": stat("fz_N"),
+        "ft_N": stat("ft_N"),
+        "dir_deg": stat("dir_deg"),
+        "pos_mm": stat("pos_mm"),
+        "swaps": int(sum(f["swaps"] for f in frames)),
+        "missed_per_frame": float(np.mean([f["missed"] for f in frames])),
+        "spurious_per_frame": float(np.mean([f["spurious"] for f in frames])),
+        "touch_late_frames": first("T", True),
+        "lift_late_frames": first("R", False),
+    }
+
+
+def run(lib, method: str, args, work: Path) -> dict:
+    truths = stream(args.frames)
+    rows = [list(tr.values()) for tr in truths]
+    rows = [[c for c in r if c[2] > 0] for r in rows]
+    folder = work / f"frames-{method}-{args.pixels}"
+    pixel_mm = FIELD_MM / args.pixels
+    library_frames(
+        lib,
+        rows,
+        folder,
+        pixels=args.pixels,
+        pixel_mm=pixel_mm,
+        method=method,
+        noise=args.noise,
+        seed=0,
+    )
+    t0 = time.perf_counter()
+    tr = track(folder, lib, pixel_mm=pixel_mm, method=method, stride=args.stride, progress=True)
+    wall = time.perf_counter() - t0
+    s = tr.summary
+    level = 0.5 * lib.load_N[1]
+    warm = [f.times_s["frame_s"] for f in tr.frames[1:] if not f.events]
+    return {
+        "method": method,
+        "frames": args.frames,
+        "pixels": args.pixels,
+        "stride": args.stride,
+        "cold_start_s": tr.frames[0].times_s["frame_s"],
+        "warm_median_s": float(np.median(warm)),
+        "warm_p95_s": float(np.percentile(warm, 95)),
+        "fps_warm_median": 1.0 / float(np.median(warm)),
+        "fps_all": s["fps_achieved"],
+        "wall_s": wall,
+        "event_frames": len(s["events"]),
+        "times_s": s["times_s"],
+        **score(tr, truths, level),
+    }
+
+
+def main_bench(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--frames", type=int, default=200)
+    ap.add_argument("--pixels", type=int, default=256)
+    ap.add_argument("--methods", nargs="+", default=["mono", "rgb"])
+    ap.add_argument("--stride", type=int, default=4)
+    ap.add_argument("--noise", type=float, default=0.005)
+    ap.add_argument("--library", default=None)
+    ap.add_argument("--work", default="bench/out/track")
+    ap.add_argument("--json", default=None)
+    args = ap.parse_args(argv)
+    work = Path(args.work)
+    work.mkdir(parents=True, exist_ok=True)
+    print(
+        f"track bench: {args.frames} frames of {args.pixels} x {args.pixels} px over "
+        f"{FIELD_MM:g} mm, methods {args.methods}, stride {args.stride}",
+        flush=True,
+    )
+    lib = _library(work, args.library)
+    results = [run(lib, m, args, work) for m in args.methods]
+    for r in results:
+        print(json.dumps({k: v for k, v in r.items() if k != "times_s"}, indent=1))
+    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"peak memory {peak_mb:.0f} MB")
+    if args.json:
+        Path(args.json).write_text(json.dumps({"runs": results, "peak_mb": peak_mb}, indent=2))
+
+
+if __name__ == "__main__":
+    main_bench(sys.argv[1:])

@@ -52,7 +52,7 @@ from fringekit.inversion.fit import (
 )
 from fringekit.inversion.hop import hop
 from fringekit.inversion.model import N_PARAMS, ImageModel, unpack
-from fringekit.inversion.uncertainty import model_sd, stated_sd
+from fringekit.inversion.uncertainty import model_sd, parameter_sd, stated_sd
 from fringekit.inversion.verdict import WARN_RESIDUAL, InvertError
 from fringekit.tracking.warm import ChordFit
 
@@ -67,6 +67,10 @@ __all__ = [
 #: Every this many pixels in both directions are fitted per frame (invert's last stage
 #: fits every 2nd; four times fewer pixels make a frame four times faster).
 TRACK_STRIDE = 4
+#: The quick start is kept when every contact's residual is within this (fringe
+#: amplitudes; half invert's warning level): on the bench's first frame it read a contact
+#: at the frame's edge 10 % low with 0.21, where the whole inverse left 0.007.
+QUICK_RESIDUAL = 0.11
 #: A contact is matched to a detection within this distance (mm) of it: less than a
 #: sphere diameter (3.5 mm), the least distance between two contacts' axes.
 GATE_MM = 3.0
@@ -221,16 +225,44 @@ class Tracker:
     # -- the stages ---------------------------------------------------------------------
 
     def _start(self, full: ImageModel, events: list) -> None:
-        """No contact tracked: look for one; when found, the whole inverse (cold)."""
-        if not len(detect(subsample(full, 2), self.noise)):
+        """No contact tracked: look for them (:meth:`_quick`); when that leaves one
+        unexplained, the whole inverse (``invert``'s)."""
+        cand = detect(subsample(full, 2), self.noise)
+        if not len(cand):
             return
-        res = invert_image(full, noise=self.noise)
-        if not len(res.params):
+        p, diam = self._quick(full, cand)
+        if p is None:
+            try:
+                res = invert_image(full, noise=self.noise)
+            except InvertError:
+                return
+            p, diam = res.params.ravel(), list(res.diameters)
+        if not diam:
             return
-        self._reset(res.params.ravel(), list(res.diameters))
+        self._reset(p, diam)
         self.ids = np.arange(self.next_id, self.next_id + len(self.diam))
         self.next_id += len(self.diam)
         events.append("start")
+
+    def _quick(self, full: ImageModel, cand: np.ndarray):
+        """The quick start: each candidate from the library's scan, one robust joint fit
+        and one basin search on every ``stride``-th pixel (``invert`` adds a far-field
+        fit, more basin searches, model selection and a second start, on every 2nd
+        pixel); (p, diameters) when every contact left has its residual within
+        QUICK_RESIDUAL, else (None, None)."""
+        sub = replace(subsample(full, self.stride), exact=EXACT_MM * 1e-3)
+        p, diam = start_params(sub, cand)
+        p = fit_indenters(sub, p, diam, self.noise).x
+        p, moved = hop(sub, p, diam, self.noise)
+        res = fit_indenters(sub, p, diam, self.noise)
+        sd = parameter_sd(res.jac, res.fun, int(np.count_nonzero(res.fun)))
+        p, diam, _ = prune(res.x, sd, diam, self.blank.lib)
+        if not diam:
+            return None, None
+        self._reset(p, diam)
+        _, rms, _ = self._evaluate(sub)
+        self._reset(np.zeros(0), [])
+        return (p, diam) if np.all(rms <= QUICK_RESIDUAL) else (None, None)
 
     def _reset(self, p: np.ndarray, diam: list) -> None:
         self.p, self.diam = np.asarray(p, float).copy(), list(diam)

@@ -28,16 +28,19 @@ from fringekit.library.synth import superpose
 __all__ = ["CHORD_STEPS", "FTOL", "JAC_LOAD", "JAC_MOVE_MM", "STEP_TOL", "ChordFit"]
 
 #: Gauss-Newton steps per frame at most.
-CHORD_STEPS = 6
+CHORD_STEPS = 10
 #: The Jacobian is made again when a contact has moved this far (mm) since it was made...
-JAC_MOVE_MM = 0.05
+JAC_MOVE_MM = 0.1
 #: ... or one of its loads changed by this fraction of the library's largest load.
-JAC_LOAD = 0.03
+JAC_LOAD = 0.05
 #: The fit has converged when a step lowers the cost by less than this many noise
 #: variances (chi-square by FTOL: the parameters then move by a small fraction of their
 #: sd), or moves no parameter by more than STEP_TOL (mm and N).
 FTOL = 0.1
 STEP_TOL = 1e-5
+#: A step that raises the cost with a Jacobian made at its start is halved at most this
+#: many times (a backtracking line search).
+HALVINGS = 3
 
 
 class ChordFit:
@@ -81,6 +84,14 @@ class ChordFit:
             pn = np.clip(p + step, lo, hi)
             rn, gains = self.residual(fixed, pn, diam)
             cn = float(rn @ rn)
+            if cn > cost and fresh:  # the model bends within the step: halve it
+                for _ in range(HALVINGS):
+                    step = 0.5 * step
+                    pn = np.clip(p + step, lo, hi)
+                    rn, gains = self.residual(fixed, pn, diam)
+                    cn = float(rn @ rn)
+                    if cn <= cost:
+                        break
             if cn > cost:
                 if fresh:
                     done = cn <= cost + self._ftol(cost)  # at the noise floor already

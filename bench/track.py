@@ -197,7 +197,7 @@ def run(lib, method: str, args, work: Path) -> dict:
     }
 
 
-def main_bench(argv=None) -> None:
+def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=200)
     ap.add_argument("--pixels", type=int, default=256)
@@ -226,4 +226,4 @@ def main_bench(argv=None) -> None:
 
 
 if __name__ == "__main__":
-    main_bench(sys.argv[1:])
+    main(sys.argv[1:])

@@ -36,7 +36,6 @@ import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from fringekit.inversion.detect import detect, noise_sd
 from fringekit.inversion.fit import (
@@ -54,6 +53,7 @@ from fringekit.inversion.hop import hop
 from fringekit.inversion.model import N_PARAMS, ImageModel, unpack
 from fringekit.inversion.uncertainty import model_sd, parameter_sd, stated_sd
 from fringekit.inversion.verdict import WARN_RESIDUAL, InvertError
+from fringekit.tracking.ids import assign, velocity
 from fringekit.tracking.warm import ChordFit
 
 __all__ = [
@@ -127,20 +127,6 @@ class TrackedFrame:
     times_s: dict = field(default_factory=dict)
 
 
-def _velocity(before, after, gap: int) -> np.ndarray:
-    """Each contact's change per frame (its parameters' block) from ``before`` to
-    ``after`` ((p, ids) pairs) over ``gap`` frames; zero for a contact new in ``after``."""
-    p0, ids0 = before
-    p1, ids1 = after
-    q0, q1 = p0.reshape(-1, N_PARAMS), p1.reshape(-1, N_PARAMS)
-    v = np.zeros_like(q1)
-    for k, i in enumerate(ids1):  # a handful of contacts
-        j = np.flatnonzero(ids0 == i)
-        if len(j):
-            v[k] = (q1[k] - q0[j[0]]) / gap
-    return v.ravel()
-
-
 class Tracker:
     """Follow every contact of a library's sensor through a stream of images.
 
@@ -211,7 +197,7 @@ class Tracker:
                 index, time_s, np.zeros(0, int), z, z, e, e.astype(bool), tuple(events), times
             )
         sd, rms = frame
-        self.last_step = _velocity(before, (self.p, self.ids), max(gap, 1))
+        self.last_step = velocity(before, (self.p, self.ids), max(gap, 1))
         q = self.p.reshape(-1, N_PARAMS).copy()
         ok = np.asarray(rms <= WARN_RESIDUAL, bool)
         return TrackedFrame(index, time_s, self.ids.copy(), q, sd, rms, ok, tuple(events), times)
@@ -398,10 +384,7 @@ class Tracker:
             return False
         axes = self._axes()
         dist = np.hypot(*(axes[:, None, :] - cand[None, :, :]).transpose(2, 0, 1))
-        cost = np.where((dist <= gate) & np.asarray(suspect, bool)[:, None], dist, 1e6)
-        rows, cols = linear_sum_assignment(cost)
-        ok = cost[rows, cols] < 1e6
-        rows, cols = rows[ok], cols[ok]
+        rows, cols = assign(axes, cand, gate, allowed=suspect)
         p = self.p.copy().reshape(-1, N_PARAMS)
         if len(cols):
             start, _ = start_params(fine, cand[cols])
@@ -437,8 +420,7 @@ class Tracker:
             return
         q = res.params
         old = self._axes()
-        dist = np.hypot(*(old[:, None, :] - q[None, :, :2]).transpose(2, 0, 1))
-        rows, cols = linear_sum_assignment(dist) if dist.size else ([], [])
+        rows, cols = assign(old, q[:, :2])
         ids = np.zeros(len(q), int)
         ids[cols] = self.ids[rows]
         new = np.setdiff1d(np.arange(len(q)), cols)

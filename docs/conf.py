@@ -72,7 +72,10 @@ def _group(obj) -> str:
 
 def _api_page(name: str, blurb: str) -> str:
     module = importlib.import_module(name)
+    top = importlib.import_module("fringekit")
     public = [n for n in module.__all__ if not n.startswith("__")]
+    if name != "fringekit":  # a name the top level exports is documented there, once
+        public = [n for n in public if getattr(top, n, None) is not getattr(module, n)]
     lines = [f"``{name}``", "=" * (len(name) + 4), "", f"*{blurb.capitalize()}.*", ""]
     lines += [f".. automodule:: {name}", "   :no-members:", "", f".. currentmodule:: {name}", ""]
     for group in GROUPS:

@@ -132,16 +132,17 @@ def _cell(x) -> str:
     return f"{float(x):.6g}"
 
 
+def _grey(raw: np.ndarray) -> np.ndarray:
+    """The frame, (rows, cols) when it is grey: a colour frame whose three channels are
+    equal (a grey camera's video) is one."""
+    same = raw.ndim == 3 and all(np.array_equal(raw[..., 0], raw[..., c]) for c in (1, 2))
+    return raw[..., 0] if same else raw
+
+
 def _measurement(raw: np.ndarray, method: str, camera: str, name: str):
     """(measured (P, C), usable (P,), nodata (P,), note) of one decoded frame; a colour
     frame whose three channels are equal is a grey one."""
-    if (
-        raw.ndim == 3
-        and np.array_equal(raw[..., 0], raw[..., 1])
-        and np.array_equal(raw[..., 0], raw[..., 2])
-    ):
-        raw = raw[..., 0]
-    lin, data, sat, note = frame_measurement(normalise(raw, source=name), method, camera)
+    lin, data, sat, note = frame_measurement(normalise(_grey(raw), source=name), method, camera)
     nodata = no_data_regions(data)
     usable = (~sat & ~nodata).ravel()
     return lin.reshape(usable.size, -1), usable, nodata.ravel(), note
@@ -159,10 +160,7 @@ def _method(method: str | None, raw: np.ndarray) -> str:
         raise ConfigError(f"--method {method!r} is not allowed; give rgb or mono")
     if method is not None:
         return method
-    grey = raw.ndim == 2 or (
-        np.array_equal(raw[..., 0], raw[..., 1]) and np.array_equal(raw[..., 0], raw[..., 2])
-    )
-    return "mono" if grey else "rgb"
+    return "mono" if _grey(raw).ndim == 2 else "rgb"
 
 
 def _sensor(lib: Library, sensor) -> tuple[dict, str]:

@@ -226,8 +226,7 @@ class Tracker:
         if not diam:
             return
         self._reset(p, diam)
-        self.ids = np.arange(self.next_id, self.next_id + len(self.diam))
-        self.next_id += len(self.diam)
+        self.ids = self._new_ids(len(self.diam))
         events.append("start")
 
     def _quick(self, full: ImageModel, cand: np.ndarray):
@@ -303,7 +302,7 @@ class Tracker:
             del h[:-HISTORY]
         return sd, rms
 
-    def _floor(self, rms: np.ndarray, r: np.ndarray) -> float:
+    def _floor(self, rms: np.ndarray) -> float:
         """The noise level a new contact's residual must stand out of: the camera's, or
         the fit's own misfit near the contacts (residual_rms times the fringe amplitude),
         whichever is larger."""
@@ -392,19 +391,8 @@ class Tracker:
         free = np.setdiff1d(np.arange(len(cand)), cols)
         far = [k for k in free if np.all(np.delete(dist[:, k], rows) > GATE_MM)][:1]
         pn, dn = start_params(fine, cand[far]) if far else (np.zeros(0), [])
-        diam = self.diam + dn
-        x = fit_indenters(fine, np.concatenate([p.ravel(), pn]), diam, self.noise).x
-        x, moved = hop(fine, x, diam, self.noise)
-        if moved:
-            x = fit_indenters(fine, x, diam, self.noise).x
-        ids = np.arange(self.next_id, self.next_id + len(dn))
-        self.next_id += len(dn)
-        hist = self.history + [[] for _ in dn]
-        self.ids = np.concatenate([self.ids, ids])
-        self._reset(x, diam)
-        self.history = hist
         events.append("redetect")
-        events.extend(f"touch {int(i)}" for i in ids)
+        self._append(fine, np.concatenate([p.ravel(), pn]), dn, events)
         _, rms, _ = self._evaluate(replace(subsample(full, self.stride), exact=fine.exact))
         if np.any(rms > WARN_RESIDUAL):  # still not explained: the whole inverse
             self._cold(full, events)
@@ -424,8 +412,7 @@ class Tracker:
         ids = np.zeros(len(q), int)
         ids[cols] = self.ids[rows]
         new = np.setdiff1d(np.arange(len(q)), cols)
-        ids[new] = np.arange(self.next_id, self.next_id + len(new))
-        self.next_id += len(new)
+        ids[new] = self._new_ids(len(new))
         gone = np.setdiff1d(np.arange(len(old)), rows)
         for i in self.ids[gone]:
             t = f"touch {int(i)}"
@@ -495,7 +482,7 @@ class Tracker:
         frame and a sphere from the others, added (one a frame: a new contact's rings
         can make several residual peaks, and a second one is found in the next frame)."""
         img = r[: fixed.measured.size].reshape(fixed.measured.shape)
-        floor = self._floor(rms, r)
+        floor = self._floor(rms)
         new = detect(replace(fixed, measured=img, keep=None), floor, exclude=self._axes())
         xy = fixed.xy * 1e3
         lo, hi = xy.min(axis=0) + BORDER_MM, xy.max(axis=0) - BORDER_MM
@@ -508,17 +495,26 @@ class Tracker:
         pn, dn = start_params(fixed, new)
         if not dn:
             return False
-        p = np.concatenate([self.p, pn])
-        diam = self.diam + dn
-        res = fit_indenters(fixed, p, diam, self.noise)
-        p, moved = hop(fixed, res.x, diam, self.noise)
+        self._append(fixed, np.concatenate([self.p, pn]), dn, events)
+        return True
+
+    def _append(self, model: ImageModel, p: np.ndarray, new_diam: list, events: list) -> None:
+        """The present contacts and new ones (their parameters last in ``p``, their
+        diameters ``new_diam``) fitted jointly on ``model`` (robust loss), each one's basin
+        searched and the fit repeated when one moved; the new ones get ids (touched)."""
+        diam = self.diam + new_diam
+        p, moved = hop(model, fit_indenters(model, p, diam, self.noise).x, diam, self.noise)
         if moved:
-            p = fit_indenters(fixed, p, diam, self.noise).x
-        hist = self.history + [[] for _ in dn]
-        ids = np.arange(self.next_id, self.next_id + len(dn))
-        self.next_id += len(dn)
+            p = fit_indenters(model, p, diam, self.noise).x
+        ids = self._new_ids(len(new_diam))
+        hist = self.history + [[] for _ in new_diam]
         self.ids = np.concatenate([self.ids, ids])
         self._reset(p, diam)
         self.history = hist
         events.extend(f"touch {int(i)}" for i in ids)
-        return True
+
+    def _new_ids(self, n: int) -> np.ndarray:
+        """``n`` ids never given before."""
+        ids = np.arange(self.next_id, self.next_id + n)
+        self.next_id += n
+        return ids

@@ -22,7 +22,10 @@ def add_parser(sub) -> None:
     tr.add_argument("--library", required=True, help="library folder (fringekit library build)")
     tr.add_argument("--out", required=True, help="output folder")
     tr.add_argument(
-        "--pixel-mm", type=in_range(PIXEL_MM), required=True, help="pixel pitch on the sheet (mm)"
+        "--pixel-mm",
+        type=in_range(PIXEL_MM),
+        default=None,
+        help="pixel pitch on the sheet (mm); required without a calibrated --sensor",
     )
     tr.add_argument(
         "--method",
@@ -38,7 +41,12 @@ def add_parser(sub) -> None:
         default=None,
         help="image pixel of the sensor origin (default: the image centre)",
     )
-    tr.add_argument("--sensor", default=None, help="the sensor's config (default: the library's)")
+    tr.add_argument(
+        "--sensor",
+        default=None,
+        help="a calibrated sensor (SENSOR.json of fringekit sensor calibrate), or the "
+        "sensor's config (default: the library's)",
+    )
     tr.add_argument(
         "--stride",
         type=at_least_one,

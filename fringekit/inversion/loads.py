@@ -44,6 +44,7 @@ from fringekit.inversion.model import ImageModel
 from fringekit.inversion.read import pixel_grid, read_measurement, sensor_config
 from fringekit.inversion.scale import check_scale
 from fringekit.inversion.verdict import WARN_RESIDUAL, residual_warnings
+from fringekit.library.calibrated import CalibratedSensor, as_calibrated
 from fringekit.library.store import Library, check_sensor, load_library
 from fringekit.output.folders import atomic_write
 
@@ -80,6 +81,9 @@ class Inversion:
         The image, its pixel grid and the library model (for figures and residuals).
     summary : dict
         What ``summary.json`` holds.
+    sensor : CalibratedSensor or None
+        The calibrated sensor the image was read with: ``result`` is in the image's
+        axes, :meth:`table` in the sheet's.
 
     Examples
     --------
@@ -94,6 +98,7 @@ class Inversion:
     result: InvertResult
     model: ImageModel = field(repr=False)
     summary: dict = field(repr=False)
+    sensor: CalibratedSensor | None = field(default=None, repr=False)
 
     def table(self) -> dict[str, np.ndarray]:
         """The loads as columns named :data:`LOAD_COLUMNS` (mm and N), one row per
@@ -102,6 +107,8 @@ class Inversion:
         when the time budget stopped the fit: ``result.stopped``)."""
         r = self.result
         p, s = r.params, r.sd
+        if self.sensor is not None:
+            p, s = self.sensor.to_sheet(p), self.sensor.to_sheet(s, sd=True)
         cols = (
             p[:, 0],
             p[:, 1],
@@ -178,6 +185,8 @@ def _check_numbers(pixel_mm, max_seconds) -> None:
 def _sensor(lib: Library, sensor, paths) -> tuple[dict, str | None, list[str]]:
     """The image's sensor config (checked against the library's), where it came from,
     and a warning when none was given or found (the library's own is assumed)."""
+    if isinstance(sensor, CalibratedSensor):
+        return sensor.config, "a calibrated sensor", []
     cfg, where = sensor_config(sensor, paths)
     if cfg is not None:
         check_sensor(lib, cfg, where)
@@ -200,10 +209,10 @@ def invert(
     images: str | os.PathLike | Sequence[str | os.PathLike],
     library: Library | str | os.PathLike,
     *,
-    pixel_mm: float,
+    pixel_mm: float | None = None,
     origin_px: tuple[float, float] | None = None,
     method: str | None = None,
-    sensor: str | os.PathLike | None = None,
+    sensor: str | os.PathLike | CalibratedSensor | None = None,
     max_seconds: float = DEFAULT_MAX_SECONDS,
     progress: bool = False,
     echo=print,
@@ -219,14 +228,18 @@ def invert(
     library : Library or path
         A response library of the same sensor (``fringekit library build``).
     pixel_mm : float
-        The pixel pitch on the sheet (mm).
+        The pixel pitch on the sheet (mm); required unless ``sensor`` is calibrated.
     origin_px : (row, col), optional
-        The pixel of the sensor origin; default the image centre.
+        The pixel of the sensor origin; default the image centre (or the calibrated
+        sensor's).
     method : {"rgb", "mono", "phase"}, optional
         Default: ``rgb`` for one colour image, ``mono`` for one grey one, ``phase`` for six.
-    sensor : path, optional
-        The sensor's config (a TOML file or a ``predict`` folder); default the config of a
-        ``predict`` folder the image lies in, else the library's own.
+    sensor : path or CalibratedSensor, optional
+        A calibrated sensor (a ``.json`` file of ``fringekit sensor calibrate``: its
+        config, scales, camera response, rest frame, illumination and geometry are
+        applied; its library, image size and method must be these), or the sensor's
+        config (a TOML file or a ``predict`` folder); default the config of a ``predict``
+        folder the image lies in, else the library's own.
     max_seconds : float
         The time budget (s; default 600): once spent, the fit stops at the end of its
         stage and the answer is that stage's, every indenter flagged not reliable
@@ -271,16 +284,22 @@ def invert(
     (1, True, True)
     """
     t0 = time.perf_counter()
+    cal = as_calibrated(sensor)
+    if cal is not None:
+        pixel_mm, origin_px = cal.grid_options(pixel_mm, origin_px)
     _check_numbers(pixel_mm, max_seconds)
     say = echo if progress else (lambda s: None)
     budget = Budget(max_seconds, say=say, clock=clock)  # the whole run's
     paths = [images] if isinstance(images, (str, os.PathLike)) else list(images)
     lib = _library(library)
-    cfg, where, warnings = _sensor(lib, sensor, paths)
+    if cal is not None:
+        cal.check(lib)
+    cfg, where, warnings = _sensor(lib, cal or sensor, paths)
     optics = optics_setup(cfg)
     method, measured, usable, nodata, shape, note = read_measurement(
-        paths, method, optics.camera.sensitivities
+        paths, method, optics.camera.sensitivities, cal
     )
+    lib, optics = _calibrated_model(cal, lib, optics, shape, method)
     if note:
         warnings.append(note)
     check_memory(
@@ -313,10 +332,8 @@ def invert(
         lo, hi = scale["pixel_mm_range"]
         say(f"invert: scale check: the fringes suggest {lo:.3g}-{hi:.3g} mm per pixel")
     res = invert_image(model, budget=budget, noise=noise)
-    warnings += _stopped_warnings(res, max_seconds)
-    warnings += residual_warnings(res.params, res.residual_rms)
-    off = _off_sheet(res.params[:, :2], sheet_mm)
-    warnings += _off_sheet_warnings(res.params, off, sheet_mm)
+    more, off = _verdicts(res, cal, sheet_mm, max_seconds)
+    warnings += more
     rms = ", ".join(f"{r:.3f}" for r in res.residual_rms)
     cut = f"cut short after the {res.stopped}" if res.stopped else None
     say(
@@ -333,6 +350,7 @@ def invert(
         "images": [str(p) for p in paths],
         "library": str(lib.folder),
         "sensor_config": where,
+        "calibrated_sensor": None if cal is None else cal.summary(_source(sensor)),
         "pixel_mm": pixel_mm,
         "origin_px": list(origin_px) if origin_px is not None else None,
         "n_indenters": int(len(res.params)),
@@ -351,7 +369,29 @@ def invert(
         "scale_check": scale,
         "times_s": {**res.times_s, "total_s": time.perf_counter() - t0},
     }
-    return Inversion(method, res, model, summary)
+    return Inversion(method, res, model, summary, cal)
+
+
+def _source(sensor) -> str | None:
+    return None if isinstance(sensor, CalibratedSensor) else str(sensor)
+
+
+def _calibrated_model(cal, lib, optics, shape, method):
+    """The library and optics of a calibrated sensor (checked against the library, image
+    size and method), or those given."""
+    if cal is None:
+        return lib, optics
+    cal.check(lib, shape, method)
+    return cal.library(lib), cal.optics(optics)
+
+
+def _verdicts(res: InvertResult, cal, sheet_mm, max_seconds) -> tuple[list[str], np.ndarray]:
+    """The fit's warnings (time budget, residuals, indenters off the sheet: positions in
+    the sheet's axes) and which indenters lie off the sheet."""
+    sheet = res.params if cal is None else cal.to_sheet(res.params)
+    off = _off_sheet(sheet[:, :2], sheet_mm)
+    warnings = _stopped_warnings(res, max_seconds) + residual_warnings(sheet, res.residual_rms)
+    return warnings + _off_sheet_warnings(sheet, off, sheet_mm), off
 
 
 def _stopped_warnings(res: InvertResult, max_seconds: float) -> list[str]:

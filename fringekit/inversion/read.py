@@ -25,11 +25,12 @@ def _decode(frame, camera_name: str, colour: bool) -> np.ndarray:
     return frame.data
 
 
-def frame_measurement(frame, method: str, camera_name: str):
+def frame_measurement(frame, method: str, camera_name: str, decode: bool = True):
     """(linear (rows, cols, C), raw (rows, cols, C), saturated (rows, cols), note) of one
     :class:`~fringekit.analysis.Frame` read by ``method`` ``"rgb"`` or ``"mono"``: the
-    colour image sRGB-decoded for the CIE observer, or its grey channel (the note says which
-    channel of a colour photograph of monochromatic light is read; one whose channels
+    colour image sRGB-decoded for the CIE observer (unless ``decode`` is False: a
+    calibrated sensor decodes with its own response), or its grey channel (the note says
+    which channel of a colour photograph of monochromatic light is read; one whose channels
     disagree is refused, naming ``--method mono``)."""
     name = frame.source
     if method == "rgb" and frame.data.ndim != 3:
@@ -37,15 +38,19 @@ def frame_measurement(frame, method: str, camera_name: str):
     note = "" if method == "rgb" else colour_as_grey(frame.data, None, name, "--method mono")
     data = frame.data if method == "rgb" or frame.data.ndim == 2 else grey_channel(frame.data)
     raw = data.reshape(*data.shape[:2], -1)
-    lin = _decode(frame, camera_name, True).reshape(raw.shape) if method == "rgb" else raw
+    rgb = method == "rgb" and decode
+    lin = _decode(frame, camera_name, True).reshape(raw.shape) if rgb else raw
     return lin, raw, frame.saturated, note
 
 
-def read_measurement(paths, method: str | None, camera_name: str):
+def read_measurement(paths, method: str | None, camera_name: str, sensor=None):
     """(method, measured (P, C) linear, usable (P,), no-data (P,), shape, note) from the
     image files: usable pixels are neither saturated nor at the no-data fill level; the note
     says which channel of a colour photograph of monochromatic light the mono method reads
-    (one whose channels disagree is refused)."""
+    (one whose channels disagree is refused). ``sensor``: a
+    :class:`~fringekit.library.calibrated.CalibratedSensor` whose response, rest frame and
+    illumination are applied (rgb and mono; its image size and method are checked by the
+    caller)."""
     paths = [str(p) for p in paths]
     if method is None:
         single = len(paths) == 1
@@ -60,7 +65,10 @@ def read_measurement(paths, method: str | None, camera_name: str):
         sat = np.any([f.saturated for f in frames], axis=0)
         note = ""
     else:
-        lin, raw, sat, note = frame_measurement(load_image(paths[0]), method, camera_name)
+        frame = load_image(paths[0])
+        lin, raw, sat, note = frame_measurement(frame, method, camera_name, sensor is None)
+        if sensor is not None and raw.shape[:2] == tuple(sensor.shape):
+            lin = sensor.correct(sensor.linear(raw))
     nodata = no_data_regions(raw)
     rows, cols = raw.shape[:2]
     usable = (~sat & ~nodata).ravel()

@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import time
 
+from fringekit.library.calibrated import as_calibrated
 from fringekit.output.folders import claim_output
 from fringekit.tracking.figure import OverlayPainter
 from fringekit.tracking.stream import track
@@ -97,7 +98,7 @@ def run_track(
     library,
     out,
     *,
-    pixel_mm: float,
+    pixel_mm: float | None = None,
     origin_px=None,
     method=None,
     sensor=None,
@@ -109,6 +110,9 @@ def run_track(
     progress: bool = True,
 ) -> dict:
     """Track ``source``; write ``out``; return the summary."""
+    cal = as_calibrated(sensor)
+    if cal is not None:  # the overlay's pixels are the calibration's
+        pixel_mm, origin_px = cal.grid_options(pixel_mm, origin_px)
     inputs = [
         source if os.path.exists(str(source)) else None,
         getattr(library, "folder", library),

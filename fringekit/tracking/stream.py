@@ -33,6 +33,7 @@ from fringekit.config.inputs import optics_setup
 from fringekit.errors import ConfigError, SourceError
 from fringekit.inversion.read import frame_measurement, sensor_config
 from fringekit.inversion.verdict import InvertError
+from fringekit.library.calibrated import CalibratedSensor, as_calibrated
 from fringekit.library.store import Library, check_sensor, load_library
 from fringekit.measurement.regions import no_data_regions
 from fringekit.output.folders import atomic_write
@@ -74,6 +75,9 @@ class Track:
         One per frame solved, in stream order.
     summary : dict
         What ``summary.json`` holds.
+    sensor : CalibratedSensor or None
+        The calibrated sensor the frames were read with: ``frames`` are in the image's
+        axes, :meth:`table` in the sheet's.
 
     Examples
     --------
@@ -86,6 +90,7 @@ class Track:
 
     frames: tuple
     summary: dict = field(repr=False)
+    sensor: CalibratedSensor | None = field(default=None, repr=False)
 
     def table(self) -> dict[str, np.ndarray]:
         """The loads as columns named :data:`TRACK_COLUMNS`, one row per contact per frame
@@ -96,6 +101,8 @@ class Track:
             return {k: np.zeros(0) for k in TRACK_COLUMNS}
         p = np.concatenate([f.params for f in self.frames if len(f.ids)])
         s = np.concatenate([f.sd for f in self.frames if len(f.ids)])
+        if self.sensor is not None:
+            p, s = self.sensor.to_sheet(p), self.sensor.to_sheet(s, sd=True)
         out = {
             "frame": np.array([f.index for f in rows], int),
             "time_s": np.array([f.time_s for f in rows], float),
@@ -139,10 +146,14 @@ def _grey(raw: np.ndarray) -> np.ndarray:
     return raw[..., 0] if same else raw
 
 
-def _measurement(raw: np.ndarray, method: str, camera: str, name: str):
+def _measurement(raw: np.ndarray, method: str, camera: str, name: str, cal=None):
     """(measured (P, C), usable (P,), nodata (P,), note) of one decoded frame; a colour
-    frame whose three channels are equal is a grey one."""
-    lin, data, sat, note = frame_measurement(normalise(_grey(raw), source=name), method, camera)
+    frame whose three channels are equal is a grey one; ``cal``: a calibrated sensor whose
+    response, rest frame and illumination are applied."""
+    frame = normalise(_grey(raw), source=name)
+    lin, data, sat, note = frame_measurement(frame, method, camera, decode=cal is None)
+    if cal is not None:
+        lin = cal.correct(cal.linear(data))
     nodata = no_data_regions(data)
     usable = (~sat & ~nodata).ravel()
     return lin.reshape(usable.size, -1), usable, nodata.ravel(), note
@@ -164,8 +175,10 @@ def _method(method: str | None, raw: np.ndarray) -> str:
 
 
 def _sensor(lib: Library, sensor) -> tuple[dict, str]:
-    """The stream's sensor config (``--sensor``, checked against the library's), else the
-    library's own."""
+    """The stream's sensor config (``--sensor``, checked against the library's; a
+    calibrated sensor's own), else the library's own."""
+    if isinstance(sensor, CalibratedSensor):
+        return sensor.config, "a calibrated sensor"
     if sensor is None:
         return load_config(lib.folder / "config.toml"), str(lib.folder / "config.toml")
     cfg, where = sensor_config(sensor, [lib.folder])
@@ -191,10 +204,10 @@ def track(
     source: str | os.PathLike | FrameSource,
     library: Library | str | os.PathLike,
     *,
-    pixel_mm: float,
+    pixel_mm: float | None = None,
     origin_px: tuple[float, float] | None = None,
     method: str | None = None,
-    sensor: str | os.PathLike | None = None,
+    sensor: str | os.PathLike | CalibratedSensor | None = None,
     stride: int = TRACK_STRIDE,
     fps: float | None = None,
     max_frames: int | None = None,
@@ -214,13 +227,16 @@ def track(
     library : Library or path
         A response library of the sensor (``fringekit library build``).
     pixel_mm : float
-        The pixel pitch on the sheet (mm).
+        The pixel pitch on the sheet (mm); required unless ``sensor`` is calibrated.
     origin_px : (row, col), optional
-        The pixel of the sensor origin; default the image centre.
+        The pixel of the sensor origin; default the image centre (or the calibrated
+        sensor's).
     method : {"rgb", "mono"}, optional
         Default rgb for colour frames, mono for grey ones.
-    sensor : path, optional
-        The sensor's config (checked against the library's); default the library's own.
+    sensor : path or CalibratedSensor, optional
+        A calibrated sensor (a ``.json`` file of ``fringekit sensor calibrate``, applied
+        as ``invert`` applies it), or the sensor's config (checked against the
+        library's); default the library's own.
     stride : int
         Every ``stride``-th pixel in both directions is fitted per frame (default 4).
     fps : float, optional
@@ -262,28 +278,38 @@ def track(
     [2.0, 2.2]
     """
     lib = library if isinstance(library, Library) else load_library(library)
+    cal = as_calibrated(sensor)
+    if cal is not None:
+        cal.check(lib)
+        pixel_mm, origin_px = cal.grid_options(pixel_mm, origin_px)
+    if pixel_mm is None:
+        raise ConfigError(
+            "--pixel-mm is required: the pixel pitch on the sheet (mm), or --sensor SENSOR.json"
+        )
     if not (np.isfinite(pixel_mm) and pixel_mm > 0):
         raise ConfigError(
             f"--pixel-mm {pixel_mm} is not allowed; give the pitch on the sheet (mm, > 0)"
         )
     if int(stride) != stride or not 1 <= stride <= 16:
         raise ConfigError(f"--stride {stride} is not allowed; give a whole number 1-16")
-    cfg, where = _sensor(lib, sensor)
+    cfg, where = _sensor(lib, cal or sensor)
     optics = optics_setup(cfg)
     src = source if isinstance(source, FrameSource) else open_source(str(source), fps=fps)
-    run = _Run(lib, cfg, optics, src, pixel_mm, origin_px, method, int(stride), on_frame)
+    run = _Run(lib, cfg, optics, src, pixel_mm, origin_px, method, int(stride), on_frame, cal)
     with src:
         run.loop(max_frames, progress)
     summary = run.summary(where)
-    return Track(tuple(run.frames), summary)
+    if cal is not None:
+        summary["calibrated_sensor"] = cal.summary(None if cal is sensor else str(sensor))
+    return Track(tuple(run.frames), summary, cal)
 
 
 class _Run:
     """One pass over a source: the tracker made at the first frame, the frames solved,
     the notes, and why it stopped."""
 
-    def __init__(self, lib, cfg, optics, src, pixel_mm, origin_px, method, stride, on_frame):
-        self.lib, self.cfg, self.optics, self.src = lib, cfg, optics, src
+    def __init__(self, lib, cfg, optics, src, pixel_mm, origin_px, method, stride, on_frame, cal):
+        self.lib, self.cfg, self.optics, self.src, self.cal = lib, cfg, optics, src, cal
         self.pixel_mm, self.origin_px, self.method = pixel_mm, origin_px, method
         self.stride, self.on_frame = stride, on_frame
         self.tracker: Tracker | None = None
@@ -322,12 +348,17 @@ class _Run:
         img = raw.image
         if self.tracker is None:
             self.method = _method(self.method, img)
+            lib, optics = self.lib, self.optics
+            if self.cal is not None:
+                self.cal.check(lib, img.shape[:2], self.method)
+                lib, optics = self.cal.library(lib), self.cal.optics(optics)
+            shape = img.shape[:2]
             blank = blank_model(
-                self.lib, self.cfg, img.shape[:2], self.pixel_mm, self.method, self.origin_px
+                lib, self.cfg, shape, self.pixel_mm, self.method, self.origin_px, optics
             )
             self.tracker = Tracker(blank, self.stride)
         camera = self.optics.camera.sensitivities
-        measured, usable, nodata, note = _measurement(img, self.method, camera, raw.name)
+        measured, usable, nodata, note = _measurement(img, self.method, camera, raw.name, self.cal)
         if note and note not in self.notes:
             self.notes.append(note)
         return self.tracker.step(measured, usable, nodata, raw.index, raw.time_s)

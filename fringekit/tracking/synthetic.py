@@ -119,10 +119,11 @@ def library_frames(
     return len(frames)
 
 
-def blank_model(lib, cfg: dict, shape, pixel_mm: float, method: str, origin_px=None):
+def blank_model(lib, cfg: dict, shape, pixel_mm: float, method: str, origin_px=None, optics=None):
     """The :class:`ImageModel` of frames of ``shape`` (rows, cols) at ``pixel_mm`` (mm)
-    of the sensor ``cfg`` read by ``method``, without a measured image."""
-    opt = optics_setup(cfg)
+    of the sensor ``cfg`` read by ``method``, without a measured image; ``optics``: the
+    :class:`~fringekit.config.inputs.OpticsSetup` (default the config's)."""
+    opt = optics_setup(cfg) if optics is None else optics
     grid = pixel_grid(shape, pixel_mm, origin_px)
     n = grid.n_pixels
     o = cfg["optics"]

@@ -14,7 +14,10 @@ files of the matching ``fringekit`` command.
 - :func:`track` -> :class:`Track` - every contact's position and load vector through a
   video, a folder of frames or a live camera;
 - :func:`calibrate_disc` -> :class:`DiscCalibration` - the material fringe value from
-  disc photographs.
+  disc photographs;
+- :func:`calibrate_sensor` -> :class:`SensorCalibration` - a library calibrated to one
+  physical sensor (its :class:`CalibratedSensor` is what ``invert`` and ``track`` take
+  as ``sensor``).
 
 The pipeline stages are sub-packages: :mod:`fringekit.meshes`, :mod:`fringekit.fea`,
 :mod:`fringekit.optics` and :mod:`fringekit.analysis`. Every error is a
@@ -27,7 +30,7 @@ Examples
 >>> cfg["indenter.load_N"]
 [4.0]
 >>> sorted(name for name in fringekit.__all__ if name[0].islower() and name[0] != "_")
-['analyze', 'build_library', 'calibrate_disc', 'invert', 'predict', 'track']
+['analyze', 'build_library', 'calibrate_disc', 'calibrate_sensor', 'invert', 'predict', 'track']
 """
 
 from __future__ import annotations
@@ -81,10 +84,12 @@ from fringekit.measurement import (  # noqa: E402
     analyze,
 )
 from fringekit.prediction import PredictError, Prediction, predict  # noqa: E402
+from fringekit.sensor import CalibratedSensor, SensorCalibration, calibrate_sensor  # noqa: E402
 from fringekit.tracking import Track, track  # noqa: E402
 
 __all__ = [
     "Analysis",
+    "CalibratedSensor",
     "ComputeError",
     "Config",
     "ConfigError",
@@ -103,12 +108,14 @@ __all__ = [
     "RGBOptions",
     "RefusedError",
     "Region",
+    "SensorCalibration",
     "SourceError",
     "Track",
     "__version__",
     "analyze",
     "build_library",
     "calibrate_disc",
+    "calibrate_sensor",
     "invert",
     "predict",
     "track",

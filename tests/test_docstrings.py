@@ -86,7 +86,12 @@ def test_the_walk_finds_the_stages_and_the_application():
 
 #: Modules whose examples build a response library (about 20 s each on 2 cores).
 SLOW_EXAMPLES = frozenset(
-    {"fringekit.inversion.loads", "fringekit.library.build", "fringekit.tracking.stream"}
+    {
+        "fringekit.inversion.loads",
+        "fringekit.library.build",
+        "fringekit.tracking.stream",
+        "fringekit.sensor.calibrate",
+    }
 )
 
 

@@ -16,7 +16,9 @@ The application layer's entry point. Subcommands:
 - ``sweep SWEEP.toml``: a grid or list of cases on Dask, resumable.
 - ``library build [CONFIG]``: a sensor's response library;
   ``invert IMAGE... --library DIR``: every indenter's position and load;
-  ``track SOURCE --library DIR``: every contact's load through a video or camera stream.
+  ``track SOURCE --library DIR``: every contact's load through a video or camera stream;
+  ``sensor calibrate --library DIR --reference REST --known KNOWN.csv``: the library
+  calibrated to a physical sensor (``--sensor`` of invert and track).
 
 One module per subcommand (``fringekit.cli.<name>``) holds its parser and its handler;
 each handler reads its inputs, runs the computation (the API, or a run function beside it
@@ -42,6 +44,7 @@ from fringekit.cli import (
     library,
     mesh,
     predict,
+    sensor,
     sweep,
     track,
 )
@@ -65,6 +68,7 @@ SUBCOMMANDS = (
     library,
     invert,
     track,
+    sensor,
 )
 
 

@@ -72,6 +72,7 @@ def _series(amp, waves, field_seed):
     ]
 
 
+@pytest.mark.slow
 def test_a_strong_frozen_field_gives_f_sigma_within_2_percent_from_five_loads():
     """Frozen field 1.3 fringe, 3 waves across the disc. Measured: f_sigma +1.4 %, sd 1.4
     %, the photos' load factors within 0.2 % of 1, R^2 of the centre orders 1.000."""

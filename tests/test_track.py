@@ -35,6 +35,7 @@ def _matched(frame, truth) -> np.ndarray:
     return t[j]
 
 
+@pytest.mark.slow
 def test_a_library_stream_is_tracked_back_to_its_loads(tiny_library, tmp_path):
     """16-bit frames of the library's own model: every warm-started frame gives back
     positions to 1e-3 mm and loads to 1e-3 of Fz, with the ids of the first frame."""

@@ -53,6 +53,13 @@ def add_parser(sub) -> None:
         "the predict folder holding the image)",
     )
     iv.add_argument(
+        "--refine",
+        choices=("fem",),
+        default=None,
+        help="fem: after the library fit, full-FEM defect correction rounds until the loads "
+        "move by less than their 1-sigma (one FEM solve each, minutes)",
+    )
+    iv.add_argument(
         "--max-seconds",
         type=nonnegative,
         default=DEFAULT_MAX_SECONDS,
@@ -73,6 +80,7 @@ def run(args: argparse.Namespace) -> int:
         pixel_mm=args.pixel_mm,
         origin_px=args.origin_px,
         sensor=args.sensor,
+        refine=args.refine,
         max_seconds=args.max_seconds,
         progress=not args.quiet,
     )

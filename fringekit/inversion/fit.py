@@ -55,6 +55,7 @@ __all__ = [
     "fit_indenters",
     "invert_image",
     "prune",
+    "refit",
     "select_indenters",
     "start_params",
     "subsample",
@@ -123,8 +124,14 @@ def subsample(model: ImageModel, k: int) -> ImageModel:
     grid = PixelGrid((len(r), len(c)), model.grid.pixel_size * k, centre)
     pick = (rr * cols + cc).ravel()
     nodata = None if model.nodata is None else model.nodata[pick]
+    corr = None if model.correction is None else model.correction[pick]
     return replace(
-        model, grid=grid, measured=model.measured[pick], usable=model.usable[pick], nodata=nodata
+        model,
+        grid=grid,
+        measured=model.measured[pick],
+        usable=model.usable[pick],
+        nodata=nodata,
+        correction=corr,
     )
 
 
@@ -297,6 +304,18 @@ def _refit(exact: ImageModel, p, diam, noise, its):
     """A free joint fit on ``exact`` (:func:`_exact`): (p, result, iterations)."""
     res = fit_indenters(exact, p, diam, noise)
     return res.x, res, its + res.nfev
+
+
+def refit(model: ImageModel, p: np.ndarray, diam, noise: float) -> InvertResult:
+    """The last stage of :func:`invert_image` alone: one joint fit of the parameters ``p``
+    (n * 5,) with diameters ``diam`` (m) on every 2nd pixel of ``model`` (Jones near each
+    indenter), with its verdict and stated 1-sigma (a refinement's fit, started from the
+    answer before it)."""
+    t0 = time.perf_counter()
+    fine = _exact(subsample(model, 2))
+    diam = list(diam)
+    p, res, its = _refit(fine, np.asarray(p, float).ravel(), diam, noise, 0)
+    return _finish(fine, p, diam, res, _verdict(fine, p, diam), noise, its, (t0, 0.0))
 
 
 def invert_image(

@@ -42,6 +42,7 @@ from fringekit.inversion.figure import fit_figure
 from fringekit.inversion.fit import WINDOW_MM, InvertResult, invert_image
 from fringekit.inversion.model import ImageModel
 from fringekit.inversion.read import pixel_grid, read_measurement, sensor_config
+from fringekit.inversion.refine import refine_fem
 from fringekit.inversion.scale import check_scale
 from fringekit.inversion.verdict import WARN_RESIDUAL, residual_warnings
 from fringekit.library.calibrated import CalibratedSensor, as_calibrated
@@ -213,6 +214,7 @@ def invert(
     origin_px: tuple[float, float] | None = None,
     method: str | None = None,
     sensor: str | os.PathLike | CalibratedSensor | None = None,
+    refine: str | None = None,
     max_seconds: float = DEFAULT_MAX_SECONDS,
     progress: bool = False,
     echo=print,
@@ -240,6 +242,10 @@ def invert(
         applied; its library, image size and method must be these), or the sensor's
         config (a TOML file or a ``predict`` folder); default the config of a ``predict``
         folder the image lies in, else the library's own.
+    refine : {None, "fem"}
+        ``"fem"``: after the library fit, rounds of full-FEM defect correction until no
+        position or load moves by more than its 1-sigma (one FEM solve each, minutes:
+        :mod:`fringekit.inversion.refine`); ``summary["refine"]`` reports them.
     max_seconds : float
         The time budget (s; default 600): once spent, the fit stops at the end of its
         stage and the answer is that stage's, every indenter flagged not reliable
@@ -284,6 +290,8 @@ def invert(
     (1, True, True)
     """
     t0 = time.perf_counter()
+    if refine not in (None, "fem"):
+        raise ConfigError(f"--refine {refine!r} is not allowed; give fem (or leave it out)")
     cal = as_calibrated(sensor)
     if cal is not None:
         pixel_mm, origin_px = cal.grid_options(pixel_mm, origin_px)
@@ -311,17 +319,9 @@ def invert(
     )
     o = cfg["optics"]
     sheet_mm = (cfg["sheet"]["width_mm"], cfg["sheet"]["length_mm"])
-    model = ImageModel.build(
-        lib,
-        pixel_grid(shape, pixel_mm, origin_px),
-        method,
-        measured,
-        usable,
-        optics,
-        light=o["light"],
-        white_light_wavelengths=o["white_light_wavelengths"],
-        nodata=nodata,
-    )
+    grid = pixel_grid(shape, pixel_mm, origin_px)
+    wl = {"light": o["light"], "white_light_wavelengths": o["white_light_wavelengths"]}
+    model = ImageModel.build(lib, grid, method, measured, usable, optics, nodata=nodata, **wl)
     say(
         f"invert: {method}, {shape[0]} x {shape[1]} px, library {lib.folder} "
         f"({len(lib.load_N) - 1} loads x {len(lib.shear_ratio)} ratios)"
@@ -332,6 +332,8 @@ def invert(
         lo, hi = scale["pixel_mm_range"]
         say(f"invert: scale check: the fringes suggest {lo:.3g}-{hi:.3g} mm per pixel")
     res = invert_image(model, budget=budget, noise=noise)
+    res, refined, more = _refine(refine, model, res, cfg, lib, optics, cal, say)
+    warnings += more
     more, off = _verdicts(res, cal, sheet_mm, max_seconds)
     warnings += more
     rms = ", ".join(f"{r:.3f}" for r in res.residual_rms)
@@ -367,6 +369,7 @@ def invert(
         "max_seconds": max_seconds if np.isfinite(max_seconds) else None,
         "stopped_after": res.stopped,
         "scale_check": scale,
+        "refine": refined,
         "times_s": {**res.times_s, "total_s": time.perf_counter() - t0},
     }
     return Inversion(method, res, model, summary, cal)
@@ -374,6 +377,28 @@ def invert(
 
 def _source(sensor) -> str | None:
     return None if isinstance(sensor, CalibratedSensor) else str(sensor)
+
+
+def _refine(refine, model, res: InvertResult, cfg, lib, optics, cal, say):
+    """The result after ``--refine fem``, its report (None without it, or when the fit
+    found nothing or was cut short) and its warnings. A solve that fails leaves the
+    library's answer, with the failure in the report and a warning."""
+    if refine is None or not len(res.params) or res.stopped is not None:
+        return res, None, []
+    friction = lib.manifest.get("grid", {}).get("friction", "stick")
+    try:
+        res, report = refine_fem(model, res, cfg, friction, optics, sensor=cal, say=say)
+    except RuntimeError as exc:
+        msg = f"--refine fem: the FEM solve failed ({exc}); the library's answer is kept"
+        return res, {"rounds": [], "converged": False, "failed": str(exc)}, [msg]
+    n = len(report["rounds"])
+    if report["converged"]:
+        return res, report, []
+    return (
+        res,
+        report,
+        [f"--refine fem: a load or position still moved by more than its 1-sigma after {n} rounds"],
+    )
 
 
 def _calibrated_model(cal, lib, optics, shape, method):

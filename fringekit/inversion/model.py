@@ -124,6 +124,9 @@ class ImageModel:
         ``predict`` marked); None: every unusable pixel counts (saturated ones included)
     points : (P, 2) float array or None — the pixels' positions (m) when they are a
         subset of ``grid`` (:meth:`restrict`); None: every pixel of ``grid``
+    correction : (P, C) float array or None — added to the library's intensities before
+        gain and offset: a full-FEM image less the library's at one answer (``invert
+        --refine fem``, :mod:`fringekit.inversion.refine`); None: the library alone
     """
 
     lib: Library
@@ -139,6 +142,7 @@ class ImageModel:
     exact: bool | float = True
     nodata: np.ndarray | None = None
     points: np.ndarray | None = None
+    correction: np.ndarray | None = None
 
     @classmethod
     def build(
@@ -192,13 +196,17 @@ class ImageModel:
             keep=pick(self.keep),
             nodata=pick(self.nodata),
             points=self.xy[pixels],
+            correction=pick(self.correction),
         )
 
     def linear(self, indenters) -> tuple[np.ndarray, np.ndarray]:
         """Model intensities (P, C) before gain and offset, and the pixels outside every
         (widened) contact circle."""
         ab, _ = superpose(self.lib, indenters, self.xy)
-        return self.intensities(ab, indenters), self.outside_contacts(indenters)
+        lin = self.intensities(ab, indenters)
+        if self.correction is not None:
+            lin = lin + self.correction
+        return lin, self.outside_contacts(indenters)
 
     def fitted(self, indenters):
         """The model image of ``indenters`` with its best gain and offset on the usable
@@ -216,7 +224,18 @@ class ImageModel:
         lam = np.array([self.law.wavelength_ref]) if lam is None else lam
         if close is None:
             close = exact_rays(self.xy, indenters, self.exact)
-        q = quaternions_where(ab, close, self.law, lam)
+        return self.polariscope(quaternions_where(ab, close, self.law, lam))
+
+    @property
+    def wavelengths(self) -> np.ndarray:
+        """(W,) the wavelengths (m) the model integrates: the white light's, or the
+        reference wavelength."""
+        lam = self.setup.get("wavelengths")
+        return np.array([self.law.wavelength_ref]) if lam is None else lam
+
+    def polariscope(self, q: np.ndarray) -> np.ndarray:
+        """Model intensities (N, C) of path quaternions q (N, W, 4) at :attr:`wavelengths`
+        through the method's polariscope (and, for rgb, light and camera)."""
         if self.method == "rgb":
             return intensity(q, self.setup["arrangements"][0]) @ self.setup["to_rgb"]
         return np.stack([intensity(q[:, 0], a) for a in self.setup["arrangements"]], axis=1)
@@ -263,8 +282,10 @@ class ImageModel:
         return self._residual_from(self.intensities(ab, indenters), use)
 
     def _residual_from(self, model: np.ndarray, use: np.ndarray) -> np.ndarray:
-        """Residuals (P * C,) of model intensities (P, C) with their best gain and offset
-        on ``use``, zero outside it."""
+        """Residuals (P * C,) of model intensities (P, C) (the correction added, when set)
+        with their best gain and offset on ``use``, zero outside it."""
+        if self.correction is not None:
+            model = model + self.correction
         fitted, _, _ = self.project(model, use)
         res = self.measured - fitted
         res[~use] = 0.0

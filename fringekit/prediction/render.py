@@ -40,6 +40,7 @@ __all__ = [
     "monochrome_images",
     "mono_map",
     "no_data_fill",
+    "path_quaternions",
     "render_state",
     "white_light",
     "write_maps",
@@ -70,6 +71,14 @@ def _integrate(
     laws = [optics.substrate_law, optics.law] if pc else [optics.law]
     q, simple, valid = integrate_layers(samples, laws, wavelengths)
     return q, simple, valid, samples
+
+
+def path_quaternions(sol, cfg: dict, optics: OpticsSetup, wavelengths) -> tuple:
+    """(q (P, W, 4), valid (P,)) of every pixel of ``optics.grid``'s ray through the solved
+    sheet (and the PC first, when the config puts it in the light path) at ``wavelengths``
+    (m): the quaternions :func:`mono_map` and the white light start from."""
+    q, _, valid, _ = _integrate(sol, cfg, optics, wavelengths)
+    return q, valid
 
 
 def mono_map(sol, cfg: dict, optics: OpticsSetup, *, progress: bool = False):

@@ -1,0 +1,79 @@
+"""invert --refine fem: defect correction converges to the answer of the model the image
+came from, not the library's; a turned image is rendered through the sheet's axes.
+
+The rounds are checked against a smooth stand-in for the FEM (the library read as a sheet
+10 % stiffer with a fringe value 5 % lower: a model the library cannot reproduce by its
+loads alone), so the test runs in seconds and its fixed point is known exactly;
+``bench/sensor.py`` runs it on full-FEM images."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from library_fixtures import TINY, sensor_config
+
+import fringekit
+import fringekit.inversion.refine as refine
+from fringekit.inversion.model import unpack
+from fringekit.optics import write_image
+from fringekit.tracking.synthetic import blank_model
+
+PX, PIXEL_MM = 64, 0.25
+TRUTH = np.array([[-3.0, 1.5, 3.0, 0.6, 0.0], [2.5, -2.0, 2.5, 0.0, -0.5]])
+
+
+def _other_model(model, cfg, params, diameters, friction, optics, sensor=None):
+    """The stand-in for the full FEM: another sheet, read through the same library."""
+    law = replace(model.law, f_sigma=model.law.f_sigma * 0.95)
+    m = replace(model, lib=model.lib.scaled(1.1), law=law, correction=None, exact=2.5e-3)
+    img, _ = m.linear(unpack(np.asarray(params, float).ravel(), list(diameters)))
+    return img, np.ones(len(img), bool)
+
+
+@pytest.mark.slow
+def test_refinement_converges_to_the_model_the_image_came_from(tiny_library, tmp_path, monkeypatch):
+    """The library alone reads the other sheet's image with its loads off by several %;
+    the rounds bring every load within 1e-3 of Fz and every position within 1e-3 mm, and
+    the corrected model then reproduces the image (residual below 0.005 of the fringe
+    amplitude, and half the library's, which reads the loads several % off at 0.011)."""
+    monkeypatch.setattr(refine, "fem_image", _other_model)
+    model = blank_model(tiny_library, sensor_config(**TINY), (PX, PX), PIXEL_MM, "mono")
+    img, _ = _other_model(model, None, TRUTH, [3.5e-3] * 2, "stick", None)
+    raw = np.clip(0.8 * img[:, 0] + 0.02, 0, 1).reshape(PX, PX)
+    write_image(tmp_path / "image.png", np.round(raw * 65535).astype(np.uint16))
+
+    def errors(inv):
+        t = inv.table()
+        got = np.column_stack([t[k] for k in ("x_mm", "y_mm", "Fz_N", "Fx_N", "Fy_N")])
+        got = got[[int(np.argmin(np.hypot(*(got[:, :2] - v[:2]).T))) for v in TRUTH]]
+        return np.abs(got - TRUTH).max(0), t["residual_rms"]
+
+    plain = fringekit.invert(tmp_path / "image.png", tiny_library, pixel_mm=PIXEL_MM)
+    err, plain_rms = errors(plain)
+    assert err[2] > 0.03 * 2.5 and plain.summary["refine"] is None
+    fine = fringekit.invert(tmp_path / "image.png", tiny_library, pixel_mm=PIXEL_MM, refine="fem")
+    err, rms = errors(fine)
+    assert np.all(err[:2] < 1e-3) and np.all(err[2:] < 1e-3 * 2.5), err
+    assert np.all(rms < 0.005) and np.all(rms < 0.5 * plain_rms), (rms, plain_rms)
+    rep = fine.summary["refine"]
+    assert rep["converged"] and 1 <= len(rep["rounds"]) <= refine.MAX_ROUNDS
+
+
+def test_a_turned_image_is_rendered_on_a_grid_in_the_sheets_axes(tiny_library):
+    """For an image turned 30 degrees the FEM is rendered on a grid in the sheet's axes
+    that covers the image, and each pixel is read where it lies on the sheet."""
+    model = blank_model(tiny_library, sensor_config(**TINY), (20, 30), PIXEL_MM, "mono")
+    same, where = refine._sheet_grid(model, 0.0)
+    assert same is model.grid and where is None
+    grid, where = refine._sheet_grid(model, 30.0)
+    t = np.radians(30.0)
+    x, y = model.xy.T
+    sheet = np.column_stack([np.cos(t) * x + np.sin(t) * y, -np.sin(t) * x + np.cos(t) * y])
+    back = np.column_stack(grid.pixel_to_xy(where[0], where[1]))
+    assert np.allclose(back, sheet, atol=1e-12)
+    assert where.min() >= 0 and where[0].max() <= grid.shape[0] - 1
+    assert where[1].max() <= grid.shape[1] - 1
+    with pytest.raises(ValueError, match="--refine 'exact' is not allowed"):
+        fringekit.invert("x.png", tiny_library, pixel_mm=PIXEL_MM, refine="exact")

@@ -8,13 +8,16 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
+from library_fixtures import TINY, sensor_config
 
 import fringekit
+from fringekit.analysis import read_pixels
 from fringekit.cli.main import main
-from fringekit.config.files import load_config
+from fringekit.config.files import load_config, to_toml
 from fringekit.errors import ConfigError
 from fringekit.library.calibrated import CalibratedSensor, coarse_map, load_sensor
 from fringekit.optics import write_image
@@ -224,3 +227,26 @@ def test_bad_calibration_inputs_are_one_line_each_and_write_nothing(tiny_library
     assert main([*argv, "--sensor", str(other), "--out", str(tmp_path / "inv")]) == 2
     assert "calibrated with another library" in capsys.readouterr().err
     assert not (tmp_path / "inv").exists()
+
+
+def test_predict_library_with_a_sensor_file_gives_its_camera_frame(tiny_library, tmp_path):
+    """``predict --library --sensor`` writes the frame the calibrated camera records:
+    the same as the calibration's forward model (sensor_frame) to one count of 8 bits,
+    with the sensor's rotation, offset, scales, light, rest frame and response."""
+    truth = replace(_truth(tiny_library), report={"exposure_gain": [0.7]})
+    truth.save(tmp_path / "sensor.json")
+    cfg = sensor_config(**TINY)
+    cfg["contact"]["friction"] = "stick"
+    proto = cfg["indenter"][0]
+    cfg["indenter"] = [
+        dict(proto, x_mm=x, y_mm=y, load_N=[fz], shear_N=[[fx, fy]]) for x, y, fx, fy, fz in TEST
+    ]
+    (tmp_path / "case.toml").write_text(to_toml(cfg))
+    argv = ["predict", str(tmp_path / "case.toml"), "--library", str(tiny_library.folder)]
+    argv += ["--sensor", str(tmp_path / "sensor.json"), "--out", str(tmp_path / "out"), "--quiet"]
+    assert main(argv) == 0
+    got = read_pixels(tmp_path / "out" / "state_01" / "camera.png").astype(int)
+    want = sensor_frame(tiny_library, truth, TEST, gain=0.7, bit_depth=8).astype(int)
+    assert got.shape == (PX, PX) and np.abs(got - want).max() <= 1
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["calibrated_sensor"]["modulus_scale"] == 1.15

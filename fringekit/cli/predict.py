@@ -13,6 +13,7 @@ from fringekit.cli.options import (
     overrides,
     run_options,
 )
+from fringekit.errors import ConfigError
 from fringekit.prediction.from_library import run_library_predict
 from fringekit.prediction.pipeline import run_predict
 
@@ -37,6 +38,12 @@ def add_parser(sub) -> None:
         help="synthesise from a response library instead of solving (seconds; "
         "final load state only)",
     )
+    pr.add_argument(
+        "--sensor",
+        default=None,
+        help="(with --library) a calibrated sensor file (fringekit sensor calibrate): the "
+        "library read as its sheet, and state_01/camera.png the frame its camera records",
+    )
     pr.set_defaults(func=run)
 
 
@@ -45,8 +52,19 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else Path("fringekit-out") / cfg["case"]
     t0 = time.perf_counter()
     if args.library:
-        run_library_predict(cfg, args.library, out, progress=not args.quiet, inputs=[args.config])
+        run_library_predict(
+            cfg,
+            args.library,
+            out,
+            sensor=args.sensor,
+            progress=not args.quiet,
+            inputs=[args.config],
+        )
         return 0
+    if args.sensor is not None:
+        raise ConfigError(
+            f"--sensor {args.sensor}: a calibrated sensor is used with --library only"
+        )
     summary = run_predict(
         cfg,
         out,

@@ -208,6 +208,19 @@ class CalibratedSensor:
         v = np.clip((np.asarray(raw, float) - b) / (1.0 - b), 0.0, None)
         return v**self.gamma
 
+    def encode(self, linear: np.ndarray) -> np.ndarray:
+        """Stored values (rows, cols, C) in [0, 1] of a frame whose linear intensities, as
+        the library's ideal sensor sees them, are ``linear`` (rows, cols, C): times the
+        illumination, plus the rest frame, through the response and black level (the
+        inverse of :meth:`linear` then :meth:`correct`)."""
+        out = np.asarray(linear, float)
+        if self.illumination is not None:
+            out = out * fine_map(self.illumination, out.shape[:2])[..., None]
+        if self.rest is not None:
+            out = out + fine_map(self.rest, out.shape[:2]).reshape(out.shape[:2] + (-1,))
+        b = np.asarray(self.black, float)
+        return np.clip(b + (1.0 - b) * np.clip(out, 0.0, None) ** (1.0 / self.gamma), 0.0, 1.0)
+
     def correct(self, linear: np.ndarray) -> np.ndarray:
         """A frame's linear intensities (rows, cols, C) as the library's ideal sensor
         would see them: the rest frame removed, divided by the illumination."""

@@ -12,16 +12,24 @@ from __future__ import annotations
 
 import json
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from fringekit.config.files import ConfigError, to_toml
 from fringekit.config.inputs import check_layout, optics_setup
+from fringekit.library.calibrated import as_calibrated
 from fringekit.library.store import LoadedIndenter, check_sensor, load_library
 from fringekit.library.synth import synthesise
 from fringekit.optics import (
     OpticalMap,
+    PixelGrid,
+    dark_field_circular,
+    intensity,
+    light_source,
+    white_light_matrix,
+    write_image,
 )
 from fringekit.output.folders import claim_output
 from fringekit.prediction.render import (
@@ -33,7 +41,7 @@ from fringekit.prediction.render import (
     write_white_light,
 )
 
-__all__ = ["ACCURACY_NOTE", "config_indenters", "run_library_predict"]
+__all__ = ["ACCURACY_NOTE", "camera_frame", "config_indenters", "run_library_predict"]
 
 #: What docs/library.md measured (stated in every summary).
 ACCURACY_NOTE = (
@@ -77,9 +85,9 @@ def config_indenters(cfg: dict, lib) -> list[LoadedIndenter]:
     return out
 
 
-def _render(cfg, lib, inds, d: Path) -> dict:
+def _render(cfg, lib, inds, d: Path, cal=None) -> dict:
     o = cfg["optics"]
-    opt = optics_setup(cfg)
+    opt = optics_setup(cfg) if cal is None else cal.optics(optics_setup(cfg))
     d.mkdir(parents=True)
     # one superposition for the reference wavelength (maps, grey images) and white light
     lam = opt.law.wavenumber_grid(o["white_light_wavelengths"])
@@ -115,15 +123,68 @@ def _render(cfg, lib, inds, d: Path) -> dict:
     }
 
 
-def run_library_predict(cfg: dict, library, out, *, echo=print, progress=True, inputs=()) -> dict:
-    """Synthesise the config's final state from ``library`` into ``out``; the summary."""
+def camera_frame(cfg: dict, lib, inds, cal) -> np.ndarray:
+    """The frame (rows, cols[, 3]) the calibrated sensor ``cal``'s camera records of
+    ``inds`` (the sheet's axes; ``lib`` already scaled to the sheet), 8 or 16 bit as the
+    config's camera: the library's image in the image's axes through the method's optics,
+    times the calibration's exposure gain, then :meth:`CalibratedSensor.encode`."""
+    opt = cal.optics(optics_setup(cfg))
+    rows, cols = cal.shape
+    r0, c0 = cal.origin_px
+    p = cal.pixel_mm * 1e-3
+    grid = PixelGrid((rows, cols), p, (-(c0 - (cols - 1) / 2) * p, (r0 - (rows - 1) / 2) * p))
+    t = np.radians(cal.rotation_deg)
+    c, s = np.cos(t), np.sin(t)
+    turned = [
+        replace(
+            i,
+            x=c * i.x - s * i.y,
+            y=s * i.x + c * i.y,
+            fx=c * i.fx - s * i.fy,
+            fy=s * i.fx + c * i.fy,
+        )
+        for i in inds
+    ]
+    arr = dark_field_circular(**opt.errors)
+    if cal.method == "rgb":
+        lam = opt.law.wavenumber_grid(cfg["optics"]["white_light_wavelengths"])
+        q = synthesise(lib, turned, grid, opt.law, lam).q
+        lin = intensity(q, arr) @ white_light_matrix(
+            light_source(cfg["optics"]["light"], lam), opt.camera
+        )
+    else:
+        q = synthesise(lib, turned, grid, opt.law, np.array([opt.law.wavelength_ref])).q
+        lin = intensity(q[:, :, 0], arr)[..., None]
+    gain = np.asarray(cal.report.get("exposure_gain", [0.8] * lin.shape[-1]), float)
+    raw = cal.encode(lin * gain)
+    top, kind = (255, np.uint8) if opt.camera.bit_depth == 8 else (65535, np.uint16)
+    img = np.round(raw * top).astype(kind)
+    return img[..., 0] if img.shape[-1] == 1 else img
+
+
+def run_library_predict(
+    cfg: dict, library, out, *, sensor=None, echo=print, progress=True, inputs=()
+) -> dict:
+    """Synthesise the config's final state from ``library`` into ``out``; the summary.
+    ``sensor``: a calibrated sensor file (``fringekit sensor calibrate``): the library is
+    read as its sheet, and ``state_01/camera.png`` is the frame its camera records."""
     t0 = time.perf_counter()
-    with claim_output(out, command="predict", inputs=[library, *inputs]) as work:
+    cal = as_calibrated(sensor)
+    if sensor is not None and cal is None:
+        raise ConfigError(
+            f"--sensor {sensor}: give a sensor file (.json of fringekit sensor calibrate)"
+        )
+    with claim_output(out, command="predict", inputs=[library, sensor, *inputs]) as work:
         lib = load_library(library)
         check_sensor(lib, cfg, "the config")
+        if cal is not None:
+            cal.check(lib)
+            lib = cal.library(lib)
         inds = config_indenters(cfg, lib)
         (work / "config.toml").write_text(to_toml(cfg))
-        rendered = _render(cfg, lib, inds, work / "state_01")
+        rendered = _render(cfg, lib, inds, work / "state_01", cal)
+        if cal is not None:
+            write_image(work / "state_01" / "camera.png", camera_frame(cfg, lib, inds, cal))
         summary = {
             "case": cfg["case"],
             "status": "ok",
@@ -140,6 +201,7 @@ def run_library_predict(cfg: dict, library, out, *, echo=print, progress=True, i
                 for i in inds
             ],
             "rendered": [rendered],
+            "calibrated_sensor": None if cal is None else cal.summary(str(sensor)),
             "times_s": {"total_s": time.perf_counter() - t0},
         }
         (work / "summary.json").write_text(json.dumps(summary, indent=2))

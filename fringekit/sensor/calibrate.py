@@ -161,9 +161,9 @@ def _reexpress(fit: KnownFit, old_pitch, old_origin, geo) -> list[np.ndarray]:
     return out
 
 
-def _illumination(fit: KnownFit, shape) -> tuple[np.ndarray, float]:
-    """The illumination on the coarse grid, mean 1 over the image, and its largest
-    1-sigma (relative) there."""
+def _illumination(fit: KnownFit, shape) -> tuple[np.ndarray, float, list]:
+    """The illumination on the coarse grid, mean 1 over the image, its largest 1-sigma
+    (relative) there, and the exposure gain per channel (the mean it was divided by)."""
     rows, cols = shape
     cells = coarse_map(np.zeros(shape)).shape
     rr = np.linspace(0, rows - 1, cells[0])
@@ -177,7 +177,8 @@ def _illumination(fit: KnownFit, shape) -> tuple[np.ndarray, float]:
         maps.append(m / mean)
         sds.append(np.sqrt(np.einsum("ij,jk,ik->i", B, fit.coefficient_cov[c], B)) / abs(mean))
     L = np.mean(maps, axis=0).reshape(cells)
-    return L, float(np.max(sds))
+    gains = [float(np.mean(B @ fit.coefficients[:, c])) for c in range(fit.coefficients.shape[1])]
+    return L, float(np.max(sds)), gains
 
 
 def calibrate_sensor(
@@ -372,7 +373,7 @@ def _line(fit: KnownFit, geo, seconds: float) -> str:
 
 def _assemble(lib, cfg, method, shape, fit, geo, rest, black, black_sd, black_from, frames, t0):
     """The calibration of the fit and geometry, with its 1-sigma and report."""
-    illumination, illumination_sd = _illumination(fit, shape)
+    illumination, illumination_sd, gains = _illumination(fit, shape)
     rot, rot_sd = _rotation(fit, geo)
     warnings = [
         f"known frame {fr.path.name} is not explained: residual {r:.2f} of the fringe amplitude "
@@ -390,6 +391,7 @@ def _assemble(lib, cfg, method, shape, fit, geo, rest, black, black_sd, black_fr
     }
     report = {
         "black_level_from": black_from,
+        "exposure_gain": gains,
         "known_positions": geo.n_known,
         "frames": [
             {"image": str(fr.path), "residual_rms": float(r), "positions_image_mm": p.tolist()}

@@ -282,8 +282,12 @@ def test_bad_inputs_are_one_line_and_write_nothing(test_library, tmp_path, capsy
     _one_line_exit_2(
         base + ["--pixel-mm", "0.125", "--sensor", str(tmp_path / "other.toml")],
         capsys,
-        ["sheet.thickness_mm", "3.0", "2.0"],
+        ["--sensor", "other.toml", "give a sensor file (.json)"],
     )
+    init = ["sensor", "init", str(tmp_path / "other.toml"), "--library", str(lib)]
+    init += ["--shape", "96", "96", "--pixel-mm", "0.125", "--out", str(tmp_path / "o.json")]
+    _one_line_exit_2(init, capsys, ["sheet.thickness_mm", "3.0", "2.0"])
+    assert not (tmp_path / "o.json").exists()
     bad = tmp_path / "badlib"
     shutil.copytree(lib, bad)
     f = next(bad.glob("fields_*.npz"))

@@ -19,6 +19,7 @@ from fringekit.analysis import read_pixels
 from fringekit.cli.main import main
 from fringekit.config.files import load_config, to_toml
 from fringekit.errors import ConfigError
+from fringekit.inversion.read import read_measurement
 from fringekit.library.calibrated import CalibratedSensor, coarse_map, load_sensor
 from fringekit.optics import write_image
 from fringekit.sensor import sensor_frame
@@ -250,3 +251,23 @@ def test_predict_library_with_a_sensor_file_gives_its_camera_frame(tiny_library,
     assert got.shape == (PX, PX) and np.abs(got - want).max() <= 1
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["calibrated_sensor"]["modulus_scale"] == 1.15
+
+
+def test_sensor_init_writes_a_file_that_reads_frames_as_without_one(tiny_library, tmp_path):
+    """``sensor init``: the library's config, an image size and a pitch, nothing fitted;
+    a frame is read through it exactly as without it, and a second init over it replaces
+    it."""
+    cfg_file = tmp_path / "sensor.toml"
+    cfg_file.write_text(to_toml(load_config(tiny_library.folder / "config.toml")))
+    argv = ["sensor", "init", str(cfg_file), "--library", str(tiny_library.folder)]
+    argv += ["--shape", "64", "64", "--pixel-mm", "0.25", "--method", "mono"]
+    for _ in range(2):
+        assert main([*argv, "--out", str(tmp_path / "s.json")]) == 0
+    s = load_sensor(tmp_path / "s.json")
+    assert not s.calibrated and s.grid_options() == (0.25, (31.5, 31.5))
+    write_image(
+        tmp_path / "f.png", sensor_frame(tiny_library, _truth(tiny_library), TEST[:1], bit_depth=8)
+    )
+    plain = read_measurement([tmp_path / "f.png"], "mono", "mono")
+    through = read_measurement([tmp_path / "f.png"], "mono", "mono", s)
+    assert np.array_equal(plain[1], through[1]) and np.array_equal(plain[2], through[2])

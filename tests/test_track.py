@@ -16,7 +16,8 @@ import fringekit
 from fringekit.analysis import read_pixels
 from fringekit.cli.main import main
 from fringekit.config.files import to_toml
-from fringekit.errors import LibraryError
+from fringekit.errors import ConfigError, LibraryError
+from fringekit.library.calibrated import CalibratedSensor
 from fringekit.tracking import TRACK_COLUMNS, library_frames, open_source, track, write_video
 
 PX, PIXEL_MM = 64, 0.25  # 16 x 16 mm frames of the tiny library's sensor
@@ -217,8 +218,12 @@ def test_a_zero_length_video_and_another_sensor_are_refused(tiny_library, tmp_pa
     assert not out.exists()
     other = tmp_path / "other.toml"
     other.write_text(to_toml(sensor_config(**TINY, **{"sheet.thickness_mm": 2.0})))
-    with pytest.raises(LibraryError, match="thickness_mm"):
+    with pytest.raises(ConfigError, match="give a sensor file"):
         track(tmp_path, tiny_library, pixel_mm=0.25, sensor=other)
+    cfg = sensor_config(**TINY, **{"sheet.thickness_mm": 2.0})
+    s = CalibratedSensor.uncalibrated(cfg, tiny_library, (PX, PX), "mono", 0.25)
+    with pytest.raises(LibraryError, match="thickness_mm"):
+        track(tmp_path, tiny_library, sensor=s)
 
 
 @pytest.mark.slow

@@ -35,7 +35,7 @@ def add_parser(sub) -> None:
         "--pixel-mm",
         type=in_range(PIXEL_MM),
         default=None,
-        help="pixel pitch on the sheet (mm); required without a calibrated --sensor",
+        help="pixel pitch on the sheet (mm); required without --sensor",
     )
     iv.add_argument(
         "--origin-px",
@@ -48,9 +48,9 @@ def add_parser(sub) -> None:
     iv.add_argument(
         "--sensor",
         default=None,
-        help="the image's sensor: a calibrated sensor (SENSOR.json of fringekit sensor "
-        "calibrate), a config file or a predict output folder (default: config.toml of "
-        "the predict folder holding the image)",
+        help="the image's sensor file: SENSOR.json of fringekit sensor calibrate (or of "
+        "sensor init, a config with nothing fitted); default: config.toml of the predict "
+        "folder holding the image, else the library's",
     )
     iv.add_argument(
         "--refine",

@@ -1,13 +1,17 @@
 """``fringekit sensor calibrate``: a library calibrated to one physical sensor
-(:func:`fringekit.calibrate_sensor`); ``invert`` and ``track`` take the file it writes
-as ``--sensor``."""
+(:func:`fringekit.calibrate_sensor`); ``fringekit sensor init``: the sensor file of a
+config with nothing fitted. ``invert``, ``track`` and ``predict --library`` take either
+file as ``--sensor``."""
 
 from __future__ import annotations
 
 import argparse
 import sys
 
-from fringekit.cli.options import PIXEL_MM, finite, in_range
+from fringekit.cli.options import PIXEL_MM, finite, in_range, overrides
+from fringekit.errors import ConfigError
+from fringekit.library.calibrated import CalibratedSensor
+from fringekit.library.store import check_sensor, load_library
 from fringekit.sensor.calibrate import calibrate_sensor, check_out
 
 __all__ = ["add_parser", "run"]
@@ -54,6 +58,52 @@ def add_parser(sub) -> None:
     )
     c.add_argument("--quiet", action="store_true", help="no step lines")
     c.set_defaults(func=run)
+    i = acts.add_parser("init", help="a sensor file of a config with nothing fitted (for --sensor)")
+    i.add_argument("config", help="TOML config or built-in case: the sensor")
+    i.add_argument("--library", required=True, help="library folder the file is used with")
+    i.add_argument(
+        "--shape",
+        nargs=2,
+        type=int,
+        metavar=("ROWS", "COLS"),
+        required=True,
+        help="image size (px)",
+    )
+    i.add_argument(
+        "--pixel-mm", type=in_range(PIXEL_MM), required=True, help="pixel pitch on the sheet (mm)"
+    )
+    i.add_argument(
+        "--origin-px",
+        nargs=2,
+        type=finite,
+        metavar=("ROW", "COL"),
+        default=None,
+        help="image pixel of the sheet's origin (default: the image centre)",
+    )
+    i.add_argument(
+        "--method",
+        choices=("rgb", "mono", "phase"),
+        default="rgb",
+        help="the images' method (default rgb)",
+    )
+    i.add_argument("--out", required=True, help="the sensor file to write (.json)")
+    i.set_defaults(func=run_init)
+
+
+def run_init(args: argparse.Namespace) -> int:
+    out = check_out(args.out)
+    lib = load_library(args.library)
+    cfg = overrides(args.config, [])
+    check_sensor(lib, cfg, args.config)
+    if min(args.shape) < 2:
+        raise ConfigError(f"--shape {args.shape[0]} {args.shape[1]}: give at least 2 x 2 px")
+    s = CalibratedSensor.uncalibrated(
+        cfg, lib, args.shape, args.method, args.pixel_mm, args.origin_px
+    )
+    s.check(lib)
+    s.grid_options(None, None)
+    print(f"fringekit sensor init: wrote {s.save(out)}")
+    return 0
 
 
 def run(args: argparse.Namespace) -> int:

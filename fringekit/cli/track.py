@@ -25,7 +25,7 @@ def add_parser(sub) -> None:
         "--pixel-mm",
         type=in_range(PIXEL_MM),
         default=None,
-        help="pixel pitch on the sheet (mm); required without a calibrated --sensor",
+        help="pixel pitch on the sheet (mm); required without --sensor",
     )
     tr.add_argument(
         "--method",
@@ -44,8 +44,8 @@ def add_parser(sub) -> None:
     tr.add_argument(
         "--sensor",
         default=None,
-        help="a calibrated sensor (SENSOR.json of fringekit sensor calibrate), or the "
-        "sensor's config (default: the library's)",
+        help="the sensor file: SENSOR.json of fringekit sensor calibrate (or of sensor "
+        "init, a config with nothing fitted); default: the library's config",
     )
     tr.add_argument(
         "--stride",

@@ -183,12 +183,14 @@ def _check_numbers(pixel_mm, max_seconds) -> None:
         raise ConfigError(f"--max-seconds {max_seconds} is not allowed; give seconds >= 0")
 
 
-def _sensor(lib: Library, sensor, paths) -> tuple[dict, str | None, list[str]]:
-    """The image's sensor config (checked against the library's), where it came from,
-    and a warning when none was given or found (the library's own is assumed)."""
-    if isinstance(sensor, CalibratedSensor):
-        return sensor.config, "a calibrated sensor", []
-    cfg, where = sensor_config(sensor, paths)
+def _sensor(lib: Library, cal, paths) -> tuple[dict, str | None, list[str]]:
+    """The image's sensor config: the sensor file's, else that of a ``predict`` folder
+    the image lies in (each checked against the library's), else the library's own with
+    a warning."""
+    if cal is not None:
+        check_sensor(lib, cal.config, "--sensor")
+        return cal.config, "the sensor file", []
+    cfg, where = sensor_config(paths)
     if cfg is not None:
         check_sensor(lib, cfg, where)
         return cfg, where, []
@@ -196,8 +198,8 @@ def _sensor(lib: Library, sensor, paths) -> tuple[dict, str | None, list[str]]:
         load_config(lib.folder / "config.toml"),
         where,
         [
-            "no sensor config given or found beside the image: the library's own sensor, "
-            "camera and light are assumed (--sensor)"
+            "no sensor file given nor predict config found beside the image: the "
+            "library's own sensor, camera and light are assumed (--sensor)"
         ],
     )
 
@@ -237,11 +239,11 @@ def invert(
     method : {"rgb", "mono", "phase"}, optional
         Default: ``rgb`` for one colour image, ``mono`` for one grey one, ``phase`` for six.
     sensor : path or CalibratedSensor, optional
-        A calibrated sensor (a ``.json`` file of ``fringekit sensor calibrate``: its
-        config, scales, camera response, rest frame, illumination and geometry are
-        applied; its library, image size and method must be these), or the sensor's
-        config (a TOML file or a ``predict`` folder); default the config of a ``predict``
-        folder the image lies in, else the library's own.
+        A sensor file (``.json``): of ``fringekit sensor calibrate`` (its config, scales,
+        camera response, rest frame, illumination and geometry are applied), or of
+        ``fringekit sensor init`` (a config, image size and pitch, nothing fitted); its
+        library, image size and method must be these. Default: the config of a
+        ``predict`` folder the image lies in, else the library's own.
     refine : {None, "fem"}
         ``"fem"``: after the library fit, rounds of full-FEM defect correction until no
         position or load moves by more than its 1-sigma (one FEM solve each, minutes:
@@ -302,7 +304,7 @@ def invert(
     lib = _library(library)
     if cal is not None:
         cal.check(lib)
-    cfg, where, warnings = _sensor(lib, cal or sensor, paths)
+    cfg, where, warnings = _sensor(lib, cal, paths)
     optics = optics_setup(cfg)
     method, measured, usable, nodata, shape, note = read_measurement(
         paths, method, optics.camera.sensitivities, cal

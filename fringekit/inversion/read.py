@@ -66,8 +66,9 @@ def read_measurement(paths, method: str | None, camera_name: str, sensor=None):
         note = ""
     else:
         frame = load_image(paths[0])
-        lin, raw, sat, note = frame_measurement(frame, method, camera_name, sensor is None)
-        if sensor is not None and raw.shape[:2] == tuple(sensor.shape):
+        fitted = sensor is not None and sensor.calibrated
+        lin, raw, sat, note = frame_measurement(frame, method, camera_name, not fitted)
+        if fitted and raw.shape[:2] == tuple(sensor.shape):
             lin = sensor.correct(sensor.linear(raw))
     nodata = no_data_regions(raw)
     rows, cols = raw.shape[:2]
@@ -75,15 +76,9 @@ def read_measurement(paths, method: str | None, camera_name: str, sensor=None):
     return method, lin.reshape(rows * cols, -1), usable, nodata.ravel(), (rows, cols), note
 
 
-def sensor_config(sensor, images) -> tuple[dict | None, str | None]:
-    """The image's sensor config: ``--sensor`` (a config file or a ``predict`` output
-    folder), else a ``config.toml`` of a ``predict`` folder the first image lies in."""
-    if sensor is not None:
-        p = Path(sensor)
-        path = p / "config.toml" if p.is_dir() else p
-        if not path.is_file():
-            raise ConfigError(f"--sensor {sensor}: no config file there")
-        return load_config(path), str(path)
+def sensor_config(images) -> tuple[dict | None, str | None]:
+    """The sensor config of an image read without ``--sensor``: the ``config.toml`` of a
+    ``predict`` folder the first image lies in (or None, None)."""
     here = Path(images[0]).resolve().parent
     for folder in (here, here.parent, here.parent.parent):
         if (folder / "config.toml").is_file() and (folder / "summary.json").is_file():

@@ -167,6 +167,45 @@ class CalibratedSensor:
                 f"{where}: calibrated for --method {self.method}; got --method {method}"
             )
 
+    @property
+    def calibrated(self) -> bool:
+        """False for a sensor file of ``fringekit sensor init`` (a config, an image size and
+        a pitch, nothing fitted): frames are then read as without one."""
+        return bool(self.report.get("calibrated", True))
+
+    @classmethod
+    def uncalibrated(cls, cfg: dict, lib, shape, method: str, pixel_mm: float, origin_px=None):
+        """The sensor file of a sensor config with nothing fitted (``fringekit sensor
+        init``): the config, the library's identity, the image size, method, pitch and
+        origin (default the image centre); the scales 1, a linear camera, no maps.
+
+        Examples
+        --------
+        >>> class Lib:
+        ...     manifest = {"manifest_sha256": "ab"}
+        >>> s = CalibratedSensor.uncalibrated({}, Lib(), (4, 6), "rgb", 0.1)
+        >>> s.origin_px, s.black, s.calibrated
+        ((1.5, 2.5), (0.0, 0.0, 0.0), False)
+        """
+        rows, cols = (int(v) for v in shape)
+        origin = tuple(origin_px) if origin_px is not None else ((rows - 1) / 2, (cols - 1) / 2)
+        black = (0.0,) * (3 if method == "rgb" else 1)
+        sha = lib.manifest.get("manifest_sha256", "")
+        return cls(
+            cfg,
+            sha,
+            method,
+            (rows, cols),
+            pixel_mm,
+            origin,
+            0.0,
+            1.0,
+            1.0,
+            1.0,
+            black,
+            report={"calibrated": False},
+        )
+
     def grid_options(self, pixel_mm=None, origin_px=None) -> tuple[float, tuple]:
         """The pitch (mm) and origin pixel of the calibration; an option that says
         otherwise is refused (one :class:`~fringekit.errors.ConfigError` line)."""
@@ -282,20 +321,29 @@ def _plain(v):
 
 
 def as_calibrated(sensor) -> CalibratedSensor | None:
-    """The calibrated sensor ``sensor`` names: one already read, or a ``.json`` file of
-    ``fringekit sensor calibrate`` (read); None for anything else (a sensor config or a
-    ``predict`` folder, or None).
+    """The sensor ``--sensor`` names: one already read, or a sensor file (read); None for
+    None. Anything else (a config file, a folder) is refused in one line: ``--sensor``
+    takes sensor files only (``fringekit sensor calibrate``, or ``sensor init`` for a
+    config with nothing fitted).
 
     Examples
     --------
-    >>> as_calibrated("sensor.toml") is None
+    >>> as_calibrated(None) is None
     True
+    >>> try:
+    ...     as_calibrated("sensor.toml")
+    ... except ValueError as exc:
+    ...     print(str(exc)[:60])
+    --sensor sensor.toml: give a sensor file (.json), made by fri
     """
-    if isinstance(sensor, CalibratedSensor):
+    if sensor is None or isinstance(sensor, CalibratedSensor):
         return sensor
-    if sensor is not None and Path(sensor).suffix.lower() == ".json":
-        return load_sensor(sensor)
-    return None
+    if Path(sensor).suffix.lower() != ".json":
+        raise ConfigError(
+            f"--sensor {sensor}: give a sensor file (.json), made by fringekit sensor "
+            "calibrate, or by fringekit sensor init from a sensor config"
+        )
+    return load_sensor(sensor)
 
 
 def is_sensor_file(path) -> bool:

@@ -31,7 +31,7 @@ from fringekit.analysis import normalise
 from fringekit.config.files import load_config
 from fringekit.config.inputs import optics_setup
 from fringekit.errors import ConfigError, SourceError
-from fringekit.inversion.read import frame_measurement, sensor_config
+from fringekit.inversion.read import frame_measurement
 from fringekit.inversion.verdict import InvertError
 from fringekit.library.calibrated import CalibratedSensor, as_calibrated
 from fringekit.library.store import Library, check_sensor, load_library
@@ -151,8 +151,9 @@ def _measurement(raw: np.ndarray, method: str, camera: str, name: str, cal=None)
     frame whose three channels are equal is a grey one; ``cal``: a calibrated sensor whose
     response, rest frame and illumination are applied."""
     frame = normalise(_grey(raw), source=name)
-    lin, data, sat, note = frame_measurement(frame, method, camera, decode=cal is None)
-    if cal is not None:
+    fitted = cal is not None and cal.calibrated
+    lin, data, sat, note = frame_measurement(frame, method, camera, decode=not fitted)
+    if fitted:
         lin = cal.correct(cal.linear(data))
     nodata = no_data_regions(data)
     usable = (~sat & ~nodata).ravel()
@@ -174,16 +175,13 @@ def _method(method: str | None, raw: np.ndarray) -> str:
     return "mono" if _grey(raw).ndim == 2 else "rgb"
 
 
-def _sensor(lib: Library, sensor) -> tuple[dict, str]:
-    """The stream's sensor config (``--sensor``, checked against the library's; a
-    calibrated sensor's own), else the library's own."""
-    if isinstance(sensor, CalibratedSensor):
-        return sensor.config, "a calibrated sensor"
-    if sensor is None:
-        return load_config(lib.folder / "config.toml"), str(lib.folder / "config.toml")
-    cfg, where = sensor_config(sensor, [lib.folder])
-    check_sensor(lib, cfg, where)
-    return cfg, where
+def _sensor(lib: Library, cal: CalibratedSensor | None) -> tuple[dict, str]:
+    """The stream's sensor config: the sensor file's (checked against the library's),
+    else the library's own."""
+    if cal is not None:
+        check_sensor(lib, cal.config, "--sensor")
+        return cal.config, "the sensor file"
+    return load_config(lib.folder / "config.toml"), str(lib.folder / "config.toml")
 
 
 def _times(frames: list[TrackedFrame]) -> dict:
@@ -234,9 +232,8 @@ def track(
     method : {"rgb", "mono"}, optional
         Default rgb for colour frames, mono for grey ones.
     sensor : path or CalibratedSensor, optional
-        A calibrated sensor (a ``.json`` file of ``fringekit sensor calibrate``, applied
-        as ``invert`` applies it), or the sensor's config (checked against the
-        library's); default the library's own.
+        A sensor file (``.json`` of ``fringekit sensor calibrate`` or ``sensor init``),
+        applied as ``invert`` applies it; default the library's own config.
     stride : int
         Every ``stride``-th pixel in both directions is fitted per frame (default 4).
     fps : float, optional
@@ -292,7 +289,7 @@ def track(
         )
     if int(stride) != stride or not 1 <= stride <= 16:
         raise ConfigError(f"--stride {stride} is not allowed; give a whole number 1-16")
-    cfg, where = _sensor(lib, cal or sensor)
+    cfg, where = _sensor(lib, cal)
     optics = optics_setup(cfg)
     src = source if isinstance(source, FrameSource) else open_source(str(source), fps=fps)
     run = _Run(lib, cfg, optics, src, pixel_mm, origin_px, method, int(stride), on_frame, cal)

@@ -381,6 +381,11 @@ def _assemble(lib, cfg, method, shape, fit, geo, rest, black, black_sd, black_fr
         for fr, r in zip(frames, fit.residual_rms, strict=True)
         if not r <= WARN_RESIDUAL
     ]
+    warnings += [
+        f"the {name.replace('_', ' ')} ended on a bound of the fit ({getattr(fit, name):.4g}): "
+        "the known frames do not determine it; check their loads, the pitch and the rest frame"
+        for name in fit.at_bound
+    ]
     sd = {
         **{k: fit.sd[k] for k in ("modulus_scale", "fringe_scale", "gamma")},
         "rotation_deg": rot_sd,

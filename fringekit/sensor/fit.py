@@ -103,6 +103,8 @@ class KnownFit:
     residual_rms : (F,) — per frame, of the mean gain, within 3 mm of its contacts
     fitted, measured : list of (P_f, C) — per frame on the fitted pixels (figures)
     grid_shape : (rows, cols) of the fitted pixels
+    at_bound : tuple of str — the scales and response that ended on a bound of the fit
+        (not determined by the frames: a warning)
     """
 
     modulus_scale: float
@@ -118,6 +120,7 @@ class KnownFit:
     fitted: list
     measured: list
     grid_shape: tuple
+    at_bound: tuple = ()
 
 
 class _Problem:
@@ -316,6 +319,13 @@ def fit_known(base: ImageModel, frames, rest, black, starts, scales=None) -> Kno
         fitted=fitted,
         measured=D,
         grid_shape=problem.sub_shape,
+        at_bound=tuple(
+            name
+            for name, v, a, b in zip(
+                ("modulus_scale", "fringe_scale", "gamma"), theta[:3], lo[:3], hi[:3], strict=True
+            )
+            if min(v - a, b - v) < 1e-6 * max(1.0, abs(v))
+        ),
     )
 
 

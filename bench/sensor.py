@@ -1,7 +1,8 @@
 """Benchmark ``fringekit sensor calibrate`` on a "real" sensor rendered by full FEM.
 
 Usage: python bench/sensor.py [--pixels 128] [--noise 0.003] [--seed 0] [--library DIR]
-       [--residual-fringe 0.3] [--refine] [--reuse] [--work DIR] [--json FILE]
+       [--residual-fringe 0.3] [--refine] [--refine-frames N] [--reuse] [--work DIR]
+       [--json FILE]
        (--work default: bench/out/sensor, ignored by git; --reuse: the frames of an earlier
        run in the work folder, not rendered again)
 
@@ -304,6 +305,9 @@ def main(argv=None) -> None:
         help="the residual retarder's peak (fringe; the issue's 0.3 by default)",
     )
     ap.add_argument("--reuse", action="store_true", help="the frames of an earlier run")
+    ap.add_argument(
+        "--refine-frames", type=int, default=6, help="(c) on the first N test frames only"
+    )
     ap.add_argument("--work", default="bench/out/sensor")
     ap.add_argument("--json", default=None)
     args = ap.parse_args(argv)
@@ -350,7 +354,8 @@ def main(argv=None) -> None:
     fitted["black"] = {"fitted": list(s.black), "truth": TRUE["black"]}
     a, t_a = read_tests(lib, d, tests, pixel_mm=p)
     b, t_b = read_tests(lib, d, tests, sensor=path)
-    c, t_c = read_tests(lib, d, tests, sensor=path, refine="fem") if args.refine else (None, 0.0)
+    few = tests[: args.refine_frames]
+    c, t_c = read_tests(lib, d, few, sensor=path, refine="fem") if args.refine else (None, 0.0)
     result = {
         "pixels": args.pixels,
         "noise": args.noise,

@@ -367,12 +367,14 @@ def main(argv=None) -> None:
         "targets": TARGETS,
         "a_uncalibrated": {"summary": summary(a), "frames": a},
         "b_calibrated": {"summary": summary(b), "frames": b},
-        "c_refine_fem": "not built",
+        "c_refine_fem": None if c is None else {"summary": summary(c), "frames": c},
+        "b_on_the_frames_of_c": None if c is None else summary(b[: len(few)]),
         "times_s": {
             "fem_and_render": t_render,
             "calibrate": t_cal,
             "invert_a": t_a,
             "invert_b": t_b,
+            "invert_c": t_c,
         },
         "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
     }
@@ -381,6 +383,8 @@ def main(argv=None) -> None:
     for name in ("a_uncalibrated", "b_calibrated", "c_refine_fem"):
         if result[name] is not None:
             print(name, json.dumps(result[name]["summary"]))
+    if c is not None:
+        print("b on the frames of c", json.dumps(result["b_on_the_frames_of_c"]))
     print(json.dumps(result["times_s"]), f"peak memory {result['peak_mb']:.0f} MB")
     if args.json:
         Path(args.json).write_text(json.dumps(result, indent=2))

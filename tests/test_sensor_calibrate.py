@@ -21,6 +21,7 @@ from fringekit.config.files import load_config, to_toml
 from fringekit.errors import ConfigError
 from fringekit.inversion.read import read_measurement
 from fringekit.library.calibrated import CalibratedSensor, coarse_map, load_sensor
+from fringekit.library.store import load_library
 from fringekit.optics import write_image
 from fringekit.sensor import sensor_frame
 from fringekit.sensor.geometry import sheet_geometry
@@ -66,12 +67,19 @@ def _write(folder, lib, truth) -> None:
 
 
 @pytest.fixture(scope="module")
-def calibrated(tiny_library, tmp_path_factory):
+def lib(tiny_library):
+    """The tiny library as it is on disk (a test of the fast tier rebuilds it in place,
+    which rewrites its manifest and so its checksum, as sensor files record it)."""
+    return load_library(tiny_library.folder)
+
+
+@pytest.fixture(scope="module")
+def calibrated(lib, tmp_path_factory):
     """The frames, and the sensor file the command wrote from them."""
     d = tmp_path_factory.mktemp("sensor")
-    truth = _truth(tiny_library)
-    _write(d, tiny_library, truth)
-    argv = ["sensor", "calibrate", "--library", str(tiny_library.folder), "--quiet"]
+    truth = _truth(lib)
+    _write(d, lib, truth)
+    argv = ["sensor", "calibrate", "--library", str(lib.folder), "--quiet"]
     argv += ["--reference", str(d / "rest.png"), "--dark", str(d / "dark.png")]
     argv += ["--known", str(d / "known.csv"), "--out", str(d / "sensor.json")]
     assert main([*argv, "--pixel-mm", str(PIXEL_MM)]) == 0
@@ -103,7 +111,7 @@ def test_calibration_returns_the_true_sensor_within_its_stated_sd(calibrated):
 
 
 @pytest.mark.slow
-def test_invert_and_track_read_true_loads_through_the_sensor_file(calibrated, tiny_library):
+def test_invert_and_track_read_true_loads_through_the_sensor_file(calibrated, lib):
     """Two contacts, turned and scaled by the sensor: within 0.02 mm and 1 % of Fz through
     the sensor file; without it the image is refused or read 5 % or more off."""
     d, _, _ = calibrated
@@ -115,10 +123,10 @@ def test_invert_and_track_read_true_loads_through_the_sensor_file(calibrated, ti
         got = got[[int(np.argmin(np.hypot(*(got[:, :2] - w[:2]).T))) for w in want]]
         return np.hypot(*(got[:, :2] - want[:, :2]).T), np.abs(got[:, 2:] - want[:, 2:]).max(1)
 
-    pos, load = errors(fringekit.invert(d / "test.png", tiny_library, sensor=sensor).table())
+    pos, load = errors(fringekit.invert(d / "test.png", lib, sensor=sensor).table())
     assert np.all(pos < 0.02) and np.all(load < 0.01 * want[:, 4]), (pos, load)
     try:  # the uncalibrated reading: refused, or off
-        raw = fringekit.invert(d / "test.png", tiny_library, pixel_mm=PIXEL_MM).table()
+        raw = fringekit.invert(d / "test.png", lib, pixel_mm=PIXEL_MM).table()
         fz = np.sort(raw["Fz_N"])
         assert len(fz) != 2 or np.max(np.abs(fz / np.sort(want[:, 4]) - 1)) > 0.05
     except fringekit.InvertError as exc:
@@ -127,7 +135,7 @@ def test_invert_and_track_read_true_loads_through_the_sensor_file(calibrated, ti
     frames.mkdir()
     for i in range(2):
         (frames / f"f{i}.png").write_bytes((d / "test.png").read_bytes())
-    t = fringekit.track(frames, tiny_library, sensor=sensor)
+    t = fringekit.track(frames, lib, sensor=sensor)
     pos, load = errors({k: v[t.table()["frame"] == 1] for k, v in t.table().items()})
     assert np.all(pos < 0.02) and np.all(load < 0.01 * want[:, 4]), (pos, load)
     assert t.summary["calibrated_sensor"]["modulus_scale"] == pytest.approx(1.15, rel=1e-3)
@@ -152,13 +160,11 @@ def _stub(lib, **kw) -> CalibratedSensor:
     return CalibratedSensor(**{**args, **kw})
 
 
-def test_a_sensor_file_applies_its_camera_light_and_axes_and_refuses_other_images(
-    tiny_library, tmp_path
-):
+def test_a_sensor_file_applies_its_camera_light_and_axes_and_refuses_other_images(lib, tmp_path):
     """Read back as written; the response, rest frame and illumination undone; positions
     and tangential loads turned into the sheet's axes; another library, image size or
     method refused in one line naming the flag."""
-    s = _stub(tiny_library)
+    s = _stub(lib)
     got = load_sensor(s.save(tmp_path / "s.json"))
     assert got.rotation_deg == 30.0 and np.array_equal(got.rest, s.rest)
     raw = np.full((PX, PX, 1), 0.05 + 0.95 * 0.5 ** (1 / 2.0))  # linear 0.5 at gamma 2
@@ -170,14 +176,14 @@ def test_a_sensor_file_applies_its_camera_light_and_axes_and_refuses_other_image
     )
     sd = got.to_sheet(np.array([[0.1, 0.1, 0.2, 0.3, 0.3]]), sd=True)
     assert np.allclose(sd, [[0.1, 0.1, 0.2, 0.3, 0.3]])
-    assert got.library(tiny_library).max_load_N == pytest.approx(1.1 * tiny_library.max_load_N)
+    assert got.library(lib).max_load_N == pytest.approx(1.1 * lib.max_load_N)
     for bad, shape, method, word in (
-        (_stub(tiny_library, library_sha256="0" * 64), (PX, PX), "mono", "another library"),
+        (_stub(lib, library_sha256="0" * 64), (PX, PX), "mono", "another library"),
         (s, (PX, PX + 1), "mono", "64 x 64 px"),
         (s, (PX, PX), "rgb", "--method mono"),
     ):
         with pytest.raises(ConfigError, match=word) as exc:
-            bad.check(tiny_library, shape, method)
+            bad.check(lib, shape, method)
         assert "\n" not in str(exc.value)
     with pytest.raises(ConfigError, match="--pixel-mm 0.3: the calibrated sensor gives"):
         s.grid_options(0.3, None)
@@ -195,15 +201,15 @@ def test_geometry_of_one_or_coincident_known_positions_gives_the_origin_only():
     assert (g.n_known, g.origin_px, g.rotation_deg) == (0, (50.0, 50.0), 0.0)
 
 
-def test_bad_calibration_inputs_are_one_line_each_and_write_nothing(tiny_library, tmp_path, capsys):
+def test_bad_calibration_inputs_are_one_line_each_and_write_nothing(lib, tmp_path, capsys):
     """A KNOWN.csv naming a missing image, loads beyond the library, rest and known frames
     of different sizes, an --out over a file that is not a sensor file, and a sensor file
     used with another library: exit 2, one line naming the input, nothing written."""
-    truth = _truth(tiny_library)
-    write_image(tmp_path / "rest.png", sensor_frame(tiny_library, truth, [], bit_depth=16))
+    truth = _truth(lib)
+    write_image(tmp_path / "rest.png", sensor_frame(lib, truth, [], bit_depth=16))
     write_image(tmp_path / "small.png", np.zeros((32, 32), np.uint16))
-    write_image(tmp_path / "k.png", sensor_frame(tiny_library, truth, [KNOWN[0]], bit_depth=16))
-    base = ["sensor", "calibrate", "--library", str(tiny_library.folder), "--pixel-mm", "0.25"]
+    write_image(tmp_path / "k.png", sensor_frame(lib, truth, [KNOWN[0]], bit_depth=16))
+    base = ["sensor", "calibrate", "--library", str(lib.folder), "--pixel-mm", "0.25"]
     base += ["--reference", str(tmp_path / "rest.png")]
     cases = {
         "missing.png,0,0,0,0,2": "line 2: image 'missing.png' not found",
@@ -223,18 +229,18 @@ def test_bad_calibration_inputs_are_one_line_each_and_write_nothing(tiny_library
     assert main(argv) == 2
     assert "not a sensor file" in capsys.readouterr().err
     assert json.loads((tmp_path / "notes.json").read_text()) == {"mine": 1}
-    other = _stub(tiny_library, library_sha256="f" * 64).save(tmp_path / "other.json")
-    argv = ["invert", str(tmp_path / "k.png"), "--library", str(tiny_library.folder)]
+    other = _stub(lib, library_sha256="f" * 64).save(tmp_path / "other.json")
+    argv = ["invert", str(tmp_path / "k.png"), "--library", str(lib.folder)]
     assert main([*argv, "--sensor", str(other), "--out", str(tmp_path / "inv")]) == 2
     assert "calibrated with another library" in capsys.readouterr().err
     assert not (tmp_path / "inv").exists()
 
 
-def test_predict_library_with_a_sensor_file_gives_its_camera_frame(tiny_library, tmp_path):
+def test_predict_library_with_a_sensor_file_gives_its_camera_frame(lib, tmp_path):
     """``predict --library --sensor`` writes the frame the calibrated camera records:
     the same as the calibration's forward model (sensor_frame) to one count of 8 bits,
     with the sensor's rotation, offset, scales, light, rest frame and response."""
-    truth = replace(_truth(tiny_library), report={"exposure_gain": [0.7]})
+    truth = replace(_truth(lib), report={"exposure_gain": [0.7]})
     truth.save(tmp_path / "sensor.json")
     cfg = sensor_config(**TINY)
     cfg["contact"]["friction"] = "stick"
@@ -243,31 +249,29 @@ def test_predict_library_with_a_sensor_file_gives_its_camera_frame(tiny_library,
         dict(proto, x_mm=x, y_mm=y, load_N=[fz], shear_N=[[fx, fy]]) for x, y, fx, fy, fz in TEST
     ]
     (tmp_path / "case.toml").write_text(to_toml(cfg))
-    argv = ["predict", str(tmp_path / "case.toml"), "--library", str(tiny_library.folder)]
+    argv = ["predict", str(tmp_path / "case.toml"), "--library", str(lib.folder)]
     argv += ["--sensor", str(tmp_path / "sensor.json"), "--out", str(tmp_path / "out"), "--quiet"]
     assert main(argv) == 0
     got = read_pixels(tmp_path / "out" / "state_01" / "camera.png").astype(int)
-    want = sensor_frame(tiny_library, truth, TEST, gain=0.7, bit_depth=8).astype(int)
+    want = sensor_frame(lib, truth, TEST, gain=0.7, bit_depth=8).astype(int)
     assert got.shape == (PX, PX) and np.abs(got - want).max() <= 1
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["calibrated_sensor"]["modulus_scale"] == 1.15
 
 
-def test_sensor_init_writes_a_file_that_reads_frames_as_without_one(tiny_library, tmp_path):
+def test_sensor_init_writes_a_file_that_reads_frames_as_without_one(lib, tmp_path):
     """``sensor init``: the library's config, an image size and a pitch, nothing fitted;
     a frame is read through it exactly as without it, and a second init over it replaces
     it."""
     cfg_file = tmp_path / "sensor.toml"
-    cfg_file.write_text(to_toml(load_config(tiny_library.folder / "config.toml")))
-    argv = ["sensor", "init", str(cfg_file), "--library", str(tiny_library.folder)]
+    cfg_file.write_text(to_toml(load_config(lib.folder / "config.toml")))
+    argv = ["sensor", "init", str(cfg_file), "--library", str(lib.folder)]
     argv += ["--shape", "64", "64", "--pixel-mm", "0.25", "--method", "mono"]
     for _ in range(2):
         assert main([*argv, "--out", str(tmp_path / "s.json")]) == 0
     s = load_sensor(tmp_path / "s.json")
     assert not s.calibrated and s.grid_options() == (0.25, (31.5, 31.5))
-    write_image(
-        tmp_path / "f.png", sensor_frame(tiny_library, _truth(tiny_library), TEST[:1], bit_depth=8)
-    )
+    write_image(tmp_path / "f.png", sensor_frame(lib, _truth(lib), TEST[:1], bit_depth=8))
     plain = read_measurement([tmp_path / "f.png"], "mono", "mono")
     through = read_measurement([tmp_path / "f.png"], "mono", "mono", s)
     assert np.array_equal(plain[1], through[1]) and np.array_equal(plain[2], through[2])

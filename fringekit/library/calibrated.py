@@ -334,7 +334,7 @@ def as_calibrated(sensor) -> CalibratedSensor | None:
     ...     as_calibrated("sensor.toml")
     ... except ValueError as exc:
     ...     print(str(exc)[:60])
-    --sensor sensor.toml: give a sensor file (.json), made by fri
+    --sensor sensor.toml: give a sensor file (.json), made by fr
     """
     if sensor is None or isinstance(sensor, CalibratedSensor):
         return sensor

@@ -60,7 +60,7 @@ API_MODULES = {
     "fringekit.optics": "stage 3: through-thickness optics, polariscopes, light and camera",
     "fringekit.analysis": "image analysis: fringe images to fringe order and stress",
     "fringekit.tracking": "streams: every contact's load through a video, frames or a camera",
-    "fringekit.sensor": "a library calibrated to one physical sensor: scales, camera, light, geometry",
+    "fringekit.sensor": "a library calibrated to one sensor: scales, camera, light, geometry",
 }
 GROUPS = ("Functions", "Classes", "Exceptions", "Data")
 

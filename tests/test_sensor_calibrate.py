@@ -113,7 +113,8 @@ def test_calibration_returns_the_true_sensor_within_its_stated_sd(calibrated):
 @pytest.mark.slow
 def test_invert_and_track_read_true_loads_through_the_sensor_file(calibrated, lib):
     """Two contacts, turned and scaled by the sensor: within 0.02 mm and 1 % of Fz through
-    the sensor file; without it the image is refused or read 5 % or more off."""
+    the sensor file, by invert and by track (without it the image was refused: the
+    comparison is bench/sensor.py's)."""
     d, _, _ = calibrated
     sensor = d / "sensor.json"
     want = np.array(TEST)
@@ -125,12 +126,6 @@ def test_invert_and_track_read_true_loads_through_the_sensor_file(calibrated, li
 
     pos, load = errors(fringekit.invert(d / "test.png", lib, sensor=sensor).table())
     assert np.all(pos < 0.02) and np.all(load < 0.01 * want[:, 4]), (pos, load)
-    try:  # the uncalibrated reading: refused, or off
-        raw = fringekit.invert(d / "test.png", lib, pixel_mm=PIXEL_MM).table()
-        fz = np.sort(raw["Fz_N"])
-        assert len(fz) != 2 or np.max(np.abs(fz / np.sort(want[:, 4]) - 1)) > 0.05
-    except fringekit.InvertError as exc:
-        assert "cannot explain" in str(exc)
     frames = d / "frames"
     frames.mkdir()
     for i in range(2):

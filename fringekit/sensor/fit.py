@@ -57,7 +57,7 @@ MAX_NFEV = 100
 MIN_SCALE = 0.3
 #: Fringe-value scales tried for the start: a scale far from the truth puts the fit in a
 #: basin of the wrong fringe count.
-START_SCALES = np.geomspace(0.6, 1.6, 21)
+START_SCALES = np.geomspace(0.6, 1.6, 13)
 #: Camera responses tried for the start: linear, and the usual encodings.
 START_GAMMAS = (1.0, 1.8, 2.2, 2.6)
 

@@ -309,7 +309,8 @@ def invert(
     method, measured, usable, nodata, shape, note = read_measurement(
         paths, method, optics.camera.sensitivities, cal
     )
-    lib, optics = _calibrated_model(cal, lib, optics, shape, method)
+    if cal is not None:
+        lib, optics = cal.model_inputs(lib, optics, shape, method)
     if note:
         warnings.append(note)
     check_memory(
@@ -401,15 +402,6 @@ def _refine(refine, model, res: InvertResult, cfg, lib, optics, cal, say):
         report,
         [f"--refine fem: a load or position still moved by more than its 1-sigma after {n} rounds"],
     )
-
-
-def _calibrated_model(cal, lib, optics, shape, method):
-    """The library and optics of a calibrated sensor (checked against the library, image
-    size and method), or those given."""
-    if cal is None:
-        return lib, optics
-    cal.check(lib, shape, method)
-    return cal.library(lib), cal.optics(optics)
 
 
 def _verdicts(res: InvertResult, cal, sheet_mm, max_seconds) -> tuple[list[str], np.ndarray]:

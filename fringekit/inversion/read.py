@@ -25,21 +25,24 @@ def _decode(frame, camera_name: str, colour: bool) -> np.ndarray:
     return frame.data
 
 
-def frame_measurement(frame, method: str, camera_name: str, decode: bool = True):
+def frame_measurement(frame, method: str, camera_name: str, sensor=None):
     """(linear (rows, cols, C), raw (rows, cols, C), saturated (rows, cols), note) of one
     :class:`~fringekit.analysis.Frame` read by ``method`` ``"rgb"`` or ``"mono"``: the
-    colour image sRGB-decoded for the CIE observer (unless ``decode`` is False: a
-    calibrated sensor decodes with its own response), or its grey channel (the note says
+    colour image sRGB-decoded for the CIE observer, or its grey channel (the note says
     which channel of a colour photograph of monochromatic light is read; one whose channels
-    disagree is refused, naming ``--method mono``)."""
+    disagree is refused, naming ``--method mono``). ``sensor``: a
+    :class:`~fringekit.library.calibrated.CalibratedSensor`; when it is calibrated, its
+    response, rest frame and illumination give the linear intensities instead."""
     name = frame.source
     if method == "rgb" and frame.data.ndim != 3:
         raise ConfigError(f"--method rgb needs a colour image; {name} is grey")
     note = "" if method == "rgb" else colour_as_grey(frame.data, None, name, "--method mono")
     data = frame.data if method == "rgb" or frame.data.ndim == 2 else grey_channel(frame.data)
     raw = data.reshape(*data.shape[:2], -1)
-    rgb = method == "rgb" and decode
-    lin = _decode(frame, camera_name, True).reshape(raw.shape) if rgb else raw
+    if sensor is not None and sensor.calibrated:
+        lin = sensor.correct(sensor.linear(raw))
+    else:
+        lin = _decode(frame, camera_name, True).reshape(raw.shape) if method == "rgb" else raw
     return lin, raw, frame.saturated, note
 
 
@@ -66,10 +69,7 @@ def read_measurement(paths, method: str | None, camera_name: str, sensor=None):
         note = ""
     else:
         frame = load_image(paths[0])
-        fitted = sensor is not None and sensor.calibrated
-        lin, raw, sat, note = frame_measurement(frame, method, camera_name, not fitted)
-        if fitted and raw.shape[:2] == tuple(sensor.shape):
-            lin = sensor.correct(sensor.linear(raw))
+        lin, raw, sat, note = frame_measurement(frame, method, camera_name, sensor)
     nodata = no_data_regions(raw)
     rows, cols = raw.shape[:2]
     usable = (~sat & ~nodata).ravel()

@@ -231,6 +231,13 @@ class CalibratedSensor:
             "origin_px": list(self.origin_px),
         }
 
+    def model_inputs(self, lib, optics, shape, method: str):
+        """The library and optics that frames of ``shape`` read by ``method`` are fitted
+        with: this sheet's (:meth:`library`, :meth:`optics`), once :meth:`check` has
+        passed."""
+        self.check(lib, shape, method)
+        return self.library(lib), self.optics(optics)
+
     def library(self, lib):
         """The library as this sheet's (modulus scale applied)."""
         return lib.scaled(self.modulus_scale)

@@ -59,7 +59,7 @@ def read_frame(path, option: str):
 def _read(path, method: str, option: str) -> tuple[np.ndarray, np.ndarray]:
     """(raw (rows, cols, C), saturated (rows, cols)) of one image file."""
     frame = read_frame(path, option)
-    _, raw, sat, _ = frame_measurement(frame, method, "none", decode=False)
+    _, raw, sat, _ = frame_measurement(frame, method, "none")  # stored values only
     return raw.astype(float), sat
 
 

@@ -151,10 +151,7 @@ def _measurement(raw: np.ndarray, method: str, camera: str, name: str, cal=None)
     frame whose three channels are equal is a grey one; ``cal``: a calibrated sensor whose
     response, rest frame and illumination are applied."""
     frame = normalise(_grey(raw), source=name)
-    fitted = cal is not None and cal.calibrated
-    lin, data, sat, note = frame_measurement(frame, method, camera, decode=not fitted)
-    if fitted:
-        lin = cal.correct(cal.linear(data))
+    lin, data, sat, note = frame_measurement(frame, method, camera, cal)
     nodata = no_data_regions(data)
     usable = (~sat & ~nodata).ravel()
     return lin.reshape(usable.size, -1), usable, nodata.ravel(), note
@@ -345,11 +342,9 @@ class _Run:
         img = raw.image
         if self.tracker is None:
             self.method = _method(self.method, img)
-            lib, optics = self.lib, self.optics
+            lib, optics, shape = self.lib, self.optics, img.shape[:2]
             if self.cal is not None:
-                self.cal.check(lib, img.shape[:2], self.method)
-                lib, optics = self.cal.library(lib), self.cal.optics(optics)
-            shape = img.shape[:2]
+                lib, optics = self.cal.model_inputs(lib, optics, shape, self.method)
             blank = blank_model(
                 lib, self.cfg, shape, self.pixel_mm, self.method, self.origin_px, optics
             )

@@ -41,7 +41,14 @@ from fringekit.prediction.render import (
     write_white_light,
 )
 
-__all__ = ["ACCURACY_NOTE", "camera_frame", "config_indenters", "run_library_predict"]
+__all__ = [
+    "ACCURACY_NOTE",
+    "camera_frame",
+    "camera_linear",
+    "config_indenters",
+    "file_values",
+    "run_library_predict",
+]
 
 #: What docs/library.md measured (stated in every summary).
 ACCURACY_NOTE = (
@@ -123,11 +130,11 @@ def _render(cfg, lib, inds, d: Path, cal=None) -> dict:
     }
 
 
-def camera_frame(cfg: dict, lib, inds, cal) -> np.ndarray:
-    """The frame (rows, cols[, 3]) the calibrated sensor ``cal``'s camera records of
-    ``inds`` (the sheet's axes; ``lib`` already scaled to the sheet), 8 or 16 bit as the
-    config's camera: the library's image in the image's axes through the method's optics,
-    times the calibration's exposure gain, then :meth:`CalibratedSensor.encode`."""
+def camera_linear(cfg: dict, lib, inds, cal) -> np.ndarray:
+    """Linear intensities (rows, cols, C) of ``inds`` (the sheet's axes; ``lib`` already
+    scaled to the sheet) on the calibrated sensor ``cal``'s pixels: the library's image in
+    the image's axes through the method's optics (the white light's camera matrix for
+    rgb), before illumination and exposure."""
     opt = cal.optics(optics_setup(cfg))
     rows, cols = cal.shape
     r0, c0 = cal.origin_px
@@ -149,17 +156,34 @@ def camera_frame(cfg: dict, lib, inds, cal) -> np.ndarray:
     if cal.method == "rgb":
         lam = opt.law.wavenumber_grid(cfg["optics"]["white_light_wavelengths"])
         q = synthesise(lib, turned, grid, opt.law, lam).q
-        lin = intensity(q, arr) @ white_light_matrix(
-            light_source(cfg["optics"]["light"], lam), opt.camera
-        )
-    else:
-        q = synthesise(lib, turned, grid, opt.law, np.array([opt.law.wavelength_ref])).q
-        lin = intensity(q[:, :, 0], arr)[..., None]
-    gain = np.asarray(cal.report.get("exposure_gain", [0.8] * lin.shape[-1]), float)
-    raw = cal.encode(lin * gain)
-    top, kind = (255, np.uint8) if opt.camera.bit_depth == 8 else (65535, np.uint16)
+        light = light_source(cfg["optics"]["light"], lam)
+        return intensity(q, arr) @ white_light_matrix(light, opt.camera)
+    q = synthesise(lib, turned, grid, opt.law, np.array([opt.law.wavelength_ref])).q
+    return intensity(q[:, :, 0], arr)[..., None]
+
+
+def file_values(raw: np.ndarray, bit_depth: int) -> np.ndarray:
+    """Stored values (rows, cols, C) in [0, 1] as an image file's integers: uint8 or
+    uint16 at ``bit_depth`` 8 or 16, (rows, cols) for one channel.
+
+    Examples
+    --------
+    >>> file_values(np.full((1, 2, 1), 0.5), 8).tolist()
+    [[128, 128]]
+    """
+    top, kind = {8: (255, np.uint8), 16: (65535, np.uint16)}[bit_depth]
     img = np.round(raw * top).astype(kind)
     return img[..., 0] if img.shape[-1] == 1 else img
+
+
+def camera_frame(cfg: dict, lib, inds, cal) -> np.ndarray:
+    """The frame (rows, cols[, 3]) the calibrated sensor ``cal``'s camera records of
+    ``inds`` (the sheet's axes; ``lib`` already scaled to the sheet), 8 or 16 bit as the
+    config's camera: :func:`camera_linear` times the calibration's exposure gain, then
+    :meth:`CalibratedSensor.encode`."""
+    lin = camera_linear(cfg, lib, inds, cal)
+    gain = np.asarray(cal.report.get("exposure_gain", [0.8] * lin.shape[-1]), float)
+    return file_values(cal.encode(lin * gain), optics_setup(cfg).camera.bit_depth)
 
 
 def run_library_predict(

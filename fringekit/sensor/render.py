@@ -6,20 +6,21 @@ calibration, and ``bench/sensor.py``'s library-rendered frames).
 A frame's stored value in [0, 1] is b + (1 - b) (g L(x) M(x) + R(x)) ** (1 / gamma), with
 M the library's linear image (modulus and fringe-value scales applied), L the
 illumination, R the rest frame's linear intensity, g the exposure gain and b the black
-level (:mod:`fringekit.library.calibrated`).
+level (:mod:`fringekit.library.calibrated`): the frame ``predict --library --sensor``
+writes (:func:`~fringekit.prediction.from_library.camera_linear`), with the exposure and
+noise given here.
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 
 from fringekit.config.inputs import optics_setup
 from fringekit.inversion.model import ImageModel
 from fringekit.inversion.read import pixel_grid
-from fringekit.library.calibrated import CalibratedSensor, fine_map
+from fringekit.library.calibrated import CalibratedSensor
 from fringekit.library.store import LoadedIndenter
+from fringekit.prediction.from_library import camera_linear, file_values
 
 __all__ = ["image_model", "sensor_frame"]
 
@@ -69,31 +70,10 @@ def sensor_frame(
     --------
     See :func:`~fringekit.sensor.calibrate.calibrate_sensor`.
     """
-    model = image_model(lib, sensor)
-    t = math.radians(sensor.rotation_deg)
-    c, s = math.cos(t), math.sin(t)
     d = lib.diameters_mm[0] * 1e-3
-    inds = [
-        LoadedIndenter(
-            (c * x - s * y) * 1e-3, (s * x + c * y) * 1e-3, d, c * fx - s * fy, s * fx + c * fy, fz
-        )
-        for x, y, fx, fy, fz in contacts
-    ]
-    lin, _ = model.linear(inds)
-    rows, cols = sensor.shape
-    lin = lin.reshape(rows, cols, -1)
-    if sensor.illumination is not None:
-        lin = lin * fine_map(sensor.illumination, (rows, cols))[..., None]
-    lin = gain * lin
-    if sensor.rest is not None:
-        lin = lin + fine_map(sensor.rest, (rows, cols)).reshape(rows, cols, -1)
-    b = np.asarray(sensor.black, float)
-    raw = b + (1.0 - b) * np.clip(lin, 0.0, None) ** (1.0 / sensor.gamma)
+    inds = [LoadedIndenter(x * 1e-3, y * 1e-3, d, fx, fy, fz) for x, y, fx, fy, fz in contacts]
+    raw = sensor.encode(gain * camera_linear(sensor.config, sensor.library(lib), inds, sensor))
     if noise > 0:
         raw = raw + (rng or np.random.default_rng(0)).normal(0.0, noise, raw.shape)
     raw = np.clip(raw, 0.0, 1.0)
-    if bit_depth is None:
-        return raw
-    top, kind = {8: (255, np.uint8), 16: (65535, np.uint16)}[bit_depth]
-    out = np.round(raw * top).astype(kind)
-    return out[..., 0] if out.shape[-1] == 1 else out
+    return raw if bit_depth is None else file_values(raw, bit_depth)

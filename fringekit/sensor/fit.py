@@ -37,7 +37,7 @@ from scipy.optimize import least_squares
 
 from fringekit.inversion.fit import EXACT_MM, subsample
 from fringekit.inversion.model import ImageModel
-from fringekit.inversion.uncertainty import correlation_area
+from fringekit.inversion.uncertainty import correlation_area, parameter_sd
 from fringekit.library.store import LoadedIndenter
 
 __all__ = ["ILLUMINATION_DEGREE", "KnownFit", "fit_known", "illumination_basis", "linearise"]
@@ -237,13 +237,6 @@ def _start_theta(problem: _Problem, starts: list, k0: float, scales=None) -> np.
     return theta
 
 
-def _covariance(jac: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """sigma^2 (J^T J)^-1 with sigma^2 the residual's variance per degree of freedom."""
-    m, n = jac.shape
-    var = float(r @ r) / max(m - n, 1)
-    return var * np.linalg.pinv(jac.T @ jac)
-
-
 def fit_known(base: ImageModel, frames, rest, black, starts, scales=None) -> KnownFit:
     """Fit the known frames (module docstring).
 
@@ -291,9 +284,8 @@ def fit_known(base: ImageModel, frames, rest, black, starts, scales=None) -> Kno
         correlation_area((d - f).reshape(*problem.sub_shape, -1), u.reshape(problem.sub_shape))
         for d, f, u in zip(D, fitted, use, strict=True)
     )
-    cov = area * _covariance(res.jac, res.fun)
+    sd = np.sqrt(area) * parameter_sd(res.jac, res.fun, len(res.fun))
     ccov = area * ccov
-    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     k, s = math.exp(theta[0]), math.exp(theta[1])
     rho = theta[3] if problem.sheared else 0.0
     xy = theta[n:].reshape(-1, 2)

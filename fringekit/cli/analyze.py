@@ -17,6 +17,7 @@ from fringekit.cli.options import (
     finite,
     fraction,
     in_range,
+    origin_px_option,
     pixel,
 )
 from fringekit.errors import InputError
@@ -221,13 +222,9 @@ def add_parser(sub) -> None:
         "also fixes the sign), instead of the image border at --anchor-order; repeat it "
         "for every low point the count cannot reach by counting up (a disc's two ends)",
     )
-    an.add_argument(
-        "--origin-px",
-        nargs=2,
-        type=finite,
-        metavar=("ROW", "COL"),
-        default=None,
-        help="pixel of the sensor origin: figures and profile.csv use x right, "
+    origin_px_option(
+        an,
+        "pixel of the sensor origin: figures and profile.csv use x right, "
         "y up in mm about it (default: the image centre)",
     )
     an.add_argument(

@@ -10,9 +10,9 @@ from pathlib import Path
 
 from fringekit.cli.options import (
     PIXEL_MM,
-    finite,
     in_range,
     nonnegative,
+    origin_px_option,
 )
 from fringekit.inversion.budget import DEFAULT_MAX_SECONDS
 from fringekit.inversion.run import run_invert
@@ -37,14 +37,7 @@ def add_parser(sub) -> None:
         default=None,
         help="pixel pitch on the sheet (mm); required without --sensor",
     )
-    iv.add_argument(
-        "--origin-px",
-        nargs=2,
-        type=finite,
-        metavar=("ROW", "COL"),
-        default=None,
-        help="image pixel of the sensor origin (default: the image centre)",
-    )
+    origin_px_option(iv)
     iv.add_argument(
         "--sensor",
         default=None,

@@ -40,6 +40,7 @@ __all__ = [
     "overrides",
     "pixel",
     "positive",
+    "origin_px_option",
     "run_options",
 ]
 
@@ -175,6 +176,18 @@ def at_least_one(text: str) -> int:
 def at_least_zero(text: str) -> int:
     """A whole number >= 0."""
     return _whole(text, 0)
+
+
+def origin_px_option(
+    p: argparse.ArgumentParser,
+    text: str = "image pixel of the sensor origin (default: the image centre)",
+) -> None:
+    """``--origin-px ROW COL``: the image pixel of the sheet's origin (two finite numbers,
+    default None), as the commands that place images on the sheet take it; ``text`` is
+    its help."""
+    p.add_argument(
+        "--origin-px", nargs=2, type=finite, metavar=("ROW", "COL"), default=None, help=text
+    )
 
 
 def run_options(p: argparse.ArgumentParser) -> None:

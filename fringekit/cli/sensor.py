@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from fringekit.cli.options import PIXEL_MM, finite, in_range, overrides
+from fringekit.cli.options import PIXEL_MM, in_range, origin_px_option, overrides
 from fringekit.errors import ConfigError
 from fringekit.library.calibrated import CalibratedSensor
 from fringekit.library.store import check_sensor, load_library
@@ -41,13 +41,9 @@ def add_parser(sub) -> None:
         required=True,
         help="nominal pixel pitch on the sheet (mm); fitted when two or more positions are known",
     )
-    c.add_argument(
-        "--origin-px",
-        nargs=2,
-        type=finite,
-        metavar=("ROW", "COL"),
-        default=None,
-        help="nominal image pixel of the sheet's origin (default: the image centre)",
+    origin_px_option(
+        c,
+        "nominal image pixel of the sheet's origin (default: the image centre)",
     )
     c.add_argument("--dark", nargs="+", default=None, help="frame(s) with the light off")
     c.add_argument(
@@ -72,13 +68,9 @@ def add_parser(sub) -> None:
     i.add_argument(
         "--pixel-mm", type=in_range(PIXEL_MM), required=True, help="pixel pitch on the sheet (mm)"
     )
-    i.add_argument(
-        "--origin-px",
-        nargs=2,
-        type=finite,
-        metavar=("ROW", "COL"),
-        default=None,
-        help="image pixel of the sheet's origin (default: the image centre)",
+    origin_px_option(
+        i,
+        "image pixel of the sheet's origin (default: the image centre)",
     )
     i.add_argument(
         "--method",

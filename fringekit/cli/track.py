@@ -7,7 +7,13 @@ import argparse
 import sys
 from pathlib import Path
 
-from fringekit.cli.options import PIXEL_MM, at_least_one, finite, in_range, positive
+from fringekit.cli.options import (
+    PIXEL_MM,
+    at_least_one,
+    in_range,
+    origin_px_option,
+    positive,
+)
 from fringekit.tracking.run import run_track
 from fringekit.tracking.tracker import TRACK_STRIDE
 
@@ -33,14 +39,7 @@ def add_parser(sub) -> None:
         default=None,
         help="default: rgb for colour frames, mono for grey ones",
     )
-    tr.add_argument(
-        "--origin-px",
-        nargs=2,
-        type=finite,
-        metavar=("ROW", "COL"),
-        default=None,
-        help="image pixel of the sensor origin (default: the image centre)",
-    )
+    origin_px_option(tr)
     tr.add_argument(
         "--sensor",
         default=None,

@@ -50,6 +50,7 @@ __all__ = [
     "coarse_map",
     "fine_map",
     "is_sensor_file",
+    "linearise",
     "load_sensor",
 ]
 
@@ -57,6 +58,19 @@ __all__ = [
 FORMAT = "fringekit-sensor/1"
 #: The maps are stored on a grid of at most this many cells a side.
 MAP_CELLS = 64
+
+
+def linearise(raw: np.ndarray, black, gamma: float) -> np.ndarray:
+    """Linear intensities of stored values (..., C): ((v - b) / (1 - b)) ** gamma, 0 below
+    the black level.
+
+    Examples
+    --------
+    >>> float(linearise(np.array([[0.5]]), [0.0], 2.0)[0, 0])
+    0.25
+    """
+    b = np.asarray(black, float)
+    return np.clip((np.asarray(raw, float) - b) / (1.0 - b), 0.0, None) ** gamma
 
 
 def coarse_map(image: np.ndarray, cells: int = MAP_CELLS) -> np.ndarray:
@@ -250,9 +264,7 @@ class CalibratedSensor:
     def linear(self, raw: np.ndarray) -> np.ndarray:
         """Linear intensities (rows, cols, C) of stored values ``raw`` (rows, cols, C) in
         [0, 1]: the black level removed, the response undone."""
-        b = np.asarray(self.black, float)
-        v = np.clip((np.asarray(raw, float) - b) / (1.0 - b), 0.0, None)
-        return v**self.gamma
+        return linearise(raw, self.black, self.gamma)
 
     def encode(self, linear: np.ndarray) -> np.ndarray:
         """Stored values (rows, cols, C) in [0, 1] of a frame whose linear intensities, as

@@ -35,11 +35,16 @@ from fringekit.errors import ConfigError
 from fringekit.inversion.detect import detect, noise_sd
 from fringekit.inversion.fit import subsample
 from fringekit.inversion.verdict import WARN_RESIDUAL
-from fringekit.library.calibrated import CalibratedSensor, coarse_map, is_sensor_file
+from fringekit.library.calibrated import (
+    CalibratedSensor,
+    coarse_map,
+    is_sensor_file,
+    linearise,
+)
 from fringekit.library.store import Library, load_library
 from fringekit.output.folders import atomic_write
 from fringekit.sensor.figure import calibration_figure
-from fringekit.sensor.fit import KnownFit, fit_known, illumination_basis, linearise
+from fringekit.sensor.fit import KnownFit, fit_known, illumination_basis
 from fringekit.sensor.frames import read_frame, read_frames, read_known
 from fringekit.sensor.geometry import sheet_geometry
 from fringekit.sensor.render import image_model
@@ -107,7 +112,9 @@ def _starts(base, frames, rest, black, gamma0: float) -> list[np.ndarray]:
 def _fit(lib, cfg, method, shape, pixel_mm, origin_px, frames, rest, black, starts, before=None):
     """The joint fit on the grid of (pixel_mm, origin_px) (started from the scales of the
     fit ``before``, when given), and the geometry it gives."""
-    base = image_model(lib, _nominal(cfg, lib, method, shape, pixel_mm, origin_px))
+    base = image_model(
+        lib, CalibratedSensor.uncalibrated(cfg, lib, shape, method, pixel_mm, origin_px)
+    )
     scales = None
     if before is not None:
         scales = (before.modulus_scale, before.fringe_scale, before.gamma, before.rotation_deg)
@@ -122,22 +129,6 @@ def _fit(lib, cfg, method, shape, pixel_mm, origin_px, frames, rest, black, star
         fit.sd["rotation_deg"],
     )
     return fit, geo
-
-
-def _nominal(cfg, lib, method, shape, pixel_mm, origin_px) -> CalibratedSensor:
-    return CalibratedSensor(
-        cfg,
-        lib.manifest.get("manifest_sha256", ""),
-        method,
-        tuple(shape),
-        pixel_mm,
-        tuple(origin_px),
-        0.0,
-        1.0,
-        1.0,
-        1.0,
-        (0.0,),
-    )
 
 
 def _moved(geo, fit_pitch: float, fit_origin) -> bool:
@@ -274,7 +265,9 @@ def calibrate_sensor(
         f"sensor calibrate: {method}, {shape[0]} x {shape[1]} px, {len(frames)} known "
         f"frame(s), black level from {black_from}"
     )
-    base = image_model(lib, _nominal(cfg, lib, method, shape, pixel_mm, origin_px))
+    base = image_model(
+        lib, CalibratedSensor.uncalibrated(cfg, lib, shape, method, pixel_mm, origin_px)
+    )
     starts = _starts(base, frames, rest, black, gamma0)
     fit, geo = _fit(lib, cfg, method, shape, pixel_mm, origin_px, frames, rest, black, starts)
     say(_line(fit, geo, time.perf_counter() - t0))

@@ -38,9 +38,10 @@ from scipy.optimize import least_squares
 from fringekit.inversion.fit import EXACT_MM, subsample
 from fringekit.inversion.model import ImageModel
 from fringekit.inversion.uncertainty import correlation_area, parameter_sd
+from fringekit.library.calibrated import linearise
 from fringekit.library.store import LoadedIndenter
 
-__all__ = ["ILLUMINATION_DEGREE", "KnownFit", "fit_known", "illumination_basis", "linearise"]
+__all__ = ["ILLUMINATION_DEGREE", "KnownFit", "fit_known", "illumination_basis"]
 
 #: Total degree of the illumination's polynomial (6 terms: vignetting and a tilt of the
 #: light, which vary over the field of view, not from pixel to pixel).
@@ -60,19 +61,6 @@ MIN_SCALE = 0.3
 START_SCALES = np.geomspace(0.6, 1.6, 13)
 #: Camera responses tried for the start: linear, and the usual encodings.
 START_GAMMAS = (1.0, 1.8, 2.2, 2.6)
-
-
-def linearise(raw: np.ndarray, black, gamma: float) -> np.ndarray:
-    """Linear intensities of stored values (..., C): ((v - b) / (1 - b)) ** gamma, 0 below
-    the black level.
-
-    Examples
-    --------
-    >>> float(linearise(np.array([[0.5]]), [0.0], 2.0)[0, 0])
-    0.25
-    """
-    b = np.asarray(black, float)
-    return np.clip((np.asarray(raw, float) - b) / (1.0 - b), 0.0, None) ** gamma
 
 
 def illumination_basis(shape, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:

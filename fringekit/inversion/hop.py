@@ -125,8 +125,7 @@ class RetarderTable:
     @classmethod
     def build(cls, sub: ImageModel, top: float) -> RetarderTable:
         """The table of ``sub``'s optics up to magnitude ``top``."""
-        lam = sub.setup.get("wavelengths")
-        lam = np.array([sub.law.wavelength_ref]) if lam is None else lam
+        lam = sub.wavelengths
         k = float(np.max(sub.law.retardation_per_stress_length(lam)))
         top = top * (1 + 1e-9) + 1e-30
         n_mag = int(np.ceil(top * 2 * k / (2 * np.pi) * TABLE_PER_FRINGE)) + 2

@@ -220,11 +220,9 @@ class ImageModel:
         """Model intensities (N, C) of summed slab pairs ab (N, S, 2); ``close`` (N,) bool:
         the rays integrated slab by slab (default, for the model's own P pixels: as
         ``exact`` and ``indenters`` say)."""
-        lam = self.setup.get("wavelengths")
-        lam = np.array([self.law.wavelength_ref]) if lam is None else lam
         if close is None:
             close = exact_rays(self.xy, indenters, self.exact)
-        return self.polariscope(quaternions_where(ab, close, self.law, lam))
+        return self.polariscope(quaternions_where(ab, close, self.law, self.wavelengths))
 
     @property
     def wavelengths(self) -> np.ndarray:

@@ -99,5 +99,4 @@ def pixel_grid(shape, pixel_mm: float, origin_px) -> PixelGrid:
             f"--origin-px {r0:g} {c0:g} lies outside the {rows} x {cols} image; allowed: "
             f"a pixel of it, rows 0..{rows - 1}, cols 0..{cols - 1} (default its centre)"
         )
-    p = pixel_mm * 1e-3
-    return PixelGrid((rows, cols), p, (-(c0 - (cols - 1) / 2) * p, (r0 - (rows - 1) / 2) * p))
+    return PixelGrid.about_origin((rows, cols), pixel_mm * 1e-3, (r0, c0))

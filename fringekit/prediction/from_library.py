@@ -136,10 +136,7 @@ def camera_linear(cfg: dict, lib, inds, cal) -> np.ndarray:
     the image's axes through the method's optics (the white light's camera matrix for
     rgb), before illumination and exposure."""
     opt = cal.optics(optics_setup(cfg))
-    rows, cols = cal.shape
-    r0, c0 = cal.origin_px
-    p = cal.pixel_mm * 1e-3
-    grid = PixelGrid((rows, cols), p, (-(c0 - (cols - 1) / 2) * p, (r0 - (rows - 1) / 2) * p))
+    grid = PixelGrid.about_origin(cal.shape, cal.pixel_mm * 1e-3, cal.origin_px)
     t = np.radians(cal.rotation_deg)
     c, s = np.cos(t), np.sin(t)
     turned = [

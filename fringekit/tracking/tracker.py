@@ -289,6 +289,8 @@ class Tracker:
             fixed, rms, r = self._evaluate(sub)
             sd = self._sd(fixed, r, events)
         if self._release(sd, events) and self.diam:
+            if "redetect" in events:  # the contacts left shared fringes with one dropped
+                self._keep_history(fit_indenters(self._fine(full), self.p, self.diam, self.noise).x)
             fixed, rms, r = self._evaluate(sub)
             sd = self._sd(fixed, r, events)
         quiet = not ({"start", "redetect"} & set(events))  # (those searched already)
@@ -461,20 +463,35 @@ class Tracker:
 
     def _release(self, sd: np.ndarray, events: list) -> bool:
         """Contacts whose normal load is no longer significant (or that met a stronger
-        one) are released, their ids retired."""
+        one) are released, their ids retired. A contact found in this frame that a
+        contact already tracked met keeps the tracked one's id and history: they are one
+        contact, seen twice by a search after dropped frames."""
         p, diam, kept = prune(self.p, sd.ravel(), self.diam, self.blank.lib)
         if len(kept) == len(self.diam):
             return False
+        ids = self.ids.copy()
+        hist = list(self.history)
+        axes = self._axes()
         for i in np.setdiff1d(np.arange(len(self.diam)), kept):
             touched = f"touch {int(self.ids[i])}"
             if touched in events:  # found and dropped in one frame: never a contact
                 events.remove(touched)
+                continue
+            near = [
+                j
+                for j in kept
+                if f"touch {int(ids[j])}" in events
+                and np.hypot(*(axes[i] - axes[j])) < 0.5e3 * (self.diam[i] + self.diam[j])
+            ]
+            if near:  # the tracked contact lives on in the one found beside it
+                j = near[0]
+                events.remove(f"touch {int(ids[j])}")
+                ids[j], hist[j] = self.ids[i], hist[i]
             else:
                 events.append(f"release {int(self.ids[i])}")
-        hist = [self.history[i] for i in kept]
-        self.ids = self.ids[kept]
+        self.ids = ids[kept]
         self._reset(p, diam)
-        self.history = hist
+        self.history = [hist[i] for i in kept]
         return True
 
     def _touch(self, fixed: ImageModel, r: np.ndarray, rms: np.ndarray, events: list, full) -> bool:

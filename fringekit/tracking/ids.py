@@ -14,7 +14,7 @@ from scipy.optimize import linear_sum_assignment
 
 from fringekit.inversion.model import N_PARAMS
 
-__all__ = ["assign", "velocity"]
+__all__ = ["assign", "twins", "velocity"]
 
 
 def assign(old_mm, new_mm, gate_mm: float = np.inf, allowed=None):
@@ -91,3 +91,46 @@ def velocity(before, after, gap: int) -> np.ndarray:
         if len(j):
             v[k] = (q1[k] - q0[j[0]]) / gap
     return v.ravel()
+
+
+def twins(axes_mm, diameters_mm, dropped, kept, new) -> dict:
+    """Contacts tracked before that were dropped beside one found in the same frame: the
+    same contact seen twice (a search after dropped frames can put a new contact on the
+    rings of a tracked one, and the fit then shares the load between the two).
+
+    Parameters
+    ----------
+    axes_mm : (n, 2) array
+        Every contact's axis (mm).
+    diameters_mm : (n,) array
+        Their spheres' diameters (mm).
+    dropped, kept : sequences of int
+        The contacts dropped and kept.
+    new : (n,) bool array
+        The contacts found in this frame.
+
+    Returns
+    -------
+    dict
+        Kept new contact -> the dropped tracked contact whose id it takes (closer than
+        their spheres allow; each kept contact takes one id at most).
+
+    Examples
+    --------
+    >>> twins([[0.0, 0.0], [0.4, 0.0], [9.0, 0.0]], [3.5, 3.5, 3.5], [0], [1, 2],
+    ...       [False, True, True])
+    {1: 0}
+    """
+    xy, d, new = np.asarray(axes_mm, float), np.asarray(diameters_mm, float), np.asarray(new)
+    out: dict = {}
+    for i in dropped:  # a handful of contacts
+        if new[i]:
+            continue
+        near = [
+            j
+            for j in kept
+            if new[j] and j not in out and np.hypot(*(xy[i] - xy[j])) < 0.5 * (d[i] + d[j])
+        ]
+        if near:
+            out[near[0]] = int(i)
+    return out

@@ -53,7 +53,7 @@ from fringekit.inversion.hop import hop
 from fringekit.inversion.model import N_PARAMS, ImageModel, unpack
 from fringekit.inversion.uncertainty import model_sd, parameter_sd, stated_sd
 from fringekit.inversion.verdict import WARN_RESIDUAL, InvertError
-from fringekit.tracking.ids import assign, velocity
+from fringekit.tracking.ids import assign, twins, velocity
 from fringekit.tracking.warm import ChordFit
 
 __all__ = [
@@ -469,25 +469,17 @@ class Tracker:
         p, diam, kept = prune(self.p, sd.ravel(), self.diam, self.blank.lib)
         if len(kept) == len(self.diam):
             return False
-        ids = self.ids.copy()
-        hist = list(self.history)
-        axes = self._axes()
-        for i in np.setdiff1d(np.arange(len(self.diam)), kept):
-            touched = f"touch {int(self.ids[i])}"
-            if touched in events:  # found and dropped in one frame: never a contact
-                events.remove(touched)
-                continue
-            near = [
-                j
-                for j in kept
-                if f"touch {int(ids[j])}" in events
-                and np.hypot(*(axes[i] - axes[j])) < 0.5e3 * (self.diam[i] + self.diam[j])
-            ]
-            if near:  # the tracked contact lives on in the one found beside it
-                j = near[0]
-                events.remove(f"touch {int(ids[j])}")
-                ids[j], hist[j] = self.ids[i], hist[i]
-            else:
+        new = np.array([f"touch {int(i)}" in events for i in self.ids])
+        dropped = np.setdiff1d(np.arange(len(self.diam)), kept)
+        pairs = twins(self._axes(), np.array(self.diam) * 1e3, dropped, kept, new)
+        ids, hist = self.ids.copy(), list(self.history)
+        for j, i in pairs.items():  # the tracked contact lives on in its twin
+            events.remove(f"touch {int(ids[j])}")
+            ids[j], hist[j] = self.ids[i], hist[i]
+        for i in dropped:
+            if new[i]:  # found and dropped in one frame: never a contact
+                events.remove(f"touch {int(self.ids[i])}")
+            elif i not in pairs.values():
                 events.append(f"release {int(self.ids[i])}")
         self.ids = ids[kept]
         self._reset(p, diam)

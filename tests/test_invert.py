@@ -18,7 +18,7 @@ from fringekit.config.files import to_toml
 from fringekit.config.inputs import optics_setup
 from fringekit.inversion import LOAD_COLUMNS
 from fringekit.inversion.detect import detect, noise_sd
-from fringekit.inversion.fit import invert_image
+from fringekit.inversion.fit import invert_image, prune
 from fringekit.inversion.model import ImageModel
 from fringekit.library.store import LoadedIndenter
 from fringekit.optics import Camera, write_image
@@ -608,3 +608,23 @@ def test_a_tangential_ratio_beyond_the_library_is_named_as_such():
     with pytest.raises(InvertError, match="not a number"):
         refuse(np.array([[0.0, 0.0, 5.0, 1.0, 0.0]]), lib, np.inf)
     refuse(np.array([[0.0, 0.0, 5.0, 1.0, 0.0]]), lib, 0.05)  # inside: no refusal
+
+
+def test_two_fitted_onto_one_contact_keep_the_stronger(tiny_library):
+    """Two candidates fitted onto one contact share its load, and their sds grow with
+    the likeness of their columns: 1.8 + 1.2 N with sds of 1.2 N each, measured on a
+    library frame. Each alone then looked insignificant and both were dropped, the
+    contact lost and the image refused; the stronger is kept (to be fitted again), a
+    lone insignificant one is still dropped."""
+    p = np.array(
+        [
+            [2.982, -4.042, 1.806, 0.009, -0.004],
+            [-4.0, 3.5, 2.5, 0.3, 0.0],
+            [2.998, -3.935, 1.164, -0.001, 0.302],
+            [6.0, -6.0, 1.1, 0.0, 0.0],
+        ]
+    )
+    sd = np.zeros_like(p)
+    sd[:, 2] = [1.187, 0.002, 1.189, 0.5]
+    _, diam, kept = prune(p.ravel(), sd.ravel(), [3.5e-3] * 4, tiny_library)
+    assert kept == [0, 1] and diam == [3.5e-3] * 2

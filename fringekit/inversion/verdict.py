@@ -93,5 +93,7 @@ def refuse(q: np.ndarray, lib, total: float) -> None:
         )
         raise InvertError(
             f"the library cannot explain this image: the fit {left} (at most {MAX_RESIDUAL} "
-            "is accepted); check the sensor, --pixel-mm, --origin-px and --method"
+            "is accepted); check the sensor, --pixel-mm, --origin-px and --method, and that "
+            f"the loads are within the library's range (normal loads up to {lib.max_load_N:g} "
+            "N; build a library with larger --load-N for more)"
         )

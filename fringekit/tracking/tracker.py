@@ -217,9 +217,7 @@ class Tracker:
         if not len(cand):
             return
         p, diam = self._quick(full, cand)
-        if p is not None:  # its fit on every stride-th pixel, finished on every 2nd
-            p = fit_indenters(self._fine(full), p, diam, self.noise).x
-        else:
+        if p is None:
             try:
                 res = invert_image(full, noise=self.noise)
             except InvertError:

@@ -12,13 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = [
-    "Indenter",
-    "ContactSettings",
-    "SolverSettings",
-    "PENETRATION_TOL",
-    "PENETRATION_TOL_FRICTION",
-]
+__all__ = ["Indenter", "ContactSettings", "SolverSettings"]
 
 
 def _finite_array(name: str, value, shape_tail: tuple[int, ...] = ()) -> np.ndarray:
@@ -145,19 +139,6 @@ class Indenter:
         return np.asarray(self.shear_force, dtype=float)
 
 
-#: Largest penetration / depth of a frictionless contact, whose state does not depend on
-#: the load path: a tighter tolerance moves the reference case's contact radius by 1 %
-#: (1.128 mm at 0.01, 1.117 at 0.001) for 10 % more solve time.
-PENETRATION_TOL = 0.01
-#: ... and of a contact with friction. Under stick a point is anchored where it first
-#: touches, and how far the points penetrate on the way decides where, so the state
-#: depends on the load steps by about this much: at 0.01 the reference sensor at 8 N in
-#: 1, 16 and 40 load states spread 0.2 % in depth, 1.6 % in contact radius and 0.37
-#: fringe near the contact; at 0.003, 0.08 %, 0.45 % and 0.02 fringe
-#: (``docs/validation.md``), for 15-28 % more Newton iterations.
-PENETRATION_TOL_FRICTION = 0.003
-
-
 @dataclass(frozen=True)
 class ContactSettings:
     """Contact enforcement (augmented Lagrangian, Coulomb friction).
@@ -174,10 +155,9 @@ class ContactSettings:
         and costs ~50 % more time on the reference case for the same depth (bench/fea.py).
     tangential_factor : float
         Tangential penalty as a multiple of the normal penalty.
-    penetration_tol : float, optional
-        Largest allowed penetration as a fraction of the indentation depth; default
-        :data:`PENETRATION_TOL_FRICTION` with friction, :data:`PENETRATION_TOL` without.
-        max_updates : int
+    penetration_tol : float
+        Largest allowed penetration as a fraction of the indentation depth (issue 3: 1 %).
+    max_updates : int
         Largest number of multiplier updates per load state.
 
     Raises
@@ -198,13 +178,10 @@ class ContactSettings:
     friction: float = 0.0
     penalty_factor: float = 100.0
     tangential_factor: float = 1.0
-    penetration_tol: float | None = None
+    penetration_tol: float = 0.01
     max_updates: int = 12
 
     def __post_init__(self) -> None:
-        if self.penetration_tol is None:
-            tol = PENETRATION_TOL_FRICTION if self.friction > 0 else PENETRATION_TOL
-            object.__setattr__(self, "penetration_tol", tol)
         if not (self.friction >= 0) or math.isnan(self.friction):
             raise ValueError(
                 f"friction = {self.friction!r} is not allowed; use a coefficient >= 0 "

@@ -52,19 +52,14 @@ __all__ = [
 #: 2: the manifest holds a checksum of its own (1: of the field files only).
 #: 3: under friction a point sticks where it first touches (fea.contact), so the
 #: stick fields of earlier libraries depend on the load steps they were built with.
-#: 4: contact penetration within 0.3 % of the depth (it was 1 %), so the stick fields no
-#: longer depend on the load steps by up to 1.6 % in contact radius.
 #: Older formats are refused with the command that rebuilds the library.
-FORMAT = "fringekit-library/4"
+FORMAT = "fringekit-library/3"
 #: Earlier formats -> why they are refused.
 _OLD_FORMATS = {
     "fringekit-library/1": "its manifest.json has no checksum of its own, so edits to it "
     "go unnoticed",
     "fringekit-library/2": "its stick fields anchored each point where it was at the start "
     "of a load step, so they depend on the load steps (up to 2 % in load)",
-    "fringekit-library/3": "its fields were solved with a contact penetration of up to 1 % "
-    "of the depth, so its stick fields depend on the load steps (up to 1.6 % in contact "
-    "radius)",
 }
 #: The arrays of a field file (module docstring).
 FIELD_KEYS = ("AB", "valid", "contact_radius_m", "centre_m", "force_N")

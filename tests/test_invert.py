@@ -628,3 +628,13 @@ def test_two_fitted_onto_one_contact_keep_the_stronger(tiny_library):
     sd[:, 2] = [1.187, 0.002, 1.189, 0.5]
     _, diam, kept = prune(p.ravel(), sd.ravel(), [3.5e-3] * 4, tiny_library)
     assert kept == [0, 1] and diam == [3.5e-3] * 2
+
+
+def test_an_unexplained_image_is_refused_naming_the_load_range(tiny_library):
+    """The refusal of an image the fit cannot explain names the library's load range and
+    --load-N: an image beyond the range can end there rather than at the load bound."""
+    from fringekit.inversion.verdict import InvertError, refuse
+
+    q = np.array([[0.0, 0.0, 2.0, 0.1, 0.0]])  # inside the range, far from its bounds
+    with pytest.raises(InvertError, match=r"up to 4 N; build a library with larger --load-N"):
+        refuse(q, tiny_library, total=0.7)

@@ -157,15 +157,6 @@ class RaySamples:
     index: np.ndarray
     mirror: np.ndarray
 
-    @classmethod
-    def about_origin(cls, shape: tuple[int, int], pixel_size: float, origin_rc):
-        """Grid of ``shape`` whose pixel ``origin_rc`` (row, col; fractional) lies at the
-        sheet's origin, x = y = 0."""
-        rows, cols = shape
-        r0, c0 = origin_rc
-        p = pixel_size
-        return cls(shape, p, (-(c0 - (cols - 1) / 2) * p, (r0 - (rows - 1) / 2) * p))
-
     @property
     def n_pixels(self) -> int:
         return len(self.valid)

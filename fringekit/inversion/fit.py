@@ -57,6 +57,7 @@ __all__ = [
     "prune",
     "refit",
     "select_indenters",
+    "sphere_gaps",
     "start_params",
     "subsample",
 ]
@@ -224,6 +225,23 @@ def fit_indenters(model: ImageModel, p0, diam, noise: float, box=None, ftol=FIT_
     )
 
 
+def sphere_gaps(p: np.ndarray, diam) -> np.ndarray:
+    """(n, n) distance (mm) between every two indenters' axes less the sum of their
+    spheres' radii, inf on the diagonal: below 0 where two are closer than their spheres
+    allow (parameter vector ``p`` (n * 5,), x, y in mm; diameters in m).
+
+    Examples
+    --------
+    >>> sphere_gaps(np.array([0.0, 0, 1, 0, 0, 3.0, 0, 1, 0, 0]), [3.5e-3, 3.5e-3])[0, 1]
+    np.float64(-0.5)
+    """
+    q = np.reshape(p, (-1, N_PARAMS))
+    d = np.asarray(diam, float)
+    gap = np.hypot(*(q[:, None, :2] - q[None, :, :2]).transpose(2, 0, 1)) - 0.5e3 * (d[:, None] + d)
+    np.fill_diagonal(gap, np.inf)
+    return gap
+
+
 def prune(p: np.ndarray, sd: np.ndarray, diam: list, lib) -> tuple[np.ndarray, list, list]:
     """Drop indenters whose normal load is not significant, and the weaker of two whose
     axes are closer than their spheres allow (centres at least a diameter apart; the
@@ -233,9 +251,7 @@ def prune(p: np.ndarray, sd: np.ndarray, diam: list, lib) -> tuple[np.ndarray, l
     s = sd.reshape(-1, N_PARAMS)
     with np.errstate(invalid="ignore"):
         significant = ~(q[:, 2] <= 3 * s[:, 2])  # an undefined sd keeps it
-    d = np.asarray(diam, float)
-    gap = np.hypot(*(q[:, None, :2] - q[None, :, :2]).transpose(2, 0, 1)) - 0.5e3 * (d[:, None] + d)
-    np.fill_diagonal(gap, np.inf)
+    gap = sphere_gaps(p, diam)
     # two fitted onto one contact share its load and their sds grow without bound (their
     # columns are alike): each alone may look insignificant though together they are
     # not (1.8 + 1.2 N with sds of 1.2 N, both dropped and the contact lost). The

@@ -93,17 +93,17 @@ def velocity(before, after, gap: int) -> np.ndarray:
     return v.ravel()
 
 
-def twins(axes_mm, diameters_mm, dropped, kept, new) -> dict:
+def twins(gaps, dropped, kept, new) -> dict:
     """Contacts tracked before that were dropped beside one found in the same frame: the
     same contact seen twice (a search after dropped frames can put a new contact on the
     rings of a tracked one, and the fit then shares the load between the two).
 
     Parameters
     ----------
-    axes_mm : (n, 2) array
-        Every contact's axis (mm).
-    diameters_mm : (n,) array
-        Their spheres' diameters (mm).
+    gaps : (n, n) array
+        Distance between the contacts' axes less their spheres' radii (mm; below 0 for
+        two closer than their spheres allow), as
+        :func:`~fringekit.inversion.fit.sphere_gaps` gives it.
     dropped, kept : sequences of int
         The contacts dropped and kept.
     new : (n,) bool array
@@ -112,25 +112,22 @@ def twins(axes_mm, diameters_mm, dropped, kept, new) -> dict:
     Returns
     -------
     dict
-        Kept new contact -> the dropped tracked contact whose id it takes (closer than
-        their spheres allow; each kept contact takes one id at most).
+        Kept new contact -> the dropped tracked contact whose id it takes (each kept
+        contact takes one id at most).
 
     Examples
     --------
-    >>> twins([[0.0, 0.0], [0.4, 0.0], [9.0, 0.0]], [3.5, 3.5, 3.5], [0], [1, 2],
-    ...       [False, True, True])
+    >>> import numpy as np
+    >>> gaps = np.array([[np.inf, -3.1, 5.5], [-3.1, np.inf, 5.1], [5.5, 5.1, np.inf]])
+    >>> twins(gaps, [0], [1, 2], [False, True, True])
     {1: 0}
     """
-    xy, d, new = np.asarray(axes_mm, float), np.asarray(diameters_mm, float), np.asarray(new)
+    new = np.asarray(new)
     out: dict = {}
     for i in dropped:  # a handful of contacts
         if new[i]:
             continue
-        near = [
-            j
-            for j in kept
-            if new[j] and j not in out and np.hypot(*(xy[i] - xy[j])) < 0.5 * (d[i] + d[j])
-        ]
+        near = [j for j in kept if new[j] and j not in out and gaps[i, j] < 0]
         if near:
             out[near[0]] = int(i)
     return out

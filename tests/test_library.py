@@ -153,6 +153,46 @@ def test_the_chain_of_a_build_and_of_a_resumed_one():
     assert parents == [0, 1, 2] and states == [(0, 0), (1, 0), (1, 1)]
 
 
+def test_a_build_elsewhere_takes_its_branches_from_the_cache(
+    tiny_library, cache_dir, tmp_path, monkeypatch
+):
+    """The tiny library built again into another folder (the fixture's build kept its
+    branches in the session's cache) solves nothing and gives the same fields; with
+    ``use_cache=False`` it solves."""
+    from library_fixtures import TINY, TINY_LOADS, TINY_RATIOS
+
+    from fringekit.library import build
+
+    def solve_chain(*args):
+        raise RuntimeError("solved")
+
+    monkeypatch.setattr(build, "solve_chain", solve_chain)
+    msgs = []
+    again = build.build_library(
+        sensor_config(**TINY),
+        tmp_path / "again",
+        loads=TINY_LOADS,
+        ratios=TINY_RATIOS,
+        cache_dir=cache_dir,
+        progress=True,
+        echo=msgs.append,
+    )
+    assert "2 already solved (2 from the cache)" in msgs[0]
+    files = tiny_library.manifest["files"]
+    assert {n: f["sha256"] for n, f in again.manifest["files"].items()} == {
+        n: f["sha256"] for n, f in files.items()
+    }
+    with pytest.raises(RuntimeError, match="solved"):
+        build.build_library(
+            sensor_config(**TINY),
+            tmp_path / "solved",
+            loads=TINY_LOADS,
+            ratios=TINY_RATIOS,
+            cache_dir=cache_dir,
+            use_cache=False,
+        )
+
+
 @pytest.mark.slow
 def test_a_resumed_build_follows_the_same_path(test_library, cache_dir, tmp_path):
     """With the middle branch lost, a re-build (here on a one-worker Dask cluster) solves
@@ -175,6 +215,7 @@ def test_a_resumed_build_follows_the_same_path(test_library, cache_dir, tmp_path
         ratios=RATIOS,
         workers=1,
         cache_dir=cache_dir,
+        use_cache=False,  # the lost branch is solved again, not copied
         progress=True,
         echo=msgs.append,
     )

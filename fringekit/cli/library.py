@@ -67,6 +67,9 @@ def add_parser(sub) -> None:
         "core; 0: always in this process)",
     )
     b.add_argument("--cache-dir", default=None, help="mesh and solution cache root")
+    b.add_argument(
+        "--no-cache", action="store_true", help="solve every branch (none from the cache)"
+    )
     b.add_argument("--quiet", action="store_true")
     b.set_defaults(func=run)
 
@@ -83,6 +86,7 @@ def run(args: argparse.Namespace) -> int:
         scheduler=args.scheduler,
         workers=args.workers,
         cache_dir=args.cache_dir,
+        use_cache=not args.no_cache,
         progress=not args.quiet,
         inputs=[args.config],
     ).manifest

@@ -20,8 +20,10 @@ not a library.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
+import shutil
 import time
 from pathlib import Path
 
@@ -93,6 +95,29 @@ def _finished(path: Path, settings: dict) -> bool:
         return False
 
 
+def _cache_entry(cache: Path, settings: dict) -> Path:
+    """Where a branch of these settings is kept in the cache: named by a hash of the
+    settings and the library format."""
+    text = json.dumps({"format": FORMAT, **settings}, sort_keys=True)
+    return cache / "library-branches" / f"{hashlib.sha256(text.encode()).hexdigest()[:32]}.npz"
+
+
+def _keep(src: Path, dst: Path) -> None:
+    """Copy a branch file whole or not at all (a concurrent build may write the same)."""
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write(dst, lambda tmp: shutil.copyfile(src, tmp))
+
+
+def _from_cache(cache: Path, out: Path, branch: dict) -> bool:
+    """Copy the cached branch into ``out`` when the cache holds it (with the same
+    settings: a hash collision or a stale file is solved again)."""
+    hit = _cache_entry(cache, branch["settings"])
+    if not _finished(hit, branch["settings"]):
+        return False
+    _keep(hit, out / "branches" / f"{branch['id']}.npz")
+    return True
+
+
 def library_bytes(cfg: dict, n_diameters: int, n_loads: int, n_ratios: int, n_slabs: int):
     """Memory (bytes) of a library's largest arrays and what they are, before any solve:
     the larger of one state's sampling on the lattice (R x F rays x S slabs x 72 bytes:
@@ -139,6 +164,7 @@ def build_library(
     scheduler=None,
     workers=None,
     cache_dir=None,
+    use_cache: bool = True,
     progress=False,
     echo=print,
     inputs=(),
@@ -169,7 +195,13 @@ def build_library(
         Local single-threaded worker processes, one diameter's chain each; default one
         diameter is solved in this process on every core; 0 always in this process.
     cache_dir : path, optional
-        Mesh cache root.
+        Mesh and solution cache root (default ``$FRINGEKIT_CACHE_DIR`` or the user
+        cache). Every solved branch is kept there too, named by a hash of all it depends
+        on (sensor, mesh, solver, lattice, library format, diameter, load and the loads
+        below it), and a build into another folder, or with loads added above, takes it
+        from there instead of solving it again.
+    use_cache : bool
+        False: solve every branch not in ``out`` (and keep nothing in the cache).
     progress : bool
         A progress bar with an ETA and one line per stage through ``echo`` (default off).
     echo : callable
@@ -228,7 +260,8 @@ def build_library(
             n_slabs,
             scheduler,
             workers,
-            cache_dir,
+            Path(cache_dir or default_cache_dir()),
+            use_cache,
             progress,
             echo,
         )
@@ -267,9 +300,21 @@ def _same_sensor(out: Path, key: dict) -> None:
 
 
 def _build(
-    cfg, out: Path, diameters, loads, ratios, n_slabs, scheduler, workers, cache_dir, progress, echo
+    cfg,
+    out,
+    diameters,
+    loads,
+    ratios,
+    n_slabs,
+    scheduler,
+    workers,
+    cache,
+    use_cache,
+    progress,
+    echo,
 ) -> Library:
-    """Solve the unfinished branches into the claimed folder ``out``, then assemble it."""
+    """Solve the unfinished branches into the claimed folder ``out`` (those in the cache
+    copied instead), then assemble it."""
     lat = library_lattice(cfg, n_slabs)
     key = sensor_key(cfg)
     mesh = dict(cfg["mesh"], symmetry="half")
@@ -283,6 +328,7 @@ def _build(
         "path": PATH,
     }
     branches, chains = [], []
+    (out / "branches").mkdir(parents=True, exist_ok=True)
     for d in diameters:
         mine = []
         for f in loads:
@@ -293,6 +339,8 @@ def _build(
                 "settings": dict(settings, diameter_mm=d, load_N=float(f), loads_below=below),
             }
             b["todo"] = not _finished(out / "branches" / f"{b['id']}.npz", b["settings"])
+            b["cached"] = b["todo"] and use_cache and _from_cache(cache, out, b)
+            b["todo"] = b["todo"] and not b["cached"]
             mine.append(b)
         branches += mine
         if any(b["todo"] for b in mine):
@@ -308,18 +356,20 @@ def _build(
                     "n_slabs": n_slabs,
                 }
             )
-    (out / "branches").mkdir(parents=True, exist_ok=True)
     (out / "manifest.json").unlink(missing_ok=True)  # not a library until assembled again
     n_todo = sum(b["todo"] for b in branches)
     say = echo if progress else (lambda s: None)
     say(
         f"library: {len(branches)} branches ({len(diameters)} diameter(s) x {len(loads)} "
-        f"loads, {len(ratios)} states each), {len(branches) - n_todo} already solved"
+        f"loads, {len(ratios)} states each), {len(branches) - n_todo} already solved "
+        f"({sum(b['cached'] for b in branches)} from the cache)"
     )
     t0 = time.perf_counter()
-    failed = _run_chains(
-        chains, out, str(cache_dir or default_cache_dir()), scheduler, workers, progress, say
-    )
+    failed = _run_chains(chains, out, str(cache), scheduler, workers, progress, say)
+    if use_cache:
+        for b in branches:  # what this build solved, for the next one
+            if b["todo"] and _finished(out / "branches" / f"{b['id']}.npz", b["settings"]):
+                _keep(out / "branches" / f"{b['id']}.npz", _cache_entry(cache, b["settings"]))
     if failed:
         raise ComputeError(
             f"library: the solve failed for diameter {failed[0]['id']}: "

@@ -85,6 +85,32 @@ def test_a_still_contact_under_noise_keeps_its_jacobian(tiny_library, tmp_path, 
         assert np.all(np.abs(f.params[0] - still[0][0]) <= 2 * f.sd[0]), f.index
 
 
+@pytest.mark.slow
+def test_a_light_touch_keeps_one_id_through_the_release_level(tiny_library, tmp_path):
+    """A contact pressed from 0.6 N up through the release level (1 N, half the tiny
+    library's first load) and lifted to zero: one touch, one id, one release, in the
+    frame its load is gone (it was found, dropped and found again under a new id in
+    every frame below that level)."""
+    ramp = [0.0, 0.6, 0.7, 0.8, 0.9, 1.1, 1.3, 0.8, 0.4, 0.0]
+    frames = [
+        [(-3.0, 3.0, 3.0, 0.3, 0.0)] + ([(3.5, -3.0, f, 0.0, 0.0)] if f else []) for f in ramp
+    ]
+    library_frames(tiny_library, frames, tmp_path, pixels=PX, pixel_mm=PIXEL_MM, noise=0.003)
+    t = track(tmp_path, tiny_library, pixel_mm=PIXEL_MM)
+    light = [
+        (f.index, int(i))
+        for f in t.frames
+        for i, row in zip(f.ids, f.params, strict=True)
+        if row[0] > 0
+    ]
+    assert [k for k, _ in light] == list(range(1, 9)) and len({i for _, i in light}) == 1
+    events = [e for f in t.frames for e in f.events]
+    assert events == ["start", f"touch {light[0][1]}", f"release {light[0][1]}"]
+    assert t.frames[9].events == (f"release {light[0][1]}",)
+    for f in t.frames:  # the steady contact is not disturbed by the light one
+        assert np.hypot(*(f.params[0, :2] - [-3.0, 3.0])) < 0.03, f.index
+
+
 def _events(t) -> dict:
     return {f.index: f.events for f in t.frames if f.events}
 

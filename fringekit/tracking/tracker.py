@@ -20,10 +20,12 @@ does that once, when the first contact appears, and then per frame:
    own running median over ``HISTORY`` frames: above ``JUMP`` times it (and above
    ``invert``'s warning level) the frame is *recovered*: each contact's tangential basin
    is searched (:func:`fringekit.inversion.hop.hop`) and a robust joint fit run, within
-   the same frame. A contact whose normal load is no longer significant (below 3 sd or
-   half the library's first load) is *released*; the residual image is searched for a
-   new contact (``invert``'s detection, the present ones excluded), which is *touched*:
-   started from the library's scan and fitted with the others.
+   the same frame. A contact whose normal load is no longer significant (below 3 sd) is
+   *released*; the residual image is searched for a new contact (``invert``'s
+   detection, the present ones excluded), which is *touched*: started from the
+   library's scan and fitted with the others, and kept from half the library's first
+   load (a touch is taken from that level and let go below 3 sd, so a load ramping
+   through it keeps one id).
 3. **Identity.** Each contact keeps the id it got at its touch until its release: the
    parameters of a contact are one block of the fit, carried from frame to frame, so
    two contacts that pass each other keep their blocks (two spheres' axes stay a
@@ -285,7 +287,7 @@ class Tracker:
                 self._recover(self._fine(full), events)
             fixed, rms, r = self._evaluate(sub)
         sd = self._sd(fixed, r, events)
-        lost = self._lost(sd)
+        lost = self._lost(sd, events)
         if lost.any() and "redetect" not in events and self._redetect(fixed, full, events, lost):
             fixed, rms, r = self._evaluate(sub)
             sd = self._sd(fixed, r, events)
@@ -357,7 +359,7 @@ class Tracker:
     def _jumped(self, rms: np.ndarray) -> bool:
         return bool(self._jumps(rms).any())
 
-    def _lost(self, sd: np.ndarray) -> np.ndarray:
+    def _lost(self, sd: np.ndarray, events: list) -> np.ndarray:
         """(n,) bool: the contacts the release would drop (normal load not significant,
         or the axis within a sphere of a stronger one's) that bore more than twice the
         release level in the frame before: moved faster than the warm fit can follow,
@@ -365,7 +367,7 @@ class Tracker:
         out = np.zeros(len(self.diam), bool)
         if len(self.p_before) != len(self.p):
             return out
-        _, _, kept = prune(self.p, sd.ravel(), self.diam, self.blank.lib)
+        _, _, kept = prune(self.p, sd.ravel(), self.diam, self.blank.lib, self._held(events))
         gone = np.setdiff1d(np.arange(len(self.diam)), kept)
         was = self.p_before.reshape(-1, N_PARAMS)[gone, 2]
         out[gone] = was > 2 * MIN_LOAD_FRACTION * self.blank.lib.load_N[1]
@@ -467,10 +469,11 @@ class Tracker:
         one) are released, their ids retired. A contact found in this frame that a
         contact already tracked met keeps the tracked one's id and history: they are one
         contact, seen twice by a search after dropped frames."""
-        p, diam, kept = prune(self.p, sd.ravel(), self.diam, self.blank.lib)
+        held = self._held(events)
+        p, diam, kept = prune(self.p, sd.ravel(), self.diam, self.blank.lib, held)
         if len(kept) == len(self.diam):
             return False
-        new = np.array([f"touch {int(i)}" in events for i in self.ids])
+        new = ~held
         dropped = np.setdiff1d(np.arange(len(self.diam)), kept)
         pairs = twins(sphere_gaps(self.p, self.diam), dropped, kept, new)
         ids, hist = self.ids.copy(), list(self.history)
@@ -486,6 +489,10 @@ class Tracker:
         self._reset(p, diam)
         self.history = [hist[i] for i in kept]
         return True
+
+    def _held(self, events: list) -> np.ndarray:
+        """(n,) bool: the contacts tracked before this frame (not touched in it)."""
+        return np.array([f"touch {int(i)}" not in events for i in self.ids], bool)
 
     def _touch(self, fixed: ImageModel, r: np.ndarray, rms: np.ndarray, events: list, full) -> bool:
         """The strongest new contact in the residual image, at least BORDER_MM inside the

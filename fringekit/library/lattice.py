@@ -178,20 +178,20 @@ def interpolate_turned(AB: np.ndarray, lattice: PolarLattice, dx, dy, psi) -> np
     dphi = lattice.phi[1] - lattice.phi[0]
     ip = np.clip((pn / dphi).astype(int), 0, len(lattice.phi) - 2)
     tp = (pn / dphi - ip).astype(np.float32)
-    # the four corners of each point's cell as rows of the flattened (R * F, S) field, a
-    # pair (A, B) read as the complex A + iB, weighted in single precision (the field's)
+    # the four corners of each point's cell as rows of the flattened (R * F, S * 2) field,
+    # weighted in float32 (the field's precision) with in-place sums
     F = AB.shape[1]
-    flat = np.ascontiguousarray(AB, np.float32).reshape(-1, S * 2).view(np.complex64)
+    flat = AB.reshape(-1, S * 2)
     k = ir * F + ip
     val = flat[k] * ((1 - tr) * (1 - tp))[:, None]
     val += flat[k + F] * (tr * (1 - tp))[:, None]
     val += flat[k + 1] * ((1 - tr) * tp)[:, None]
     val += flat[k + F + 1] * (tr * tp)[:, None]
-    np.conjugate(val, out=val, where=(v[near] < 0)[:, None])  # the mirror image: B to -B
-    # polar to Cartesian (polar_to_cartesian): a + ib = (A + iB) exp(2i alpha), with
-    # exp(2i alpha) = (dx + i dy)^2 / r^2 (1 on the axis itself)
-    z = dx[near] + 1j * dy[near]
-    turn = np.where(rn > 0, z * z / np.where(rn > 0, rn * rn, 1.0), 1.0).astype(np.complex64)
-    val *= turn[:, None]
-    out.view(np.complex64)[near] = val[..., None]  # out (..., S, 2) as (..., S, 1)
+    val = val.reshape(-1, S, 2)
+    val[..., 1] *= np.where(v[near] < 0, -1.0, 1.0).astype(np.float32)[:, None]  # mirror
+    alpha = np.arctan2(dy[near], dx[near])[:, None]
+    if rn.size == r.size:  # the usual case: every point near, written in place
+        polar_to_cartesian(val[..., 0], val[..., 1], alpha, out=out.reshape(-1, S, 2))
+    else:
+        out[near] = polar_to_cartesian(val[..., 0], val[..., 1], alpha)
     return out

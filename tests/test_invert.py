@@ -630,6 +630,17 @@ def test_two_fitted_onto_one_contact_keep_the_stronger(tiny_library):
     assert kept == [0, 1] and diam == [3.5e-3] * 2
 
 
+def test_a_refusal_at_the_largest_ratio_also_names_the_load_range(tiny_library):
+    """An image of more normal load than the library's largest can end at the largest
+    tangential ratio (an image of 1.6 times the stress of 4 N was read as 3.34 N at
+    ratio 0.8): the refusal names --load-N and the range besides --shear-ratio."""
+    from fringekit.inversion.verdict import InvertError, refuse
+
+    q = np.array([[1.0, 0.0, 3.34, 2.67, 0.0]])  # ratio 0.8, beyond the largest (0.4)
+    with pytest.raises(InvertError, match=r"--shear-ratio, or with larger --load-N .* 4 N"):
+        refuse(q, tiny_library, total=0.05)
+
+
 def test_an_unexplained_image_is_refused_naming_the_load_range(tiny_library):
     """The refusal of an image the fit cannot explain names the library's load range and
     --load-N: an image beyond the range can end there rather than at the load bound."""

@@ -78,7 +78,9 @@ def refuse(q: np.ndarray, lib, total: float) -> None:
             raise InvertError(
                 f"{where} needs a tangential load ratio (tangential / normal) beyond the "
                 f"library's largest, {lib.max_ratio:g} (the fit stops there, at {v[2]:.3g} N "
-                f"normal){also}; build a library with larger --shear-ratio"
+                f"normal){also}; build a library with larger --shear-ratio, or with larger "
+                "--load-N if the image may hold more normal load than the library's largest, "
+                f"{lib.max_load_N:g} N (the fit reads the extra fringes as tangential load)"
             )
         if at_load:
             raise InvertError(

@@ -34,7 +34,7 @@ from fringekit._memory import check_memory
 from fringekit.config.files import to_toml
 from fringekit.config.model import as_config
 from fringekit.errors import ComputeError, ConfigError
-from fringekit.library.chain import save_npz, solve_chain
+from fringekit.library.chain import branch_file, save_npz, solve_chain
 from fringekit.library.lattice import default_lattice
 from fringekit.library.store import (
     FIELD_KEYS,
@@ -114,7 +114,7 @@ def _from_cache(cache: Path, out: Path, branch: dict) -> bool:
     hit = _cache_entry(cache, branch["settings"])
     if not _finished(hit, branch["settings"]):
         return False
-    _keep(hit, out / "branches" / f"{branch['id']}.npz")
+    _keep(hit, branch_file(out, branch["id"]))
     return True
 
 
@@ -338,7 +338,7 @@ def _build(
                 "load_N": float(f),
                 "settings": dict(settings, diameter_mm=d, load_N=float(f), loads_below=below),
             }
-            b["todo"] = not _finished(out / "branches" / f"{b['id']}.npz", b["settings"])
+            b["todo"] = not _finished(branch_file(out, b["id"]), b["settings"])
             b["cached"] = b["todo"] and use_cache and _from_cache(cache, out, b)
             b["todo"] = b["todo"] and not b["cached"]
             mine.append(b)
@@ -368,8 +368,9 @@ def _build(
     failed = _run_chains(chains, out, str(cache), scheduler, workers, progress, say)
     if use_cache:
         for b in branches:  # what this build solved, for the next one
-            if b["todo"] and _finished(out / "branches" / f"{b['id']}.npz", b["settings"]):
-                _keep(out / "branches" / f"{b['id']}.npz", _cache_entry(cache, b["settings"]))
+            solved = branch_file(out, b["id"])
+            if b["todo"] and _finished(solved, b["settings"]):
+                _keep(solved, _cache_entry(cache, b["settings"]))
     if failed:
         raise ComputeError(
             f"library: the solve failed for diameter {failed[0]['id']}: "
@@ -441,7 +442,7 @@ def _assemble(cfg, out: Path, tasks, diameters, loads, ratios, lat, mesh, build_
         parts = []
         for t in tasks:
             if t["settings"]["diameter_mm"] == d:
-                with np.load(out / "branches" / f"{t['id']}.npz") as z:
+                with np.load(branch_file(out, t["id"])) as z:
                     parts.append({k: z[k] for k in FIELD_KEYS})
         name = field_file(d)
         arrays = {k: np.stack([p[k] for p in parts]) for k in FIELD_KEYS}

@@ -19,7 +19,18 @@ from fringekit.meshes import build_mesh
 from fringekit.optics import FEMStressField
 from fringekit.output.folders import atomic_write
 
-__all__ = ["chain_config", "save_npz", "solve_chain"]
+__all__ = ["branch_file", "chain_config", "save_npz", "solve_chain"]
+
+
+def branch_file(out, branch_id: str) -> Path:
+    """Where a library folder ``out`` keeps the solved branch ``branch_id``.
+
+    Examples
+    --------
+    >>> branch_file("lib", "d3.5-f8").as_posix()
+    'lib/branches/d3.5-f8.npz'
+    """
+    return Path(out) / "branches" / f"{branch_id}.npz"
 
 
 def chain_config(cfg: dict, diameter_mm: float, loads, ratios, todo) -> tuple[dict, list, list]:
@@ -89,7 +100,7 @@ def solve_chain(task: dict, out: str, cache_dir: str | None, progress: bool = Fa
         if r == len(ratios) - 1:
             b = branches[i]
             save_npz(
-                Path(out) / "branches" / f"{b['id']}.npz",
+                branch_file(out, b["id"]),
                 **{key: np.array([s[key] for s in samples]) for key in samples[0]},
                 settings=json.dumps(b["settings"]),
             )

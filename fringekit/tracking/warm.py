@@ -98,8 +98,9 @@ class ChordFit:
                     if cn <= cost:
                         break
             if cn > cost:
-                if fresh or cn <= cost + self._ftol(cost):
-                    done = cn <= cost + self._ftol(cost)  # at the noise floor already
+                within = cn <= cost + self._ftol(cost)  # at the noise floor already
+                if fresh or within:
+                    done = within
                     break
                 self.refresh(fixed, p, diam, np.arange(len(diam)))
                 fresh = True

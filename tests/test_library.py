@@ -166,31 +166,22 @@ def test_a_build_elsewhere_takes_its_branches_from_the_cache(
     def solve_chain(*args):
         raise RuntimeError("solved")
 
+    def tiny(folder, **kw):
+        cfg = sensor_config(**TINY)
+        return build.build_library(
+            cfg, tmp_path / folder, loads=TINY_LOADS, ratios=TINY_RATIOS, cache_dir=cache_dir, **kw
+        )
+
     monkeypatch.setattr(build, "solve_chain", solve_chain)
     msgs = []
-    again = build.build_library(
-        sensor_config(**TINY),
-        tmp_path / "again",
-        loads=TINY_LOADS,
-        ratios=TINY_RATIOS,
-        cache_dir=cache_dir,
-        progress=True,
-        echo=msgs.append,
-    )
+    again = tiny("again", progress=True, echo=msgs.append)
     assert "2 already solved (2 from the cache)" in msgs[0]
     files = tiny_library.manifest["files"]
     assert {n: f["sha256"] for n, f in again.manifest["files"].items()} == {
         n: f["sha256"] for n, f in files.items()
     }
     with pytest.raises(RuntimeError, match="solved"):
-        build.build_library(
-            sensor_config(**TINY),
-            tmp_path / "solved",
-            loads=TINY_LOADS,
-            ratios=TINY_RATIOS,
-            cache_dir=cache_dir,
-            use_cache=False,
-        )
+        tiny("solved", use_cache=False)
 
 
 @pytest.mark.slow

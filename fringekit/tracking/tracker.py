@@ -43,7 +43,6 @@ from fringekit.inversion.detect import detect, noise_sd
 from fringekit.inversion.fit import (
     EXACT_MM,
     MIN_LOAD_FRACTION,
-    WINDOW_MM,
     fit_bounds,
     fit_indenters,
     invert_image,
@@ -54,9 +53,10 @@ from fringekit.inversion.fit import (
 )
 from fringekit.inversion.hop import hop
 from fringekit.inversion.model import N_PARAMS, ImageModel, unpack
-from fringekit.inversion.uncertainty import model_sd, parameter_sd, stated_sd
+from fringekit.inversion.uncertainty import model_sd, stated_sd
 from fringekit.inversion.verdict import WARN_RESIDUAL, InvertError
 from fringekit.tracking.ids import assign, twins, velocity
+from fringekit.tracking.start import near_residual, quick_start
 from fringekit.tracking.warm import ChordFit
 
 __all__ = [
@@ -70,10 +70,6 @@ __all__ = [
 #: Every this many pixels in both directions are fitted per frame (invert's last stage
 #: fits every 2nd; four times fewer pixels make a frame four times faster).
 TRACK_STRIDE = 4
-#: The quick start is kept when every contact's residual is within this (fringe
-#: amplitudes; half invert's warning level): on the bench's first frame it read a contact
-#: at the frame's edge 10 % low with 0.21, where the whole inverse left 0.007.
-QUICK_RESIDUAL = 0.11
 #: A contact is matched to a detection within this distance (mm) of it: less than a
 #: sphere diameter (3.5 mm), the least distance between two contacts' axes.
 GATE_MM = 3.0
@@ -214,12 +210,12 @@ class Tracker:
     # -- the stages ---------------------------------------------------------------------
 
     def _start(self, full: ImageModel, events: list) -> None:
-        """No contact tracked: look for them (:meth:`_quick`); when that leaves one
-        unexplained, the whole inverse (``invert``'s)."""
+        """No contact tracked: look for them (:func:`~fringekit.tracking.start.quick_start`);
+        when that leaves one unexplained, the whole inverse (``invert``'s)."""
         cand = detect(subsample(full, 2), self.noise)
         if not len(cand):
             return
-        p, diam = self._quick(full, cand)
+        p, diam = quick_start(full, cand, self.stride, self.noise)
         if p is None:
             try:
                 res = invert_image(full, noise=self.noise)
@@ -231,26 +227,6 @@ class Tracker:
         self._reset(p, diam)
         self.ids = self._new_ids(len(self.diam))
         events.append("start")
-
-    def _quick(self, full: ImageModel, cand: np.ndarray):
-        """The quick start: each candidate from the library's scan, one robust joint fit
-        and one basin search on every ``stride``-th pixel (``invert`` adds a far-field
-        fit, more basin searches, model selection and a second start, on every 2nd
-        pixel); (p, diameters) when every contact left has its residual within
-        QUICK_RESIDUAL, else (None, None)."""
-        sub = replace(subsample(full, self.stride), exact=EXACT_MM * 1e-3)
-        p, diam = start_params(sub, cand)
-        p = fit_indenters(sub, p, diam, self.noise).x
-        p, moved = hop(sub, p, diam, self.noise)
-        res = fit_indenters(sub, p, diam, self.noise)
-        sd = parameter_sd(res.jac, res.fun, int(np.count_nonzero(res.fun)))
-        p, diam, _ = prune(res.x, sd, diam, self.blank.lib)
-        if not diam:
-            return None, None
-        self._reset(p, diam)
-        _, rms, _ = self._evaluate(sub)
-        self._reset(np.zeros(0), [])
-        return (p, diam) if np.all(rms <= QUICK_RESIDUAL) else (None, None)
 
     def _reset(self, p: np.ndarray, diam: list) -> None:
         self.p, self.diam = np.asarray(p, float).copy(), list(diam)
@@ -329,22 +305,7 @@ class Tracker:
             r, gains = last[1], last[2]
         else:
             r, gains = self.chord.residual(fixed, self.p, self.diam)
-        return fixed, self._near(fixed, r, gains), r
-
-    def _near(self, fixed: ImageModel, r: np.ndarray, gains: np.ndarray) -> np.ndarray:
-        """Residual RMS within WINDOW_MM of each contact (n,), in fringe amplitudes, of
-        the residuals ``r`` (image and penalty) with the fitted ``gains``."""
-        n_img = fixed.measured.size
-        img = r[:n_img].reshape(fixed.measured.shape)
-        use = fixed.usable & fixed.keep
-        amp = float(np.mean(np.abs(gains)))
-        xy = fixed.xy * 1e3
-        rms = []
-        for v in self.p.reshape(-1, N_PARAMS):  # a handful of contacts
-            m = use & (np.hypot(xy[:, 0] - v[0], xy[:, 1] - v[1]) < WINDOW_MM)
-            ok = amp > 0 and m.any()
-            rms.append(float(np.sqrt(np.mean(img[m] ** 2)) / amp) if ok else np.inf)
-        return np.array(rms)
+        return fixed, near_residual(fixed, self.p, r, gains), r
 
     def _jumps(self, rms: np.ndarray) -> np.ndarray:
         """(n,) bool: the contacts whose residual is far above its running median (JUMP

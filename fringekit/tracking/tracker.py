@@ -2,8 +2,10 @@
 
 A frame of a stream differs little from the one before it, so the inverse need not start
 from scratch (:func:`fringekit.inversion.fit.invert_image`: detection, a start scan, two
-fits, a basin search and model selection, 2-10 s for four contacts). :class:`Tracker`
-does that once, when the first contact appears, and then per frame:
+fits, a basin search and model selection, 2-60 s for four contacts). :class:`Tracker`
+starts once, when the first contact appears (the quick start of
+:mod:`fringekit.tracking.start`, or that whole inverse when the quick one does not explain
+the frame), and then per frame:
 
 1. **Warm fit.** Every contact's x, y, Fz, Fx, Fy start at the previous frame's answer
    moved on by its last change (constant velocity), and Gauss-Newton steps with a

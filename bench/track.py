@@ -1,7 +1,8 @@
 """Benchmark ``fringekit track`` on a library-synthesised stream of known loads.
 
 Usage: python bench/track.py [--frames 200] [--pixels 256] [--methods mono rgb]
-       [--stride 4] [--noise 0.005] [--library DIR] [--work DIR] [--json FILE]
+       [--stride 4] [--noise 0.005] [--invert-every 50] [--library DIR] [--work DIR]
+       [--json FILE]
        (--work default: bench/out/track, ignored by git)
 
 The sensor is examples/coarse_sensor.toml (20 mm sheet, the tests' sensor) with its
@@ -23,8 +24,10 @@ start (the first frame: the whole inverse), the warm frames' median and 95th per
 time, frames per second, the errors of every present contact against the truth (Fz in
 N, tangential magnitude in N and direction in degrees where it is at least 0.1 N,
 position in mm), identity swaps, and missed and spurious contacts per frame, and the
-frames by which the touch and the lift were read late; ``--json`` writes it all, with
-the peak memory.
+frames by which the touch and the lift were read late; and, on every INVERT_EVERY-th
+frame (0: none), the offline ``invert``'s errors against the truth beside the tracker's
+on the same frames (the issue's target: tracked within 1.5 times offline) and its time
+per image. ``--json`` writes it all, with the peak memory.
 """
 
 from __future__ import annotations
@@ -35,10 +38,13 @@ import resource
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
+import fringekit
 from fringekit.config.files import load_config
+from fringekit.errors import RefusedError
 from fringekit.library.build import DEFAULT_RATIOS, build_library
 from fringekit.library.store import load_library
 from fringekit.tracking import library_frames, track
@@ -129,19 +135,6 @@ def score(t, truths: list[dict], level: float) -> dict:
     frames = [_score_frame(f, truths[f.index], level, labels) for f in t.frames]
     errs = [e for f in frames for e in f["errors"]]
 
-    def stat(key, absolute=True):
-        v = np.array([e[key] for e in errs if e[key] is not None], float)
-        v = np.abs(v) if absolute else v
-        return (
-            {
-                "median": float(np.median(v)),
-                "p95": float(np.percentile(v, 95)),
-                "max": float(v.max()),
-            }
-            if len(v)
-            else None
-        )
-
     def first(name, present: bool):
         """Frames from the first with the load at the level (a touch) or gone to zero
         (a lift) to the first the tracker agrees."""
@@ -158,16 +151,56 @@ def score(t, truths: list[dict], level: float) -> dict:
         return (late[0] - start) if late else None
 
     return {
-        "fz_N": stat("fz_N"),
-        "ft_N": stat("ft_N"),
-        "dir_deg": stat("dir_deg"),
-        "pos_mm": stat("pos_mm"),
+        **{key: _stats(errs, key) for key in ("fz_N", "ft_N", "dir_deg", "pos_mm")},
         "swaps": int(sum(f["swaps"] for f in frames)),
         "missed_per_frame": float(np.mean([f["missed"] for f in frames])),
         "spurious_per_frame": float(np.mean([f["spurious"] for f in frames])),
         "touch_late_frames": first("T", True),
         "lift_late_frames": first("R", False),
     }
+
+
+def _stats(errs: list[dict], key: str) -> dict | None:
+    v = np.abs(np.array([e[key] for e in errs if e[key] is not None], float))
+    if not len(v):
+        return None
+    return {
+        "median": float(np.median(v)),
+        "p95": float(np.percentile(v, 95)),
+        "max": float(v.max()),
+    }
+
+
+def offline(lib, folder: Path, tracked, truths, every: int, pixel_mm: float, method, level):
+    """``invert`` on every ``every``-th frame: its errors and the tracker's on the same
+    frames (medians and maxima), the ratio of the medians, images refused, time each."""
+    frames = {f.index: f for f in tracked.frames}
+    inv_errs, trk_errs, refused, times = [], [], [], []
+    for k in range(0, len(truths), every):
+        t0 = time.perf_counter()
+        try:
+            res = fringekit.invert(
+                folder / f"frame_{k:04d}.png", lib, pixel_mm=pixel_mm, method=method
+            )
+        except RefusedError as exc:
+            refused.append({"frame": k, "reason": str(exc)})
+            print(f"{method} frame {k}: offline invert refused: {exc}", flush=True)
+            continue
+        finally:
+            times.append(time.perf_counter() - t0)
+            print(f"{method} frame {k}: offline invert {times[-1]:.1f} s", flush=True)
+        q = res.result.params
+        got = SimpleNamespace(ids=np.arange(len(q)), params=q)
+        inv_errs += _score_frame(got, truths[k], level, {})["errors"]
+        if k in frames:
+            trk_errs += _score_frame(frames[k], truths[k], level, {})["errors"]
+    keys = ("fz_N", "ft_N", "dir_deg", "pos_mm")
+    out = {"frames": len(times), "refused": refused, "time_median_s": float(np.median(times))}
+    for key in keys:
+        a, b = _stats(inv_errs, key), _stats(trk_errs, key)
+        ratio = b["median"] / a["median"] if a and b and a["median"] > 0 else None
+        out[key] = {"invert": a, "track": b, "track_over_invert_median": ratio}
+    return out
 
 
 def run(lib, method: str, args, work: Path) -> dict:
@@ -192,6 +225,11 @@ def run(lib, method: str, args, work: Path) -> dict:
     s = tr.summary
     level = 0.5 * lib.load_N[1]
     warm = [f.times_s["frame_s"] for f in tr.frames[1:] if not f.events]
+    inverted = (
+        offline(lib, folder, tr, truths, args.invert_every, pixel_mm, method, level)
+        if args.invert_every > 0
+        else None
+    )
     return {
         "method": method,
         "frames": args.frames,
@@ -206,6 +244,7 @@ def run(lib, method: str, args, work: Path) -> dict:
         "event_frames": len(s["events"]),
         "times_s": s["times_s"],
         **score(tr, truths, level),
+        "offline_invert": inverted,
     }
 
 
@@ -216,6 +255,7 @@ def main(argv=None) -> None:
     ap.add_argument("--methods", nargs="+", default=["mono", "rgb"])
     ap.add_argument("--stride", type=int, default=4)
     ap.add_argument("--noise", type=float, default=0.005)
+    ap.add_argument("--invert-every", type=int, default=50)
     ap.add_argument("--library", default=None)
     ap.add_argument("--work", default="bench/out/track")
     ap.add_argument("--json", default=None)

@@ -53,6 +53,8 @@ ROOT = Path(__file__).resolve().parents[1]
 SENSOR = ROOT / "examples" / "coarse_sensor.toml"
 LOADS = (1.0, 1.4, 2.0, 2.8, 4.0)
 FIELD_MM = 16.0
+#: The error quantities scored (keys of _score_frame's errors).
+QUANTITIES = ("fz_N", "ft_N", "dir_deg", "pos_mm")
 
 
 def _ramp(t: float, t0: float, t1: float) -> float:
@@ -151,7 +153,7 @@ def score(t, truths: list[dict], level: float) -> dict:
         return (late[0] - start) if late else None
 
     return {
-        **{key: _stats(errs, key) for key in ("fz_N", "ft_N", "dir_deg", "pos_mm")},
+        **{key: _stats(errs, key) for key in QUANTITIES},
         "swaps": int(sum(f["swaps"] for f in frames)),
         "missed_per_frame": float(np.mean([f["missed"] for f in frames])),
         "spurious_per_frame": float(np.mean([f["spurious"] for f in frames])),
@@ -194,9 +196,8 @@ def offline(lib, folder: Path, tracked, truths, every: int, pixel_mm: float, met
         inv_errs += _score_frame(got, truths[k], level, {})["errors"]
         if k in frames:
             trk_errs += _score_frame(frames[k], truths[k], level, {})["errors"]
-    keys = ("fz_N", "ft_N", "dir_deg", "pos_mm")
     out = {"frames": len(times), "refused": refused, "time_median_s": float(np.median(times))}
-    for key in keys:
+    for key in QUANTITIES:
         a, b = _stats(inv_errs, key), _stats(trk_errs, key)
         ratio = b["median"] / a["median"] if a and b and a["median"] > 0 else None
         out[key] = {"invert": a, "track": b, "track_over_invert_median": ratio}

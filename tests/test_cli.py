@@ -436,6 +436,7 @@ def test_calibrate_and_estimate_end_to_end(tiny_images, cache_dir, capsys):
     assert main(["estimate", str(an), "--calibration", str(root / "none.json")]) == 2
 
 
+@pytest.mark.slow
 def test_a_small_sweep_tabulates_its_cases_and_skips_finished_ones(tmp_path, cache_dir):
     """The fast tier's sweep: two loads of the tiny case in this process (no cluster), one
     row each in results.csv, more fringes under more load, and a re-run that runs nothing."""

@@ -119,6 +119,7 @@ def test_one_far_field_anchor_leaves_the_far_side_of_the_loops_unreliable(crack,
     assert res.info["bands_rising_away"] > 0
 
 
+@pytest.mark.slow
 def test_an_anchor_that_contradicts_the_field_is_reported(crack, tmp_path, capsys):
     """The far field is bright in dark field (order 1/2). Anchored there at order 1 (a
     whole order, dark in dark field) the result says the image looks like bright field,

@@ -84,9 +84,11 @@ def test_the_walk_finds_the_stages_and_the_application():
     assert MODULES[0] == "fringekit"
 
 
-#: Modules whose examples build a response library (about 20 s each on 2 cores).
+#: Modules whose examples take several seconds: those that build a response library (about
+#: 20 s each on 2 cores), and the predict-then-analyze round trips of ``measurement.order``.
 SLOW_EXAMPLES = frozenset(
     {
+        "fringekit.measurement.order",
         "fringekit.inversion.loads",
         "fringekit.library.build",
         "fringekit.tracking.stream",

@@ -69,6 +69,7 @@ def _surface_difference(a, b) -> float:
     return float(np.abs(a.stress_nodes - b.stress_nodes).max() / np.abs(b.stress_nodes).max())
 
 
+@pytest.mark.slow
 def test_stick_does_not_depend_on_the_load_states(small_meshes):
     """2 N under full stick in one load state and in eight: the same depth (0.3 %),
     force and stresses. Before first-touch anchoring one state gave a depth 2 % larger

@@ -242,8 +242,8 @@ def fit_disc_series(
     order of 0.7 fringe along the load's axes:
 
     >>> from fringekit.optics import DiametralDisc, dark_field_circular, intensity, retarder
-    >>> r, c = np.mgrid[:160, :160] - 79.5
-    >>> xy = np.stack([c, -r], -1) * (0.04 / 140)
+    >>> r, c = np.mgrid[:112, :112] - 55.5
+    >>> xy = np.stack([c, -r], -1) * (0.04 / 98)
     >>> s = DiametralDisc(P=1.0, D=0.04, t=0.006).stress(xy)
     >>> theta = 0.5 * np.arctan2(2 * s[..., 0, 1], s[..., 0, 0] - s[..., 1, 1])
     >>> images = []
@@ -251,7 +251,7 @@ def fit_disc_series(
     ...     N = 0.006 * load * DiametralDisc(P=1.0, D=0.04, t=0.006).stress_difference(xy)
     ...     q = retarder(2 * np.pi * (np.nan_to_num(N) / 7000 + 0.7), theta)
     ...     images.append(DiscImage(intensity(q, dark_field_circular()), load))
-    >>> fit = fit_disc_series(images, DiscGeometry(79.5, 79.5, 70.0), diameter=0.04,
+    >>> fit = fit_disc_series(images, DiscGeometry(55.5, 55.5, 49.0), diameter=0.04,
     ...                       thickness=0.006)
     >>> round(fit.f_sigma, -1), round(fit.offset_order, 2), round(fit.r_squared, 3)
     (7000.0, -0.3, 1.0)

@@ -16,7 +16,7 @@ import fringekit
 from fringekit.analysis import read_pixels
 from fringekit.cli.main import main
 from fringekit.config.files import to_toml
-from fringekit.errors import ConfigError, LibraryError
+from fringekit.errors import ConfigError, InputError, LibraryError
 from fringekit.library.calibrated import CalibratedSensor
 from fringekit.tracking import TRACK_COLUMNS, library_frames, open_source, track, write_video
 
@@ -158,7 +158,9 @@ def test_a_video_gives_the_loads_of_its_frames(tiny_library, tmp_path):
     folder = tmp_path / "frames"
     library_frames(tiny_library, frames, folder, pixels=PX, pixel_mm=PIXEL_MM, noise=0.003)
     video = tmp_path / "stream.mkv"
-    write_video(video, (read_pixels(p) for p in sorted(folder.iterdir())), 10.0, lossless=True)
+    write_video(
+        video, (read_pixels(p) for p in sorted(folder.glob("frame_*"))), 10.0, lossless=True
+    )
     a = track(folder, tiny_library, pixel_mm=PIXEL_MM).table()
     b = track(video, tiny_library, pixel_mm=PIXEL_MM).table()
     for k in ("frame", "id", "x_mm", "y_mm", "Fz_N", "Fx_N", "Fy_N", "sFz_N"):
@@ -217,7 +219,7 @@ def test_a_camera_stream_solves_the_newest_frame_and_counts_the_dropped(tiny_lib
     frames = [_moving(k) for k in range(12)]
     folder = tmp_path / "frames"
     library_frames(tiny_library, frames, folder, pixels=PX, pixel_mm=PIXEL_MM)
-    rgb = [np.repeat(read_pixels(p)[..., None], 3, axis=2) for p in sorted(folder.iterdir())]
+    rgb = [np.repeat(read_pixels(p)[..., None], 3, axis=2) for p in sorted(folder.glob("frame_*"))]
     cap = _Capture(rgb, [[0], [1, 2, 3, 4], list(range(5, 12))])
     src = open_source("camera:0", capture_factory=lambda n: cap)
     t = track(
@@ -269,6 +271,25 @@ def test_the_command_writes_loads_and_keeps_what_a_bad_frame_stopped(
     summary = json.loads((out / "summary.json").read_text())
     assert summary["stopped"]["after_frames"] == 3
     assert (out / "loads.png").is_file()
+
+
+def test_frames_replace_their_own_earlier_stream_and_refuse_a_user_s_folder(tiny_library, tmp_path):
+    """A shorter stream written over a longer one leaves only its own frames (a stale
+    frame would be tracked as part of it); a folder with a file fringekit did not write is
+    refused, the file kept, before a frame is written."""
+    folder = tmp_path / "frames"
+    moving = [_moving(k) for k in range(3)]
+    library_frames(tiny_library, moving, folder, pixels=PX, pixel_mm=PIXEL_MM)
+    assert library_frames(tiny_library, moving[:1], folder, pixels=PX, pixel_mm=PIXEL_MM) == 1
+    assert sorted(p.name for p in folder.glob("frame_*")) == ["frame_0000.png"]
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("mine")
+    with pytest.raises(
+        InputError, match=r"folder .*mine holds files fringekit did not write \(notes.txt\)"
+    ):
+        library_frames(tiny_library, moving, mine, pixels=PX, pixel_mm=PIXEL_MM)
+    assert [p.name for p in mine.iterdir()] == ["notes.txt"]
 
 
 @pytest.mark.parametrize(

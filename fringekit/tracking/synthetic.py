@@ -10,7 +10,6 @@ sRGB-encoded for the CIE observer (the decoding ``invert`` applies).
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
 import colour as cs
 import numpy as np
@@ -21,6 +20,7 @@ from fringekit.inversion.model import ImageModel
 from fringekit.inversion.read import pixel_grid
 from fringekit.library.store import Library, LoadedIndenter
 from fringekit.optics import write_image
+from fringekit.output.folders import claim_output
 
 __all__ = ["blank_model", "library_frames", "synthesise_frame"]
 
@@ -80,7 +80,9 @@ def library_frames(
     frames : sequence of sequences of (x_mm, y_mm, Fz_N, Fx_N, Fy_N)
         The contacts of each frame (an empty one: no contact).
     folder : path
-        Created if missing.
+        A missing or empty folder, or one this function wrote before (replaced whole,
+        so no frame of an earlier, longer stream is left behind); any other folder is
+        refused (:class:`~fringekit.errors.InputError`) before a frame is written.
     pixels : int
         Frames of pixels x pixels, centred on the sensor origin.
     pixel_mm : float
@@ -105,17 +107,16 @@ def library_frames(
     cfg = load_config(lib.folder / "config.toml")
     model = blank_model(lib, cfg, (pixels, pixels), pixel_mm, method)
     camera = optics_setup(cfg).camera.sensitivities
-    out = Path(folder)
-    out.mkdir(parents=True, exist_ok=True)
     if bit_depth not in (8, 16):
         raise ValueError(f"bit_depth {bit_depth} is not allowed; give 8 or 16")
     rng = np.random.default_rng(seed)
-    for i, contacts in enumerate(frames):  # frames: each one image synthesis
-        img = synthesise_frame(
-            model, contacts, camera=camera, noise=noise, rng=rng, bit_depth=bit_depth
-        )
-        suffix = "tif" if bit_depth == 16 and img.ndim == 3 else "png"
-        write_image(out / f"frame_{i:04d}.{suffix}", img)
+    with claim_output(folder, command="tracking.library_frames", option="folder") as out:
+        for i, contacts in enumerate(frames):  # frames: each one image synthesis
+            img = synthesise_frame(
+                model, contacts, camera=camera, noise=noise, rng=rng, bit_depth=bit_depth
+            )
+            suffix = "tif" if bit_depth == 16 and img.ndim == 3 else "png"
+            write_image(out / f"frame_{i:04d}.{suffix}", img)
     return len(frames)
 
 

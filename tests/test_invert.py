@@ -649,3 +649,33 @@ def test_an_unexplained_image_is_refused_naming_the_load_range(tiny_library):
     q = np.array([[0.0, 0.0, 2.0, 0.1, 0.0]])  # inside the range, far from its bounds
     with pytest.raises(InvertError, match=r"up to 4 N; build a library with larger --load-N"):
         refuse(q, tiny_library, total=0.7)
+
+
+def test_a_fit_of_some_indenters_holds_the_others(tiny_library):
+    """``fit_indenters(..., free=[1])`` (the tracker's fit of a new contact beside tracked
+    ones) moves only the second indenter: the first stays at its start, a wrong load
+    included, bit for bit, and the second comes back to its truth when the first is at
+    its own; ``hop(..., which=[])`` searches none."""
+    from library_fixtures import TINY
+
+    from fringekit.inversion.fit import fit_indenters
+    from fringekit.inversion.hop import hop
+
+    inds = [
+        LoadedIndenter(-3.0e-3, 3.0e-3, 3.5e-3, 0.3, 0.0, 3.0),
+        LoadedIndenter(3.0e-3, -2.5e-3, 3.5e-3, 0.0, 0.2, 2.0),
+    ]
+    model = _model(tiny_library, "mono", inds, cfg=sensor_config(**TINY))
+    truth = _truth(inds)
+    start = truth.copy()
+    start[1] += [0.3, -0.2, 0.4, 0.1, -0.1]
+    diam = [3.5e-3, 3.5e-3]
+    got = fit_indenters(model, start.ravel(), diam, 1e-3, free=[1]).x.reshape(-1, 5)
+    np.testing.assert_array_equal(got[0], truth[0])
+    assert np.all(np.abs(got[1] - truth[1]) <= 1e-3 * np.array([1, 1, 2, 2, 2])), got[1]
+    wrong = start.copy()
+    wrong[0, 2] = 2.0
+    held = fit_indenters(model, wrong.ravel(), diam, 1e-3, free=[1]).x.reshape(-1, 5)
+    np.testing.assert_array_equal(held[0], wrong[0])
+    p, changed = hop(model, wrong.ravel(), diam, 1e-3, which=[])
+    assert changed == 0 and np.array_equal(p, wrong.ravel())

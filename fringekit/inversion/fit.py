@@ -191,31 +191,43 @@ def fit_bounds(model: ImageModel, n: int):
     return lo, hi
 
 
-def fit_indenters(model: ImageModel, p0, diam, noise: float, box=None, ftol=FIT_FTOL):
+def fit_indenters(model: ImageModel, p0, diam, noise: float, box=None, ftol=FIT_FTOL, free=None):
     """One joint least-squares fit of at most FIT_NFEV evaluations; returns scipy's
-    result. The cost is the sum of the squared residuals in intensity; it stops when it
-    changes by less than ``ftol`` of itself (at the default 1e-6 the parameters then move
-    by far less than their sd). ``box`` (mm): the axes stay within it of where they
-    start."""
-    lo, hi = fit_bounds(model, len(diam))
+    result (its ``x`` all the parameters). The cost is the sum of the squared residuals
+    in intensity; it stops when it changes by less than ``ftol`` of itself (at the
+    default 1e-6 the parameters then move by far less than their sd). ``box`` (mm): the
+    axes stay within it of where they start. ``free``: the indices of the indenters
+    fitted (default all); the others are held where ``p0`` has them."""
+    n = len(diam)
+    lo, hi = fit_bounds(model, n)
     if box is not None:
-        w = np.tile([box, box, np.inf, np.inf, np.inf], len(diam))
+        w = np.tile([box, box, np.inf, np.inf, np.inf], n)
         lo, hi = np.maximum(lo, p0 - w), np.minimum(hi, p0 + w)
-    p0 = np.clip(p0, lo + 1e-9, hi - 1e-9)
-    fixed = replace(model, keep=model.outside_contacts(unpack(p0, diam)))
+    full = np.clip(np.asarray(p0, float), lo + 1e-9, hi - 1e-9)
+    free = np.arange(n) if free is None else np.asarray(free, int)
+    cols = (free[:, None] * N_PARAMS + np.arange(N_PARAMS)).ravel()
+    fixed = replace(model, keep=model.outside_contacts(unpack(full, diam)))
     f_scale, R = 3.0 * noise, model.lib.max_ratio
 
-    def fun(p):
+    def whole(v):
+        p = full.copy()
+        p[cols] = v
+        return p
+
+    def fun(v):
+        p = whole(v)
         return np.concatenate([fixed.residual(p, diam), range_penalty(p, R, f_scale)[0]])
 
-    def jac(p):
-        return np.vstack([fixed.jacobian(p, diam), range_penalty(p, R, f_scale)[1]])
+    def jac(v):
+        p = whole(v)
+        pen = range_penalty(p, R, f_scale)[1][:, cols]
+        return np.vstack([fixed.jacobian(p, diam, which=free), pen])
 
-    return least_squares(
+    res = least_squares(
         fun,
-        p0,
+        full[cols],
         jac=jac,
-        bounds=(lo, hi),
+        bounds=(lo[cols], hi[cols]),
         loss="soft_l1",
         f_scale=f_scale,
         x_scale="jac",
@@ -223,6 +235,8 @@ def fit_indenters(model: ImageModel, p0, diam, noise: float, box=None, ftol=FIT_
         ftol=ftol,
         xtol=1e-6,
     )
+    res.x = whole(res.x)
+    return res
 
 
 def sphere_gaps(p: np.ndarray, diam) -> np.ndarray:

@@ -291,8 +291,9 @@ def _refine(fine: ImageModel, p, diam, k, starts, gains, offs, f_scale):
     return best, now
 
 
-def hop(fine: ImageModel, p: np.ndarray, diam, noise: float, anchors=None):
-    """One pass of the search over every indenter (module docstring).
+def hop(fine: ImageModel, p: np.ndarray, diam, noise: float, anchors=None, which=None):
+    """One pass of the search over every indenter, or those of ``which`` (indices)
+    (module docstring).
 
     Parameters
     ----------
@@ -313,7 +314,7 @@ def hop(fine: ImageModel, p: np.ndarray, diam, noise: float, anchors=None):
     changed = 0
     table = None  # one intensity table for every indenter's scan
     _, gains, offs, _ = fine.fitted(unpack(p, diam))
-    for k in range(len(diam)):  # a handful of indenters, each vectorised
+    for k in range(len(diam)) if which is None else which:  # a handful, each vectorised
         centres = [tuple(p[k * N_PARAMS : k * N_PARAMS + 2])]
         if anchors is not None and np.hypot(*(anchors[k] - centres[0])) > ANCHOR_MM:
             centres.append(tuple(anchors[k]))

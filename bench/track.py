@@ -243,6 +243,9 @@ def run(lib, method: str, args, work: Path) -> dict:
         "fps_all": s["fps_achieved"],
         "wall_s": wall,
         "event_frames": len(s["events"]),
+        "event_frame_s": [
+            [f.index, " ".join(f.events), f.times_s["frame_s"]] for f in tr.frames if f.events
+        ],
         "times_s": s["times_s"],
         **score(tr, truths, level),
         "offline_invert": inverted,

@@ -467,15 +467,22 @@ class Tracker:
         xy = fixed.xy * 1e3
         lo, hi = xy.min(axis=0) + BORDER_MM, xy.max(axis=0) - BORDER_MM
         new = new[np.all((new >= lo) & (new <= hi), axis=1)] if len(new) else new
-        return bool(len(new)) and self._add(self._fine(full), new[:1], events)
+        return bool(len(new)) and self._add(self._fine(full), new[:1], events, fixed)
 
-    def _add(self, fixed: ImageModel, new: np.ndarray, events: list) -> bool:
-        """New contacts at ``new`` (k, 2) (mm): started from the library's scan, fitted
-        jointly with the others (robust loss), each one's basin searched; whether any."""
-        pn, dn = start_params(fixed, new)
+    def _add(self, fine: ImageModel, new: np.ndarray, events: list, sub: ImageModel) -> bool:
+        """A new contact at ``new`` (1, 2) (mm), beside contacts tracked already: started
+        from the library's scan and fitted alone on ``sub`` (the others held; robust
+        loss), its basin searched on its window of ``fine``
+        (:func:`~fringekit.inversion.hop.hop`), then all fitted jointly on ``sub`` (robust
+        loss). Whether it was added (touched)."""
+        pn, dn = start_params(fine, new)
         if not dn:
             return False
-        self._append(fixed, np.concatenate([self.p, pn]), dn, events)
+        diam = self.diam + dn
+        k = np.arange(len(self.diam), len(diam))
+        p = fit_indenters(sub, np.concatenate([self.p, pn]), diam, self.noise, free=k).x
+        p, _ = hop(fine, p, diam, self.noise, which=k)
+        self._adopt(fit_indenters(sub, p, diam, self.noise).x, diam, events)
         return True
 
     def _append(self, model: ImageModel, p: np.ndarray, new_diam: list, events: list) -> None:
@@ -486,8 +493,13 @@ class Tracker:
         p, moved = hop(model, fit_indenters(model, p, diam, self.noise).x, diam, self.noise)
         if moved:
             p = fit_indenters(model, p, diam, self.noise).x
-        ids = self._new_ids(len(new_diam))
-        hist = self.history + [[] for _ in new_diam]
+        self._adopt(p, diam, events)
+
+    def _adopt(self, p: np.ndarray, diam: list, events: list) -> None:
+        """The contacts ``p``, ``diam``: the present ones first, then new ones, which get
+        new ids (touched)."""
+        n_new = len(diam) - len(self.diam)
+        ids, hist = self._new_ids(n_new), self.history + [[] for _ in range(n_new)]
         self.ids = np.concatenate([self.ids, ids])
         self._reset(p, diam)
         self.history = hist

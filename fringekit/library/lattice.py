@@ -96,13 +96,19 @@ def polar_to_cartesian(A, B, alpha, out=None) -> np.ndarray:
     """Cartesian pairs (..., 2) (a, b) of polar pairs (A, B) at polar angle ``alpha``
     (rad, broadcast against the last-but-slab axes): the 2 alpha rotation of the module
     docstring, in A's precision, written into ``out`` (..., 2) when given."""
-    c = np.cos(2 * alpha).astype(A.dtype)
-    s = np.sin(2 * alpha).astype(A.dtype)
+    return _turn(A, B, np.cos(2 * alpha), np.sin(2 * alpha), out)
+
+
+def _turn(A, B, c, s, out=None, sign=1.0) -> np.ndarray:
+    """:func:`polar_to_cartesian` with c = cos 2 alpha and s = sin 2 alpha given, of the
+    pairs (A, ``sign`` B)."""
+    c, s = c.astype(A.dtype), s.astype(A.dtype)
+    sb, cb = (sign * s).astype(A.dtype), (sign * c).astype(A.dtype)
     out = np.empty((*np.broadcast_shapes(A.shape, B.shape), 2), A.dtype) if out is None else out
     np.multiply(A, c, out=out[..., 0])
-    out[..., 0] -= B * s
+    out[..., 0] -= B * sb
     np.multiply(A, s, out=out[..., 1])
-    out[..., 1] += B * c
+    out[..., 1] += B * cb
     return out
 
 
@@ -161,37 +167,53 @@ def interpolate_turned(AB: np.ndarray, lattice: PolarLattice, dx, dy, psi) -> np
     (..., S, 2) float32 (a, b) = ((sigma_xx - sigma_yy) dz, 2 sigma_xy dz) in the sensor
     frame, bilinear in (r, phi), zero at and beyond ``lattice.r_max``.
     """
-    dx, dy, psi = np.broadcast_arrays(np.asarray(dx, float), np.asarray(dy, float), psi)
-    cp, sp = np.cos(psi), np.sin(psi)
-    u = cp * dx + sp * dy
-    v = -sp * dx + cp * dy
-    r = np.hypot(u, v)
+    dx, dy, psi = (np.asarray(a, float) for a in (dx, dy, psi))
+    shape = np.broadcast_shapes(dx.shape, dy.shape, psi.shape)
+    cp, sp = np.cos(psi), np.sin(psi)  # one per direction, broadcast below
+    dx, dy = np.broadcast_to(dx, shape), np.broadcast_to(dy, shape)
+    cp, sp = np.broadcast_to(cp, shape), np.broadcast_to(sp, shape)
+    r2 = dx * dx + dy * dy
     S = AB.shape[2]
-    out = np.zeros((*dx.shape, S, 2), np.float32)
-    near = np.nonzero(r < lattice.r_max)
-    if not near[0].size:
+    out = np.zeros((*shape, S, 2), np.float32)
+    near = r2 < lattice.r_max**2
+    if near.all():  # the usual case: every point near, no gather
+        dx, dy, cp, sp, r2 = (a.reshape(-1) for a in (dx, dy, cp, sp, r2))
+    else:
+        dx, dy, cp, sp, r2 = (a[near] for a in (dx, dy, cp, sp, r2))
+    if not r2.size:
         return out
-    rn = r[near]
-    pn = np.arctan2(np.abs(v[near]), u[near])  # [0, pi]; v < 0 is the mirror image
+    u = cp * dx + sp * dy  # the point in the frame of the turned field
+    v = cp * dy - sp * dx
+    rn = np.sqrt(r2)
+    pn = np.arctan2(np.abs(v), u)  # [0, pi]; v < 0 is the mirror image
     ir = np.clip(np.searchsorted(lattice.r, rn) - 1, 0, len(lattice.r) - 2)
     tr = ((rn - lattice.r[ir]) / (lattice.r[ir + 1] - lattice.r[ir])).astype(np.float32)
     dphi = lattice.phi[1] - lattice.phi[0]
     ip = np.clip((pn / dphi).astype(int), 0, len(lattice.phi) - 2)
     tp = (pn / dphi - ip).astype(np.float32)
-    # the four corners of each point's cell as rows of the flattened (R * F, S * 2) field,
-    # weighted in float32 (the field's precision) with in-place sums
+    # the four corners of each point's cell as rows of the flattened (R * F, S * 2) field
+    # (np.take, 3-4 times faster than fancy indexing here), weighted in float32 (the
+    # field's precision) with in-place products and sums
     F = AB.shape[1]
     flat = AB.reshape(-1, S * 2)
     k = ir * F + ip
-    val = flat[k] * ((1 - tr) * (1 - tp))[:, None]
-    val += flat[k + F] * (tr * (1 - tp))[:, None]
-    val += flat[k + 1] * ((1 - tr) * tp)[:, None]
-    val += flat[k + F + 1] * (tr * tp)[:, None]
+    weights = ((1 - tr) * (1 - tp), tr * (1 - tp), (1 - tr) * tp, tr * tp)
+    val = np.take(flat, k, axis=0)
+    val *= weights[0][:, None]
+    tmp = np.empty_like(val)
+    for corner, w in zip((k + F, k + 1, k + F + 1), weights[1:], strict=True):  # 3 corners
+        np.take(flat, corner, axis=0, out=tmp)
+        tmp *= w[:, None]
+        val += tmp
     val = val.reshape(-1, S, 2)
-    val[..., 1] *= np.where(v[near] < 0, -1.0, 1.0).astype(np.float32)[:, None]  # mirror
-    alpha = np.arctan2(dy[near], dx[near])[:, None]
-    if rn.size == r.size:  # the usual case: every point near, written in place
-        polar_to_cartesian(val[..., 0], val[..., 1], alpha, out=out.reshape(-1, S, 2))
-    else:
-        out[near] = polar_to_cartesian(val[..., 0], val[..., 1], alpha)
+    # cos and sin of twice the polar angle of (dx, dy), without the angle: (dx^2 - dy^2,
+    # 2 dx dy) / r^2 (the axis itself, r = 0, as angle 0)
+    inv = np.divide(1.0, r2, out=np.zeros_like(r2), where=r2 > 0)
+    c2 = np.where(r2 > 0, (dx * dx - dy * dy) * inv, 1.0)[:, None]
+    s2 = (2.0 * dx * dy * inv)[:, None]
+    mirror = np.where(v < 0, -1.0, 1.0)[:, None]  # B changes sign below the axis
+    turned = out.reshape(-1, S, 2) if near.all() else None
+    turned = _turn(val[..., 0], val[..., 1], c2, s2, turned, mirror)
+    if not near.all():
+        out[near] = turned
     return out

@@ -27,6 +27,7 @@ __all__ = [
     "secondary_principal",
     "principal_from_components",
     "retarder",
+    "retarder_spectrum",
     "rotator",
     "qmul",
     "qtranspose",
@@ -175,6 +176,71 @@ def from_matrix(m: np.ndarray) -> np.ndarray:
     return np.stack([w, x, y, z], axis=-1)
 
 
+def _arithmetic(rows: np.ndarray):
+    """(first (n,), step (n,)) when every row of ``rows`` (n, W) is an arithmetic
+    sequence (W >= 4; to 1e-9 of its largest value, a phase error below 1e-9 of a ray's
+    retardation), else None."""
+    W = rows.shape[1]
+    if W < 4:
+        return None
+    step = (rows[:, -1] - rows[:, 0]) / (W - 1)
+    dev = np.abs(rows - rows[:, :1] - step[:, None] * np.arange(W)).max(axis=1)
+    if np.all(dev <= 1e-9 * np.abs(rows).max(axis=1)):
+        return rows[:, 0], step
+    return None
+
+
+def retarder_spectrum(a: np.ndarray, b: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """Quaternions (P, W, 4) of linear retarders of retardation hypot(a, b) k (rad) at
+    each wavelength and fast axis atan2(b, a) / 2: :func:`retarder` of a summed slab
+    vector through W wavelengths.
+
+    Parameters
+    ----------
+    a, b : (P,) float arrays
+        The vector's components (Pa m; (sigma_xx - sigma_yy) dz and 2 sigma_xy dz).
+    k : (W,) float array
+        2 pi C(lam) / lam (rad/(Pa m)) per wavelength. On a wavenumber grid (an
+        arithmetic sequence, W >= 4) the W half-angles' cos and sin come from one complex
+        exponential and a running product (as :func:`integrate_path`), not 2 W trig calls
+        per ray; the axis' from the components, without an angle.
+
+    Returns
+    -------
+    (P, W, 4) float array
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.optics.jones import retarder, retarder_spectrum
+    >>> k = np.linspace(1.0, 2.0, 5)
+    >>> q = retarder_spectrum(np.array([0.3]), np.array([0.4]), k)
+    >>> bool(np.allclose(q, retarder(0.5 * k, 0.5 * np.arctan2(0.4, 0.3))))
+    True
+    """
+    a, b, k = np.asarray(a, float), np.asarray(b, float), np.asarray(k, float)
+    mag = np.hypot(a, b)
+    arith = _arithmetic(k.reshape(1, -1))
+    if arith is not None:
+        e = np.empty((len(mag), len(k)), np.complex128)
+        e[:, 0] = np.exp(0.5j * arith[0][0] * mag)
+        e[:, 1:] = np.exp(0.5j * arith[1][0] * mag)[:, None]
+        np.cumprod(e, axis=1, out=e)
+        cw, sw = e.real, e.imag
+    else:
+        half = 0.5 * mag[:, None] * k[None, :]
+        cw, sw = np.cos(half), np.sin(half)
+    inv = np.divide(1.0, mag, out=np.zeros_like(mag), where=mag > 0)
+    s2t = (b * inv)[:, None]  # sin and cos of twice the axis (axis 0 where mag = 0)
+    c2t = np.where(mag > 0, a * inv, 1.0)[:, None]
+    out = np.empty((len(mag), len(k), 4))
+    out[..., 0] = cw
+    out[..., 1] = sw * s2t
+    out[..., 2] = 0.0
+    out[..., 3] = sw * c2t
+    return out
+
+
 def integrate_path(
     ds: np.ndarray, theta: np.ndarray, dz: np.ndarray, k: np.ndarray, *, chunk: int = 4096
 ) -> np.ndarray:
@@ -222,14 +288,9 @@ def integrate_path(
     # optics.stressoptic.wavenumber_grid) get cos/sin of the W half-angles from one
     # complex exponential and a running product instead of 2 W trig calls per ray.
     rows = k.reshape(S, W) if per_slab else k.reshape(1, W) if k.ndim == 1 else None
-    arith = None
-    if rows is not None and W >= 4:
-        step = (rows[:, -1] - rows[:, 0]) / (W - 1)
-        dev = np.abs(rows - rows[:, :1] - step[:, None] * np.arange(W)).max(axis=1)
-        # 1e-9 of k: a phase error below 1e-9 of the ray's total retardation
-        ok = dev <= 1e-9 * np.abs(rows).max(axis=1)
-        if np.all(ok):
-            arith = (np.broadcast_to(rows[:, 0], (S,)), np.broadcast_to(step, (S,)))
+    arith = _arithmetic(rows) if rows is not None else None
+    if arith is not None:
+        arith = tuple(np.broadcast_to(a, (S,)) for a in arith)
     out = np.empty((P, W, 4))
 
     def block(start: int) -> None:

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from fringekit.library.store import Library, LoadedIndenter
-from fringekit.optics import PixelGrid, integrate_path, retarder
-from fringekit.optics.jones import qmul, qtranspose
+from fringekit.optics import PixelGrid, integrate_path
+from fringekit.optics.jones import qmul, qtranspose, retarder_spectrum
 
 __all__ = [
     "SynthMap",
@@ -75,10 +75,8 @@ def _quaternions(ab: np.ndarray, law, wavelengths: np.ndarray, exact: bool) -> n
     The double pass of a linear retarder doubles its retardation (U^T = U)."""
     k = law.retardation_per_stress_length(wavelengths)
     if not exact:
-        tot = slab_sum(ab)
-        theta = 0.5 * np.arctan2(tot[:, 1], tot[:, 0])
-        delta = 2.0 * np.hypot(tot[:, 0], tot[:, 1])[:, None] * k[None, :]
-        return retarder(delta, theta[:, None])
+        tot = 2.0 * slab_sum(ab)  # the double pass
+        return retarder_spectrum(tot[:, 0], tot[:, 1], k)
     a = ab[..., 0].astype(float)
     b = ab[..., 1].astype(float)
     ds = np.hypot(a, b)  # (Pa m): the slab thickness is already in

@@ -221,15 +221,13 @@ def retarder_spectrum(a: np.ndarray, b: np.ndarray, k: np.ndarray) -> np.ndarray
     a, b, k = np.asarray(a, float), np.asarray(b, float), np.asarray(k, float)
     mag = np.hypot(a, b)
     arith = _arithmetic(k.reshape(1, -1))
-    if arith is not None:
-        e = np.empty((len(mag), len(k)), np.complex128)
-        e[:, 0] = np.exp(0.5j * arith[0][0] * mag)
-        e[:, 1:] = np.exp(0.5j * arith[1][0] * mag)[:, None]
-        np.cumprod(e, axis=1, out=e)
-        cw, sw = e.real, e.imag
-    else:
-        half = 0.5 * mag[:, None] * k[None, :]
-        cw, sw = np.cos(half), np.sin(half)
+    if arith is None:  # a few wavelengths: retarder() itself
+        return retarder(mag[:, None] * k[None, :], 0.5 * np.arctan2(b, a)[:, None])
+    e = np.empty((len(mag), len(k)), np.complex128)
+    e[:, 0] = np.exp(0.5j * arith[0][0] * mag)
+    e[:, 1:] = np.exp(0.5j * arith[1][0] * mag)[:, None]
+    np.cumprod(e, axis=1, out=e)
+    cw, sw = e.real, e.imag
     inv = np.divide(1.0, mag, out=np.zeros_like(mag), where=mag > 0)
     s2t = (b * inv)[:, None]  # sin and cos of twice the axis (axis 0 where mag = 0)
     c2t = np.where(mag > 0, a * inv, 1.0)[:, None]

@@ -44,7 +44,7 @@ from fringekit.inversion.hop import hop
 from fringekit.inversion.model import N_PARAMS, ImageModel, range_penalty, unpack
 from fringekit.inversion.start import scan_start
 from fringekit.inversion.uncertainty import model_sd, parameter_sd, stated_sd
-from fringekit.inversion.verdict import AT_LARGEST, WARN_RESIDUAL, InvertError, refuse
+from fringekit.inversion.verdict import AT_LARGEST, WARN_RESIDUAL, InvertError, fit_verdict, refuse
 from fringekit.optics import PixelGrid
 
 __all__ = [
@@ -365,7 +365,7 @@ def refit(model: ImageModel, p: np.ndarray, diam, noise: float) -> InvertResult:
     fine = _exact(subsample(model, 2))
     diam = list(diam)
     p, res, its = _refit(fine, np.asarray(p, float).ravel(), diam, noise, 0)
-    return _finish(fine, p, diam, res, _verdict(fine, p, diam), noise, its, (t0, 0.0))
+    return _finish(fine, p, diam, res, fit_verdict(fine, p, diam, WINDOW_MM), noise, its, (t0, 0.0))
 
 
 def invert_image(
@@ -394,12 +394,12 @@ def invert_image(
     if budget.spent("detection", f"{len(pos)} candidate(s)"):
         return _positions_only(pos, noise, t0, t_detect, budget.stopped)
     p, diam, res, its = select_indenters(model, coarse, fine, pos, noise, True, max_rounds, budget)
-    verdict = _verdict(fine, p, diam) if diam else None
+    verdict = fit_verdict(fine, p, diam, WINDOW_MM) if diam else None
     if verdict is not None and np.any(verdict[0] > WARN_RESIDUAL) and not budget.stopped:
         budget.say("invert: an indenter is flagged: fitting again from starts without shear")
         alt = select_indenters(model, coarse, fine, pos, noise, False, max_rounds, budget)
         its += alt[3]
-        other = _verdict(fine, alt[0], alt[1]) if alt[1] else None
+        other = fit_verdict(fine, alt[0], alt[1], WINDOW_MM) if alt[1] else None
         if other is not None and (np.sum(other[0] > WARN_RESIDUAL), other[1]) < (
             np.sum(verdict[0] > WARN_RESIDUAL),
             verdict[1],
@@ -460,21 +460,6 @@ def select_indenters(model, coarse, fine, pos, noise, sheared: bool, max_rounds:
             p, res, its = _refit(_exact(fine), p2, diam2, noise, its)
             diam = diam2
     return p, diam, res, its
-
-
-def _verdict(fine: ImageModel, p, diam):
-    """Residual RMS near each indenter (n,) and in all (float), in fringe amplitudes,
-    with the fitted gains (C,) and offsets (C,)."""
-    fitted, gains, offs, outside = fine.fitted(unpack(p, diam))
-    use = fine.usable & outside
-    r = np.where(use[:, None], fine.measured - fitted, np.nan)
-    amp = float(np.mean(np.abs(gains)))
-    xy = fine.xy * 1e3
-    near = [np.hypot(xy[:, 0] - v[0], xy[:, 1] - v[1]) < WINDOW_MM for v in p.reshape(-1, 5)]
-    if amp == 0.0:  # a model without fringes on the pixels fitted explains nothing
-        return np.full(len(near), np.inf), np.inf, gains, offs
-    rms = np.array([np.sqrt(np.nanmean(r[m] ** 2)) / amp for m in near])
-    return rms, float(np.sqrt(np.nanmean(r**2)) / amp), gains, offs
 
 
 def _positions_only(pos, noise, t0, t_detect, stopped) -> InvertResult:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from fringekit.errors import RefusedError
+from fringekit.inversion.model import unpack
 
 __all__ = [
     "AT_LARGEST",
@@ -22,6 +23,8 @@ __all__ = [
     "WARN_RESIDUAL",
     "refuse",
     "residual_warnings",
+    "fit_verdict",
+    "window_rms",
 ]
 
 MAX_RESIDUAL = 0.2
@@ -46,6 +49,69 @@ class InvertError(RefusedError):
     >>> issubclass(fringekit.InvertError, fringekit.RefusedError)
     True
     """
+
+
+def window_rms(residual, use, xy_mm, params, amp: float, radius_mm: float) -> np.ndarray:
+    """The figure an indenter's ``residual_rms`` is: the RMS of the image residual on the
+    ``use`` pixels within ``radius_mm`` of its axis, over the fringe amplitude ``amp``.
+
+    Parameters
+    ----------
+    residual : (P, C) float array
+        Measured minus fitted intensity.
+    use : (P,) bool array
+        The pixels that count.
+    xy_mm : (P, 2) float array
+        Pixel positions (mm).
+    params : (n, 5) float array
+        The indenters (x, y in mm first).
+    amp : float
+        The fringe amplitude (the fitted gains' mean magnitude).
+    radius_mm : float
+        The window about each axis (mm).
+
+    Returns
+    -------
+    (n,) float array
+        NaN where no pixel counts near an axis; inf for all when ``amp`` is 0 (a model
+        without fringes explains nothing).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> xy = np.array([[0.0, 0.0], [0.5, 0.0], [5.0, 0.0]])
+    >>> r = np.array([[0.03], [0.04], [1.0]])
+    >>> window_rms(r, np.ones(3, bool), xy, np.array([[0.0, 0.0, 1, 0, 0]]), 0.5, 1.0)
+    array([0.07071068])
+    """
+    out = np.full(len(params), np.inf)
+    if amp == 0.0:
+        return out
+    for k, v in enumerate(params):  # a handful of indenters
+        m = use & (np.hypot(xy_mm[:, 0] - v[0], xy_mm[:, 1] - v[1]) < radius_mm)
+        out[k] = np.sqrt(np.mean(residual[m] ** 2)) / amp if m.any() else np.nan
+    return out
+
+
+def fit_verdict(fine, p: np.ndarray, diam, radius_mm: float):
+    """Residual RMS near each indenter (n,) (:func:`window_rms` within ``radius_mm``, the
+    fit's WINDOW_MM) and in all (float), in fringe amplitudes, with the fitted gains (C,)
+    and offsets (C,) of the :class:`~fringekit.inversion.model.ImageModel` ``fine`` at
+    parameters ``p`` (n * 5,) of spheres ``diam`` (m).
+
+    Examples
+    --------
+    See :func:`window_rms`; ``invert`` reports these as ``residual_rms`` and
+    ``residual``.
+    """
+    fitted, gains, offs, outside = fine.fitted(unpack(p, diam))
+    use = fine.usable & outside
+    r = fine.measured - fitted
+    amp = float(np.mean(np.abs(gains)))
+    rms = window_rms(r, use, fine.xy * 1e3, np.reshape(p, (-1, 5)), amp, radius_mm)
+    if amp == 0.0:  # a model without fringes on the pixels fitted explains nothing
+        return rms, np.inf, gains, offs
+    return rms, float(np.sqrt(np.mean(r[use] ** 2)) / amp), gains, offs
 
 
 def residual_warnings(params: np.ndarray, residual_rms: np.ndarray) -> list[str]:

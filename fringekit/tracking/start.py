@@ -27,6 +27,7 @@ from fringekit.inversion.fit import (
 from fringekit.inversion.hop import hop
 from fringekit.inversion.model import N_PARAMS, ImageModel, unpack
 from fringekit.inversion.uncertainty import parameter_sd
+from fringekit.inversion.verdict import window_rms
 from fringekit.tracking.warm import ChordFit
 
 __all__ = ["QUICK_NOISE", "QUICK_RESIDUAL", "near_residual", "quick_start"]
@@ -68,17 +69,11 @@ def near_residual(fixed: ImageModel, p: np.ndarray, r: np.ndarray, gains: np.nda
     --------
     See :func:`quick_start`, which keeps a fit only where every contact's is small.
     """
-    n_img = fixed.measured.size
-    img = r[:n_img].reshape(fixed.measured.shape)
-    use = fixed.usable & fixed.keep
+    img = r[: fixed.measured.size].reshape(fixed.measured.shape)
     amp = float(np.mean(np.abs(gains)))
-    xy = fixed.xy * 1e3
-    rms = []
-    for v in np.reshape(p, (-1, N_PARAMS)):  # a handful of contacts
-        m = use & (np.hypot(xy[:, 0] - v[0], xy[:, 1] - v[1]) < WINDOW_MM)
-        ok = amp > 0 and m.any()
-        rms.append(float(np.sqrt(np.mean(img[m] ** 2)) / amp) if ok else np.inf)
-    return np.array(rms)
+    q = np.reshape(p, (-1, N_PARAMS))
+    rms = window_rms(img, fixed.usable & fixed.keep, fixed.xy * 1e3, q, amp, WINDOW_MM)
+    return np.where(np.isnan(rms), np.inf, rms)
 
 
 def quick_start(full: ImageModel, cand: np.ndarray, stride: int, noise: float):

@@ -18,6 +18,7 @@ from fringekit.cli.main import main
 from fringekit.config.files import to_toml
 from fringekit.errors import ConfigError, InputError, LibraryError
 from fringekit.library.calibrated import CalibratedSensor
+from fringekit.optics import write_image
 from fringekit.tracking import TRACK_COLUMNS, library_frames, open_source, track, write_video
 
 PX, PIXEL_MM = 64, 0.25  # 16 x 16 mm frames of the tiny library's sensor
@@ -271,6 +272,40 @@ def test_the_command_writes_loads_and_keeps_what_a_bad_frame_stopped(
     summary = json.loads((out / "summary.json").read_text())
     assert summary["stopped"]["after_frames"] == 3
     assert (out / "loads.png").is_file()
+
+
+def test_a_residual_bump_is_not_a_contact_nor_searched_every_frame(
+    tiny_library, tmp_path, monkeypatch
+):
+    """A model misfit that looks like a light new contact (an intensity bump of 0.1 beside
+    a steady contact, as FEM frames show near 4 N contacts): the touch search finds it,
+    the fit finds no significant load there, and it is dropped in the same frame, with
+    no touch and no release; the place is searched again only after REJECTED_FRAMES. The
+    old rule reported a new contact in every frame, released the next."""
+    from fringekit.tracking import tracker
+
+    library_frames(
+        tiny_library,
+        [[(-3.0, 3.0, 3.0, 0.3, 0.0)]] * 8,
+        tmp_path,
+        pixels=PX,
+        pixel_mm=PIXEL_MM,
+        noise=0.003,
+    )
+    r, c = np.mgrid[:PX, :PX]
+    x, y = (c - (PX - 1) / 2) * PIXEL_MM, ((PX - 1) / 2 - r) * PIXEL_MM
+    bump = 0.1 * np.exp(-((x - 3.0) ** 2 + (y + 3.0) ** 2) / (2 * 0.6**2))
+    for p in sorted(tmp_path.glob("frame_*.png")):
+        img = read_pixels(p).astype(float) / 255 + bump
+        write_image(p, np.round(np.clip(img, 0, 1) * 255).astype(np.uint8))
+    searched = []
+    start = tracker.start_params  # a touch's fit begins with the library's start scan
+    monkeypatch.setattr(tracker, "start_params", lambda *a: searched.append(1) or start(*a))
+    t = track(tmp_path, tiny_library, pixel_mm=PIXEL_MM)
+    assert [f.events for f in t.frames] == [("start",)] + [()] * 7
+    assert all(len(f.ids) == 1 for f in t.frames)
+    assert len(searched) == 2  # frames 1 and 1 + REJECTED_FRAMES + 1 (the old rule: 6)
+    assert tracker.REJECTED_FRAMES == 5
 
 
 def test_frames_replace_their_own_earlier_stream_and_refuse_a_user_s_folder(tiny_library, tmp_path):

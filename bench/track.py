@@ -1,9 +1,20 @@
-"""Benchmark ``fringekit track`` on a library-synthesised stream of known loads.
+"""Benchmark ``fringekit track`` on a stream of known loads: library-synthesised (speed and
+identity; the default) or FEM-rendered (accuracy).
 
-Usage: python bench/track.py [--frames 200] [--pixels 256] [--methods mono rgb]
-       [--stride 4] [--noise 0.005] [--invert-every 50] [--library DIR] [--work DIR]
-       [--json FILE]
+Usage: python bench/track.py [--sequence library|fem] [--frames 200] [--pixels 256]
+       [--methods mono rgb] [--stride 4] [--noise 0.005] [--invert-every 50]
+       [--library DIR] [--work DIR] [--json FILE]
        (--work default: bench/out/track, ignored by git)
+
+``--sequence fem`` (sequence (a) of the tracking issue, on the coarse sensor, whose
+library the bench uses): one ``predict`` run under full stick, every load state a frame,
+FRAMES of them: two contacts (3.5 mm spheres 6.7 mm apart) ramping Fz together from 0.5
+to 4 N (the library's largest) over the first 60 % of the frames, then a tangential load
+on one of them ramping along +x to 0.4 of its normal load. The frames are the predicted
+8-bit images (dark field, white light) with camera noise NOISE (of full scale, a seed per
+frame) added and quantised again; the truth is the loads the config prescribes. About 2
+minutes of FEM for 20 states (the solutions are cached in the work folder). The rest of
+this docstring is the library sequence's.
 
 The sensor is examples/coarse_sensor.toml (20 mm sheet, the tests' sensor) with its
 library of 1-4 N x 5 tangential ratios (built once into the work folder, about 2 min on
@@ -35,6 +46,7 @@ from __future__ import annotations
 import argparse
 import json
 import resource
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -47,6 +59,7 @@ from fringekit.config.files import load_config
 from fringekit.errors import RefusedError
 from fringekit.library.build import DEFAULT_RATIOS, build_library
 from fringekit.library.store import load_library
+from fringekit.optics import write_image
 from fringekit.tracking import library_frames, track
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -139,7 +152,9 @@ def score(t, truths: list[dict], level: float) -> dict:
 
     def first(name, present: bool):
         """Frames from the first with the load at the level (a touch) or gone to zero
-        (a lift) to the first the tracker agrees."""
+        (a lift) to the first the tracker agrees (None: a sequence without this event)."""
+        if name not in truths[0]:
+            return None
         want = [
             k
             for k, tr in enumerate(truths)
@@ -204,22 +219,81 @@ def offline(lib, folder: Path, tracked, truths, every: int, pixel_mm: float, met
     return out
 
 
-def run(lib, method: str, args, work: Path) -> dict:
-    truths = stream(args.frames)
-    rows = [list(tr.values()) for tr in truths]
-    rows = [[c for c in r if c[2] > 0] for r in rows]
+def fem_stream(n: int) -> list[dict[str, tuple]]:
+    """The FEM sequence's contacts per frame (module docstring): name -> (x, y mm, Fz,
+    Fx, Fy N)."""
+    n_normal = max(2, int(round(0.6 * n)))
+    fz = np.concatenate([np.geomspace(0.5, 4.0, n_normal), np.full(n - n_normal, 4.0)])
+    ft = np.concatenate([np.zeros(n_normal), np.linspace(0.0, 0.4, n - n_normal + 1)[1:]])
+    return [
+        {"A": (-3.2, 1.0, float(f), 0.0, 0.0), "B": (3.2, -1.0, float(f), float(t * f), 0.0)}
+        for f, t in zip(fz, ft, strict=True)
+    ]
+
+
+def fem_frames(truths: list[dict], method: str, args, work: Path) -> Path:
+    """The FEM sequence's frames (``frame_0000.png``, ...) in the work folder: the
+    predicted camera images of every state with camera noise added."""
+    cfg = load_config(SENSOR)
+    cfg["contact"]["friction"] = "stick"
+    cfg["mesh"]["symmetry"] = "full"
+    cfg["optics"].update(
+        field_of_view_mm=FIELD_MM, pixels=args.pixels, center_mm=[0.0, 0.0], render="all"
+    )
+    proto = cfg["indenter"][0]
+    cfg["indenter"] = [
+        dict(
+            proto,
+            x_mm=truths[0][name][0],
+            y_mm=truths[0][name][1],
+            load_N=[t[name][2] for t in truths],
+            shear_N=[[t[name][3], t[name][4]] for t in truths],
+        )
+        for name in truths[0]
+    ]
+    t0 = time.perf_counter()
+    pred = fringekit.predict(cfg, cache_dir=work / "cache", progress=True)
+    print(
+        f"FEM sequence: {len(truths)} states solved and rendered in "
+        f"{time.perf_counter() - t0:.0f} s",
+        flush=True,
+    )
+    folder = work / f"fem-{method}-{args.pixels}"
+    shutil.rmtree(folder, ignore_errors=True)  # the bench's own frames of an earlier run
+    folder.mkdir(parents=True)
+    for k, rs in enumerate(pred.states):  # a few dozen frames
+        img = (rs.white_light if method == "rgb" else rs.dark_field).astype(float) / 255.0
+        img += np.random.default_rng(k).normal(0.0, args.noise, img.shape)
+        img = np.round(np.clip(img, 0.0, 1.0) * 255.0).astype(np.uint8)
+        write_image(folder / f"frame_{k:04d}.png", img)
+    return folder
+
+
+def _library_frames(lib, truths: list[dict], method: str, args, work: Path) -> Path:
+    """The library sequence's frames in the work folder."""
+    rows = [[c for c in tr.values() if c[2] > 0] for tr in truths]
     folder = work / f"frames-{method}-{args.pixels}"
-    pixel_mm = FIELD_MM / args.pixels
     library_frames(
         lib,
         rows,
         folder,
         pixels=args.pixels,
-        pixel_mm=pixel_mm,
+        pixel_mm=FIELD_MM / args.pixels,
         method=method,
         noise=args.noise,
         seed=0,
     )
+    return folder
+
+
+def run(lib, method: str, args, work: Path) -> dict:
+    pixel_mm = FIELD_MM / args.pixels
+    if args.sequence == "fem":
+        truths = fem_stream(args.frames)
+        folder = fem_frames(truths, method, args, work)
+    else:
+        truths = stream(args.frames)
+        folder = _library_frames(lib, truths, method, args, work)
     t0 = time.perf_counter()
     tr = track(folder, lib, pixel_mm=pixel_mm, method=method, stride=args.stride, progress=True)
     wall = time.perf_counter() - t0
@@ -233,6 +307,7 @@ def run(lib, method: str, args, work: Path) -> dict:
     )
     return {
         "method": method,
+        "sequence": args.sequence,
         "frames": args.frames,
         "pixels": args.pixels,
         "stride": args.stride,
@@ -254,6 +329,7 @@ def run(lib, method: str, args, work: Path) -> dict:
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sequence", choices=("library", "fem"), default="library")
     ap.add_argument("--frames", type=int, default=200)
     ap.add_argument("--pixels", type=int, default=256)
     ap.add_argument("--methods", nargs="+", default=["mono", "rgb"])

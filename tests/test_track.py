@@ -308,6 +308,19 @@ def test_a_residual_bump_is_not_a_contact_nor_searched_every_frame(
     assert tracker.REJECTED_FRAMES == 5
 
 
+@pytest.mark.slow
+def test_a_contact_at_the_library_s_largest_load_is_not_reliable(tiny_library, tmp_path):
+    """A contact pressed on to the library's largest load (4 N) is fitted there, held at
+    the bound: ``invert`` would refuse it, so the tracker flags it, residual or not; its
+    neighbour at 2.5 N stays reliable."""
+    frames = [[(-3.0, 3.0, 2.5, 0.3, 0.0), (3.0, -3.0, f, 0.0, 0.0)] for f in (3.0, 3.5, 4.0)]
+    library_frames(tiny_library, frames, tmp_path, pixels=PX, pixel_mm=PIXEL_MM, noise=0.003)
+    t = track(tmp_path, tiny_library, pixel_mm=PIXEL_MM)
+    assert [len(f.ids) for f in t.frames] == [2, 2, 2]
+    assert all(np.all(f.residual_rms < 0.05) for f in t.frames)
+    assert [f.reliable.tolist() for f in t.frames] == [[True, True]] * 2 + [[True, False]]
+
+
 def test_frames_replace_their_own_earlier_stream_and_refuse_a_user_s_folder(tiny_library, tmp_path):
     """A shorter stream written over a longer one leaves only its own frames (a stale
     frame would be tracked as part of it); a folder with a file fringekit did not write is

@@ -21,6 +21,7 @@ __all__ = [
     "InvertError",
     "MAX_RESIDUAL",
     "WARN_RESIDUAL",
+    "at_library_edge",
     "refuse",
     "residual_warnings",
     "fit_verdict",
@@ -123,6 +124,25 @@ def residual_warnings(params: np.ndarray, residual_rms: np.ndarray) -> list[str]
         for i, (v, r) in enumerate(zip(params, residual_rms, strict=True))
         if r > WARN_RESIDUAL
     ]
+
+
+def at_library_edge(q: np.ndarray, lib) -> np.ndarray:
+    """(n,) bool: the indenters of ``q`` (n, 5) whose normal load or tangential ratio is
+    at AT_LARGEST of the library's largest or beyond: a fit held there is not converged,
+    and ``invert`` refuses it (:func:`refuse`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from types import SimpleNamespace
+    >>> lib = SimpleNamespace(max_load_N=4.0, max_ratio=0.8)
+    >>> q = np.array([[0, 0, 2.0, 0.2, 0], [0, 0, 4.0, 0, 0], [0, 0, 1.0, 0.8, 0]])
+    >>> at_library_edge(q, lib).tolist()
+    [False, True, True]
+    """
+    q = np.reshape(q, (-1, 5))
+    ratio = np.hypot(q[:, 3], q[:, 4]) / np.maximum(q[:, 2], 1e-12)
+    return (q[:, 2] >= AT_LARGEST * lib.max_load_N) | (ratio >= AT_LARGEST * lib.max_ratio)
 
 
 def refuse(q: np.ndarray, lib, total: float) -> None:

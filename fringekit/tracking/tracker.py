@@ -56,7 +56,7 @@ from fringekit.inversion.fit import (
 from fringekit.inversion.hop import hop
 from fringekit.inversion.model import N_PARAMS, ImageModel, unpack
 from fringekit.inversion.uncertainty import model_sd, stated_sd
-from fringekit.inversion.verdict import WARN_RESIDUAL, InvertError
+from fringekit.inversion.verdict import WARN_RESIDUAL, InvertError, at_library_edge
 from fringekit.tracking.ids import assign, twins, velocity
 from fringekit.tracking.start import near_residual, quick_start
 from fringekit.tracking.warm import ChordFit
@@ -114,7 +114,9 @@ class TrackedFrame:
     residual_rms : (n,) array
         The residual within 3 mm of each contact, in fringe amplitudes.
     reliable : (n,) bool array
-        Residual below ``invert``'s warning level.
+        Residual below ``invert``'s warning level, and the loads within the library's
+        range (a fit held at its largest normal load or ratio, which ``invert`` would
+        refuse, is not).
     events : tuple of str
         What happened besides a warm fit: ``"start"``, ``"touch <id>"``,
         ``"release <id>"``, ``"recover"``.
@@ -206,7 +208,7 @@ class Tracker:
         sd, rms = frame
         self.last_step = velocity(before, (self.p, self.ids), max(gap, 1))
         q = self.p.reshape(-1, N_PARAMS).copy()
-        ok = np.asarray(rms <= WARN_RESIDUAL, bool)
+        ok = np.asarray(rms <= WARN_RESIDUAL, bool) & ~at_library_edge(q, self.blank.lib)
         return TrackedFrame(index, time_s, self.ids.copy(), q, sd, rms, ok, tuple(events), times)
 
     def reset(self) -> None:

@@ -212,10 +212,12 @@ class Tracker:
         return TrackedFrame(index, time_s, self.ids.copy(), q, sd, rms, ok, tuple(events), times)
 
     def reset(self) -> None:
-        """Forget every contact (the next frame starts afresh, new ids)."""
+        """Forget every contact (the next frame starts afresh, new ids), and the places a
+        touch was rejected at."""
         self._reset(np.zeros(0), [])
         self.ids = np.zeros(0, int)
         self.index = None
+        self.rejected = []
 
     # -- the stages ---------------------------------------------------------------------
 

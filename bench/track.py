@@ -10,11 +10,11 @@ Usage: python bench/track.py [--sequence library|fem] [--frames 200] [--pixels 2
 library the bench uses): one ``predict`` run under full stick, every load state a frame,
 FRAMES of them: two contacts (3.5 mm spheres 6.7 mm apart) ramping Fz together from 0.5
 to 3.4 N (TOP_N, inside the library's 4 N) over the first 60 % of the frames, then a
-tangential load on one of them ramping along +x to 0.4 of its normal load. The frames are the predicted
-8-bit images (dark field, white light) with camera noise NOISE (of full scale, a seed per
-frame) added and quantised again; the truth is the loads the config prescribes. About 2
-minutes of FEM for 20 states (the solutions are cached in the work folder). The rest of
-this docstring is the library sequence's.
+tangential load on one of them ramping along +x to 0.4 of its normal load. The frames
+are the predicted 8-bit images (dark field, white light) with camera noise NOISE (of
+full scale, a seed per frame) added and quantised again; the truth is the loads the
+config prescribes. About 2 minutes of FEM for 20 states (the solutions are cached in the
+work folder). The rest of this docstring is the library sequence's.
 
 The sensor is examples/coarse_sensor.toml (20 mm sheet, the tests' sensor) with its
 library of 1-4 N x 5 tangential ratios (built once into the work folder, about 2 min on

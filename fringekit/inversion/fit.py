@@ -44,7 +44,13 @@ from fringekit.inversion.hop import hop
 from fringekit.inversion.model import N_PARAMS, ImageModel, range_penalty, unpack
 from fringekit.inversion.start import scan_start
 from fringekit.inversion.uncertainty import model_sd, parameter_sd, stated_sd
-from fringekit.inversion.verdict import AT_LARGEST, WARN_RESIDUAL, InvertError, fit_verdict, refuse
+from fringekit.inversion.verdict import (
+    WARN_RESIDUAL,
+    InvertError,
+    at_library_edge,
+    fit_verdict,
+    refuse,
+)
 from fringekit.optics import PixelGrid
 
 __all__ = [
@@ -284,7 +290,7 @@ def prune(
     if held is not None:
         enough |= np.asarray(held, bool)
     keep = enough & (significant | twin)
-    keep |= q[:, 2] >= AT_LARGEST * lib.max_load_N
+    keep |= at_library_edge(q, lib)[0]
     kept: list[int] = []
     for i in np.argsort(-q[:, 2]):  # strongest first; a handful of indenters
         clash = any(gap[i, j] < 0 for j in kept)

@@ -126,10 +126,11 @@ def residual_warnings(params: np.ndarray, residual_rms: np.ndarray) -> list[str]
     ]
 
 
-def at_library_edge(q: np.ndarray, lib) -> np.ndarray:
-    """(n,) bool: the indenters of ``q`` (n, 5) whose normal load or tangential ratio is
-    at AT_LARGEST of the library's largest or beyond: a fit held there is not converged,
-    and ``invert`` refuses it (:func:`refuse`).
+def at_library_edge(q: np.ndarray, lib) -> tuple[np.ndarray, np.ndarray]:
+    """(at_load (n,) bool, at_ratio (n,) bool): the indenters of ``q`` (n, 5) whose normal
+    load, or tangential ratio, is at AT_LARGEST of the library's largest or beyond. A fit
+    held there is not converged: ``invert`` refuses it (:func:`refuse`), ``track`` flags
+    it.
 
     Examples
     --------
@@ -137,12 +138,12 @@ def at_library_edge(q: np.ndarray, lib) -> np.ndarray:
     >>> from types import SimpleNamespace
     >>> lib = SimpleNamespace(max_load_N=4.0, max_ratio=0.8)
     >>> q = np.array([[0, 0, 2.0, 0.2, 0], [0, 0, 4.0, 0, 0], [0, 0, 1.0, 0.8, 0]])
-    >>> at_library_edge(q, lib).tolist()
-    [False, True, True]
+    >>> [a.tolist() for a in at_library_edge(q, lib)]
+    [[False, True, False], [False, False, True]]
     """
     q = np.reshape(q, (-1, 5))
     ratio = np.hypot(q[:, 3], q[:, 4]) / np.maximum(q[:, 2], 1e-12)
-    return (q[:, 2] >= AT_LARGEST * lib.max_load_N) | (ratio >= AT_LARGEST * lib.max_ratio)
+    return q[:, 2] >= AT_LARGEST * lib.max_load_N, ratio >= AT_LARGEST * lib.max_ratio
 
 
 def refuse(q: np.ndarray, lib, total: float) -> None:
@@ -150,11 +151,11 @@ def refuse(q: np.ndarray, lib, total: float) -> None:
     is named first: a fit held at the library's largest ratio makes up the missing
     tangential fringes with normal load, so a ratio out of range also drives the normal
     load to the library's edge."""
+    edge_load, edge_ratio = at_library_edge(q, lib)
     for i, v in enumerate(q):
         where = f"indenter {i + 1} at ({v[0]:.2f}, {v[1]:.2f}) mm"
-        at_load = v[2] >= AT_LARGEST * lib.max_load_N
-        ratio = np.hypot(v[3], v[4]) / max(v[2], 1e-12)
-        if ratio >= AT_LARGEST * lib.max_ratio:  # the fit is held at the largest ratio
+        at_load = edge_load[i]
+        if edge_ratio[i]:  # the fit is held at the largest ratio
             also = (
                 f"; its normal load, pushed to the library's largest ({lib.max_load_N:g} N) "
                 "to make up the missing tangential fringes, is not to be trusted either"

@@ -176,7 +176,8 @@ def interpolate_turned(AB: np.ndarray, lattice: PolarLattice, dx, dy, psi) -> np
     S = AB.shape[2]
     out = np.zeros((*shape, S, 2), np.float32)
     near = r2 < lattice.r_max**2
-    if near.all():  # the usual case: every point near, no gather
+    everywhere = bool(near.all())
+    if everywhere:  # the usual case: every point near, no gather
         dx, dy, cp, sp, r2 = (a.reshape(-1) for a in (dx, dy, cp, sp, r2))
     else:
         dx, dy, cp, sp, r2 = (a[near] for a in (dx, dy, cp, sp, r2))
@@ -212,8 +213,8 @@ def interpolate_turned(AB: np.ndarray, lattice: PolarLattice, dx, dy, psi) -> np
     c2 = np.where(r2 > 0, (dx * dx - dy * dy) * inv, 1.0)[:, None]
     s2 = (2.0 * dx * dy * inv)[:, None]
     mirror = np.where(v < 0, -1.0, 1.0)[:, None]  # B changes sign below the axis
-    turned = out.reshape(-1, S, 2) if near.all() else None
+    turned = out.reshape(-1, S, 2) if everywhere else None
     turned = _turn(val[..., 0], val[..., 1], c2, s2, turned, mirror)
-    if not near.all():
+    if not everywhere:
         out[near] = turned
     return out

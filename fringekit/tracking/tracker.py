@@ -207,8 +207,8 @@ class Tracker:
             )
         sd, rms = frame
         self.last_step = velocity(before, (self.p, self.ids), max(gap, 1))
-        q = self.p.reshape(-1, N_PARAMS).copy()
-        ok = np.asarray(rms <= WARN_RESIDUAL, bool) & ~at_library_edge(q, self.blank.lib)
+        q, lib = self.p.reshape(-1, N_PARAMS).copy(), self.blank.lib
+        ok = np.asarray(rms <= WARN_RESIDUAL, bool) & ~np.logical_or(*at_library_edge(q, lib))
         return TrackedFrame(index, time_s, self.ids.copy(), q, sd, rms, ok, tuple(events), times)
 
     def reset(self) -> None:

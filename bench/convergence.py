@@ -8,10 +8,12 @@ lateral edge under the indenter is printed for both). For each it prints DOF, so
 time, the 8 N depth and contact radius, the through-thickness integral
 S(r) = int (s_rr - s_tt) dz (N/mm) along y = 0 and the rotation-free fringe order it
 gives in reflection, N(r) = 2 |S(r)| / f_sigma (PSM-4, assumed f_sigma), and the change
-of each from the next coarser mesh.
+of each from the next coarser mesh. The load is axisymmetric, so S must not depend on the
+polar angle: the spread of N over 13 angles 0..90 deg on each circle (max - min) is the
+mesh's faceting, as a photoelastician sees it in the rings' polygonal kinks.
 
-    python bench/convergence.py [--h-contact-mm 0.6 0.4 0.3] [--mesher layered|tetwild]
-                                [--json FILE]
+    python bench/convergence.py [--h-contact-mm 0.6 0.4 0.3] [--h-sheet-mm 2]
+                                [--mesher layered|tetwild] [--json FILE]
 """
 
 from __future__ import annotations
@@ -36,8 +38,13 @@ _spec.loader.exec_module(_bench_fea)
 RADII_MM = (1.5, 2.0, 2.5, 3.0, 4.0, 6.0)
 
 
-def run(h_mm: float, mesher: str = "layered") -> dict:
-    sizing = Sizing(h_contact=h_mm * 1e-3, refine_radius=2e-3, h_sheet=2e-3, h_far=8e-3)
+ANGLES_DEG = np.linspace(0.0, 90.0, 13)
+
+
+def run(h_mm: float, mesher: str = "layered", h_sheet_mm: float = 2.0) -> dict:
+    sizing = Sizing(
+        h_contact=h_mm * 1e-3, refine_radius=2e-3, h_sheet=h_sheet_mm * 1e-3, h_far=8e-3
+    )
     mesh = build_mesh(MeshSpec(sizing=sizing, symmetry="quarter", mesher=mesher))
     t0 = time.perf_counter()
     sols, stats = solve(mesh, [Indenter(normal_force=tuple(float(f) for f in range(1, 9)))])
@@ -48,6 +55,16 @@ def run(h_mm: float, mesher: str = "layered") -> dict:
     near = np.hypot(P[:, :, 0].mean(1), P[:, :, 1].mean(1)) < 1.5e-3
     edge = np.linalg.norm(P[:, 1] - P[:, 0], axis=1)[near]
     S = _bench_fea.through_thickness_S(sols[-1], RADII_MM)
+    f_sigma = PSM4_ASSUMED.f_sigma
+    orders = np.array(
+        [
+            [
+                2 * abs(v) * 1e3 / f_sigma
+                for v in _bench_fea.through_thickness_S(sols[-1], RADII_MM, a).values()
+            ]
+            for a in ANGLES_DEG
+        ]
+    )  # (angles, radii)
     return {
         "mesher": mesher,
         "h_contact_mm": h_mm,
@@ -58,7 +75,10 @@ def run(h_mm: float, mesher: str = "layered") -> dict:
         "depth_8N_mm": ind.depth * 1e3,
         "contact_radius_8N_mm": ind.contact_radius * 1e3,
         "S_r_N_per_mm": S,
-        "order_r": {r: 2 * abs(v) * 1e3 / PSM4_ASSUMED.f_sigma for r, v in S.items()},
+        "order_r": {r: 2 * abs(v) * 1e3 / f_sigma for r, v in S.items()},
+        "order_spread_over_angle": dict(
+            zip(S, (orders.max(0) - orders.min(0)).tolist(), strict=True)
+        ),
         "peak_mem_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
     }
 
@@ -66,12 +86,13 @@ def run(h_mm: float, mesher: str = "layered") -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--h-contact-mm", type=float, nargs="+", default=[0.6, 0.4, 0.3])
+    ap.add_argument("--h-sheet-mm", type=float, default=2.0, help="largest edge in the sheet")
     ap.add_argument("--mesher", choices=("layered", "tetwild"), default="layered")
     ap.add_argument("--json")
     args = ap.parse_args()
     rows = []
     for h in sorted(args.h_contact_mm, reverse=True):
-        r = run(h, args.mesher)
+        r = run(h, args.mesher, args.h_sheet_mm)
         prev = rows[-1] if rows else None
         rows.append(r)
         d = ""
@@ -89,7 +110,12 @@ def main() -> None:
             f"{k} mm {v:.3f}" + (f" ({v - prev['order_r'][k]:+.3f})" if prev else "")
             for k, v in r["order_r"].items()
         )
-        print(line, flush=True)
+        print(line)
+        print(
+            "   spread of N over angle (max - min): "
+            + "  ".join(f"{k} mm {v:.3f}" for k, v in r["order_spread_over_angle"].items()),
+            flush=True,
+        )
     if args.json:
         Path(args.json).write_text(json.dumps({"meshes": rows}, indent=2))
 

@@ -54,11 +54,14 @@ def _invert(fun, F):
     return 0.5 * (lo + hi)
 
 
-def through_thickness_S(sol, radii_mm):
+def through_thickness_S(sol, radii_mm, angle_deg=0.0):
     """S(r) = integral over the deformed sheet thickness of (s_rr - s_tt) dz (N/mm).
 
-    Sampled along the ray x = r, y = 0 (quarter/half models contain it) by probing the
-    nodal stress on a linear sub-sampling of the deformed mesh through pyvista.
+    Sampled along the ray at (r cos a, r sin a) for the polar angle a = ``angle_deg``
+    (0..90 deg lies in every quarter model) by probing the nodal stress on the deformed
+    quadratic mesh through pyvista. In the polar frame at angle a,
+    s_rr - s_tt = (s_xx - s_yy) cos 2a + 2 s_xy sin 2a (Mohr's circle); for an
+    axisymmetric load S does not depend on a, so its spread over a is discretisation error.
     """
     import pyvista as pv
 
@@ -71,13 +74,18 @@ def through_thickness_S(sol, radii_mm):
     grid.point_data["s"] = sol.stress_nodes.reshape(-1, 9)
     out = {}
     t = sol.mesh.spec.layers.sheet_thickness
+    a = np.radians(angle_deg)
+    c2, s2 = np.cos(2 * a), np.sin(2 * a)
     for r in radii_mm:
         z = np.linspace(0.0, t * 1.2, 241)
-        pts = np.column_stack([np.full_like(z, r * 1e-3), np.full_like(z, 1e-7), z])
+        # at least 1e-7 m off the symmetry planes, so that a probe falls inside a cell
+        x, y = (max(r * 1e-3 * f(a), 1e-7) for f in (np.cos, np.sin))
+        pts = np.column_stack([np.full_like(z, x), np.full_like(z, y), z])
         probe = pv.PolyData(pts).sample(grid)
         ok = np.asarray(probe.point_data["vtkValidPointMask"], dtype=bool)
         s = np.asarray(probe.point_data["s"]).reshape(-1, 3, 3)
-        diff = np.where(ok, s[:, 0, 0] - s[:, 1, 1], 0.0)  # on y = 0: rr = xx, tt = yy
+        diff = (s[:, 0, 0] - s[:, 1, 1]) * c2 + 2 * s[:, 0, 1] * s2
+        diff = np.where(ok, diff, 0.0)
         out[f"{r:.1f}"] = float(np.trapezoid(diff, z) * 1e-3)  # N/m * 1e-3 -> N/mm
     return out
 

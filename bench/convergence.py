@@ -54,17 +54,10 @@ def run(h_mm: float, mesher: str = "layered", h_sheet_mm: float = 2.0) -> dict:
     P = mesh.points[tri]
     near = np.hypot(P[:, :, 0].mean(1), P[:, :, 1].mean(1)) < 1.5e-3
     edge = np.linalg.norm(P[:, 1] - P[:, 0], axis=1)[near]
-    S = _bench_fea.through_thickness_S(sols[-1], RADII_MM)
-    f_sigma = PSM4_ASSUMED.f_sigma
-    orders = np.array(
-        [
-            [
-                2 * abs(v) * 1e3 / f_sigma
-                for v in _bench_fea.through_thickness_S(sols[-1], RADII_MM, a).values()
-            ]
-            for a in ANGLES_DEG
-        ]
-    )  # (angles, radii)
+    # S on each circle at every angle; the first angle (0 deg) is the y = 0 line of S(r)
+    S_by_angle = [_bench_fea.through_thickness_S(sols[-1], RADII_MM, a) for a in ANGLES_DEG]
+    S = S_by_angle[0]
+    orders = 2e3 * np.abs([list(Sa.values()) for Sa in S_by_angle]) / PSM4_ASSUMED.f_sigma
     return {
         "mesher": mesher,
         "h_contact_mm": h_mm,
@@ -75,7 +68,7 @@ def run(h_mm: float, mesher: str = "layered", h_sheet_mm: float = 2.0) -> dict:
         "depth_8N_mm": ind.depth * 1e3,
         "contact_radius_8N_mm": ind.contact_radius * 1e3,
         "S_r_N_per_mm": S,
-        "order_r": {r: 2 * abs(v) * 1e3 / f_sigma for r, v in S.items()},
+        "order_r": dict(zip(S, orders[0].tolist(), strict=True)),
         "order_spread_over_angle": dict(
             zip(S, (orders.max(0) - orders.min(0)).tolist(), strict=True)
         ),

@@ -2,17 +2,18 @@
 
 The reference indenter (3.5 mm, 8 N vertical, load path 1..8 N, quarter model) is solved
 on meshes that differ only in the edge length under the indenter (``--h-contact-mm``,
-default 0.6 0.4 0.3), made by the deterministic layered mesher or, with
-``--mesher tetwild``, by fTetWild (which follows the request only roughly; the median
-lateral edge under the indenter is printed for both). For each it prints DOF, solve
-time, the 8 N depth and contact radius, the through-thickness integral
+default 0.6 0.4 0.3; the sheet's layers refine with it unless ``--h-layer-mm`` is
+given), made by the deterministic layered mesher or, with ``--mesher tetwild``, by
+fTetWild (which follows the request only roughly; the median lateral edge under the
+indenter is printed for both). For each it prints DOF, solve time, the 8 N depth and
+contact radius, the through-thickness integral
 S(r) = int (s_rr - s_tt) dz (N/mm) along y = 0 and the rotation-free fringe order it
 gives in reflection, N(r) = 2 |S(r)| / f_sigma (PSM-4, assumed f_sigma), and the change
 of each from the next coarser mesh. The load is axisymmetric, so S must not depend on the
 polar angle: the spread of N over 13 angles 0..90 deg on each circle (max - min) is the
 mesh's faceting, as a photoelastician sees it in the rings' polygonal kinks.
 
-    python bench/convergence.py [--h-contact-mm 0.6 0.4 0.3] [--h-sheet-mm 2]
+    python bench/convergence.py [--h-contact-mm 0.6 0.4 0.3] [--h-sheet-mm 2] [--h-layer-mm H]
                                 [--mesher layered|tetwild] [--json FILE]
 """
 
@@ -41,9 +42,15 @@ RADII_MM = (1.5, 2.0, 2.5, 3.0, 4.0, 6.0)
 ANGLES_DEG = np.linspace(0.0, 90.0, 13)
 
 
-def run(h_mm: float, mesher: str = "layered", h_sheet_mm: float = 2.0) -> dict:
+def run(
+    h_mm: float, mesher: str = "layered", h_sheet_mm: float = 2.0, h_layer_mm: float | None = None
+) -> dict:
     sizing = Sizing(
-        h_contact=h_mm * 1e-3, refine_radius=2e-3, h_sheet=h_sheet_mm * 1e-3, h_far=8e-3
+        h_contact=h_mm * 1e-3,
+        refine_radius=2e-3,
+        h_sheet=h_sheet_mm * 1e-3,
+        h_far=8e-3,
+        h_layer=(h_mm if h_layer_mm is None else h_layer_mm) * 1e-3,
     )
     mesh = build_mesh(MeshSpec(sizing=sizing, symmetry="quarter", mesher=mesher))
     t0 = time.perf_counter()
@@ -80,12 +87,18 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--h-contact-mm", type=float, nargs="+", default=[0.6, 0.4, 0.3])
     ap.add_argument("--h-sheet-mm", type=float, default=2.0, help="largest edge in the sheet")
+    ap.add_argument(
+        "--h-layer-mm",
+        type=float,
+        default=None,
+        help="thinnest sheet layer (default: each h_contact, so the layers refine with it)",
+    )
     ap.add_argument("--mesher", choices=("layered", "tetwild"), default="layered")
     ap.add_argument("--json")
     args = ap.parse_args()
     rows = []
     for h in sorted(args.h_contact_mm, reverse=True):
-        r = run(h, args.mesher, args.h_sheet_mm)
+        r = run(h, args.mesher, args.h_sheet_mm, args.h_layer_mm)
         prev = rows[-1] if rows else None
         rows.append(r)
         d = ""

@@ -50,6 +50,7 @@ PINS = [
     ("mesh", "h_sheet_mm", Sizing().h_sheet, MM),
     ("mesh", "h_far_mm", Sizing().h_far, MM),
     ("mesh", "growth", Sizing().growth, 1.0),
+    ("mesh", "h_layer_mm", Sizing().h_layer, MM),
     ("contact", "friction", ContactSettings().friction, 1.0),
     ("contact", "penalty_factor", ContactSettings().penalty_factor, 1.0),
     ("solver", "force_tol", SolverSettings().force_tol, 1.0),

@@ -389,3 +389,18 @@ def test_z_levels_cover_the_layers_exactly():
     assert np.allclose(dz_sheet, dz_sheet[0]) and dz_sheet[0] <= spec.sizing.h_contact * (1 + 1e-12)
     cap = min(SUBSTRATE_CAP * spec.sizing.h_sheet, spec.sizing.h_far)
     assert np.diff(z).max() <= 1.5 * cap  # a dropped last layer stretches the others
+
+
+@pytest.mark.parametrize(
+    "h_contact, h_layer, n_sheet",
+    [(0.6e-3, 0.0, 5), (0.3e-3, 0.0, 10), (0.3e-3, 0.6e-3, 5), (1.0e-3, 0.6e-3, 3)],
+)
+def test_sheet_layers_follow_the_coarser_of_h_contact_and_h_layer(h_contact, h_layer, n_sheet):
+    """The lateral size may be finer than the sheet's layers (3 mm sheet): the layers are
+    max(h_contact, h_layer) thick or less, in equal steps; h_layer 0 follows h_contact."""
+    from fringekit.meshes.layered import z_levels
+
+    sizing = Sizing(h_contact=h_contact, h_layer=h_layer)
+    z = z_levels(MeshSpec(sizing=sizing, symmetry="quarter"))
+    dz = np.diff(z[z >= 0])
+    assert len(dz) == n_sheet and np.allclose(dz, 3e-3 / n_sheet, rtol=1e-12, atol=0)

@@ -156,6 +156,7 @@ def mesh_spec(cfg: dict, symmetry: str | None = None) -> MeshSpec:
                 h_far=m["h_far_mm"] * MM,
                 h_sheet=m["h_sheet_mm"] * MM,
                 growth=m["growth"],
+                h_layer=m["h_layer_mm"] * MM,
             ),
             symmetry=symmetry or choose_symmetry(cfg),
             mesher=m["mesher"],

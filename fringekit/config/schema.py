@@ -132,8 +132,8 @@ SCHEMA: dict[str, Any] = {
         "h_contact_mm": _f(
             0.6,
             "edge length under each indenter (0.6 converges the depth to 0.2 % and the order "
-            "2.5 mm out to 0.07 fringe; near the contact edge expect +-0.2 at any size, "
-            "bench/convergence.py)",
+            "3 mm out to 0.05 fringe; 0.3 with h_layer_mm = 0.6 gives the order 1.5-6 mm out "
+            "to 0.015 and the contact radius to 1.5 %, docs/validation.md)",
             "mm",
             0,
             50,
@@ -145,6 +145,14 @@ SCHEMA: dict[str, Any] = {
         "h_sheet_mm": _f(2.0, "largest edge in the sheet", "mm", 0, 100, True),
         "h_far_mm": _f(8.0, "largest edge anywhere", "mm", 0, 500, True),
         "growth": _f(0.4, "size grading per unit distance", "", 0, 10, True),
+        "h_layer_mm": _f(
+            0.0,
+            "thinnest element layer of the sheet: layers are max(h_contact, h_layer) thick, "
+            "so 0 follows h_contact (layered mesher)",
+            "mm",
+            0,
+            100,
+        ),
     },
     "contact": {
         "friction": Key(

@@ -398,9 +398,10 @@ def test_z_levels_cover_the_layers_exactly():
 def test_sheet_layers_follow_the_coarser_of_h_contact_and_h_layer(h_contact, h_layer, n_sheet):
     """The lateral size may be finer than the sheet's layers (3 mm sheet): the layers are
     max(h_contact, h_layer) thick or less, in equal steps; h_layer 0 follows h_contact."""
+    from fringekit.config.memory import mesh_tets
     from fringekit.meshes.layered import z_levels
 
-    sizing = Sizing(h_contact=h_contact, h_layer=h_layer)
-    z = z_levels(MeshSpec(sizing=sizing, symmetry="quarter"))
-    dz = np.diff(z[z >= 0])
+    spec = MeshSpec(sizing=Sizing(h_contact=h_contact, h_layer=h_layer), symmetry="quarter")
+    dz = np.diff(z_levels(spec)[z_levels(spec) >= 0])
     assert len(dz) == n_sheet and np.allclose(dz, 3e-3 / n_sheet, rtol=1e-12, atol=0)
+    assert mesh_tets(spec)[1] == n_sheet  # the memory check counts the same layers

@@ -25,9 +25,10 @@ PART = {"full": 1.0, "half": 0.5, "quarter": 0.25}
 def mesh_tets(spec) -> tuple[float, int]:
     """About how many tets the mesh of ``spec`` (a :class:`~fringekit.meshes.MeshSpec`)
     has under its indenters, and the sheet's layers: the sheet is split into
-    ceil(thickness / h_contact) layers (the layered mesher's rule) and each refined disc
-    (refine_radius about each indenter, at most the sheet) into triangles of side
-    h_contact (area sqrt(3)/4 h^2), each extruded prism 3 tets; times the modelled part.
+    ceil(thickness / max(h_contact, h_layer)) layers (the layered mesher's rule) and each
+    refined disc (refine_radius about each indenter, at most the sheet) into triangles of
+    side h_contact (area sqrt(3)/4 h^2), each extruded prism 3 tets; times the modelled
+    part.
     The graded zone and the substrate add about half again (a lower bound).
 
     Examples
@@ -41,7 +42,7 @@ def mesh_tets(spec) -> tuple[float, int]:
     (291000.0, 38)
     """
     lay, siz = spec.layers, spec.sizing
-    layers = math.ceil(lay.sheet_thickness / siz.h_contact - 1e-9)
+    layers = math.ceil(lay.sheet_thickness / max(siz.h_contact, siz.h_layer) - 1e-9)
     discs = len(spec.indenters) * math.pi * siz.refine_radius**2
     area = min(discs, lay.width * lay.length)
     triangles = area / (math.sqrt(3) / 4 * siz.h_contact**2)

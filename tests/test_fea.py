@@ -356,7 +356,14 @@ def test_nearly_incompressible_limit_does_not_lock(quarter):
 # sheet): the small-load checks against Hertz and Dimitriadis et al.
 BONDED_SHEET = MeshSpec(
     layers=Layers(sheet_thickness=3e-3, substrate_thickness=0.0, width=16e-3, length=16e-3),
-    sizing=Sizing(h_contact=0.1e-3, refine_radius=0.6e-3, h_far=3e-3, h_sheet=1.5e-3, growth=0.6),
+    sizing=Sizing(
+        h_contact=0.1e-3,
+        refine_radius=0.6e-3,
+        h_far=3e-3,
+        h_sheet=1.5e-3,
+        growth=0.6,
+        h_layer=0.1e-3,  # the contact is 0.1-0.3 mm in radius: layers as fine as the edges
+    ),
     symmetry="quarter",
 )
 

@@ -15,8 +15,9 @@ from fringekit.errors import ConfigError
 __all__ = ["BYTES_PER_TET", "check_mesh_memory", "check_ray_memory", "mesh_tets", "ray_bytes"]
 
 #: Memory per tetrahedron :func:`mesh_tets` counts (bytes), measured: the small case at
-#: h_contact_mm = 0.08, full model, meshed 458,832 quadratic tets (the count: 290,800)
-#: and wrote them with 290 MB above the interpreter's 230 MB: about 1 kB per counted tet.
+#: h_contact_mm = h_layer_mm = 0.08, full model, meshed 458,832 quadratic tets (the
+#: count: 290,800) and wrote them with 290 MB above the interpreter's 230 MB: about 1 kB
+#: per counted tet.
 BYTES_PER_TET = 1000.0
 #: The part of the sensor a model of each symmetry holds.
 PART = {"full": 1.0, "half": 0.5, "quarter": 0.25}
@@ -36,8 +37,8 @@ def mesh_tets(spec) -> tuple[float, int]:
     >>> from fringekit.config.inputs import mesh_spec
     >>> from fringekit.config.memory import mesh_tets
     >>> from fringekit.config.model import as_config
-    >>> cfg = as_config("small").replace({"mesh.h_contact_mm": 0.08, "mesh.symmetry": "full"})
-    >>> tets, layers = mesh_tets(mesh_spec(cfg.data))
+    >>> fine = {"mesh.h_contact_mm": 0.08, "mesh.h_layer_mm": 0.08, "mesh.symmetry": "full"}
+    >>> tets, layers = mesh_tets(mesh_spec(as_config("small").replace(fine).data))
     >>> round(tets, -3), layers
     (291000.0, 38)
     """

@@ -130,10 +130,10 @@ SCHEMA: dict[str, Any] = {
             choices=("layered", "tetwild"),
         ),
         "h_contact_mm": _f(
-            0.6,
-            "edge length under each indenter (0.6 converges the depth to 0.2 % and the order "
-            "3 mm out to 0.05 fringe; 0.3 with h_layer_mm = 0.6 gives the order 1.5-6 mm out "
-            "to 0.015 and the contact radius to 1.5 %, docs/validation.md)",
+            0.3,
+            "edge length under each indenter (0.3 on 0.6 mm layers gives the 8 N order "
+            "1.5-6 mm out to 0.015 fringe and the contact radius to 1.5 %, "
+            "docs/validation.md; for much smaller contacts lower h_layer_mm too)",
             "mm",
             0,
             50,
@@ -146,7 +146,7 @@ SCHEMA: dict[str, Any] = {
         "h_far_mm": _f(8.0, "largest edge anywhere", "mm", 0, 500, True),
         "growth": _f(0.4, "size grading per unit distance", "", 0, 10, True),
         "h_layer_mm": _f(
-            0.0,
+            0.6,
             "thinnest element layer of the sheet: layers are max(h_contact, h_layer) thick, "
             "so 0 follows h_contact (layered mesher)",
             "mm",

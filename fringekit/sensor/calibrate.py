@@ -225,7 +225,7 @@ def calibrate_sensor(
     >>> from fringekit.sensor import sensor_frame
     >>> from fringekit.optics import write_image
     >>> lib = fringekit.build_library("small", tempfile.mkdtemp() + "/lib",
-    ...                               loads=[4, 8], ratios=[0, 0.4], progress=False)
+    ...                               loads=[4, 8, 12], ratios=[0, 0.4], progress=False)
     >>> cfg, sha = fringekit.Config.builtin("small").data, lib.manifest["manifest_sha256"]
     >>> truth = CalibratedSensor(cfg, sha, "mono", (48, 48), 0.25, (23.5, 23.5), 0.0,
     ...                          1.15, 0.92, 2.2, (0.02,))

@@ -74,6 +74,7 @@ def run(overrides: dict) -> tuple[dict, np.ndarray]:
         "dofs": stats.dofs,
         "solve_s": t_solve,
         "render_s": t_render,
+        "pixel_mm": pixel_mm,
         "depth_mm": ind.depth * 1e3,
         "contact_radius_mm": ind.contact_radius * 1e3,
         "mean_order": dict(zip(map(str, RADII_MM), vals.mean(axis=1).tolist(), strict=True)),
@@ -99,7 +100,7 @@ def _compare(rows: list, maps: list) -> None:
     """Each mesh against the last: mean order per circle, and the maps beyond 1.3 a."""
     last, ref = rows[-1], maps[-1]
     px = ref.shape[0]
-    pixel_mm = 20.0 / px
+    pixel_mm = last["pixel_mm"]
     r, c = np.mgrid[:px, :px]
     rr = np.hypot((c - (px - 1) / 2) * pixel_mm, ((px - 1) / 2 - r) * pixel_mm)
     ring = (rr > 1.3 * last["contact_radius_mm"]) & (rr < 6.0)

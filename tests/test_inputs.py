@@ -8,7 +8,7 @@ import math
 
 import pytest
 
-from fringekit.config.files import load_config
+from fringekit.config.files import apply_overrides, load_config
 from fringekit.config.inputs import build_inputs
 from fringekit.config.schema import INDENTER_SCHEMA, SCHEMA
 from fringekit.fea import (
@@ -53,6 +53,7 @@ PINS = [
     ("mesh", "h_layer_mm", Sizing().h_layer, MM),
     ("contact", "friction", ContactSettings().friction, 1.0),
     ("contact", "penalty_factor", ContactSettings().penalty_factor, 1.0),
+    ("contact", "penetration_tol", ContactSettings().penetration_tol, 1.0),
     ("solver", "force_tol", SolverSettings().force_tol, 1.0),
     ("solver", "max_iterations", SolverSettings().max_iterations, 1),
     ("solver", "max_cutbacks", SolverSettings().max_cutbacks, 1),
@@ -99,3 +100,19 @@ def test_reference_config_builds_the_default_mesh_spec():
     assert inp.optics.camera == Camera()
     assert inp.contact == ContactSettings() and inp.settings == SolverSettings()
     assert inp.materials[0] == SHEET_DEFAULT and inp.materials[1] == POLYCARBONATE_DEFAULT
+
+
+def test_contact_keys_reach_the_contact_settings():
+    """Each contact key becomes its ContactSettings field (a key dropped on the way would
+    leave the default in place and pass the test above)."""
+    cfg = apply_overrides(
+        load_config(),
+        {
+            "contact.friction": "stick",
+            "contact.penalty_factor": 50.0,
+            "contact.penetration_tol": 0.002,
+        },
+    )
+    assert build_inputs(cfg).contact == ContactSettings(
+        friction=math.inf, penalty_factor=50.0, penetration_tol=0.002
+    )

@@ -300,6 +300,7 @@ def build_inputs(cfg: dict) -> RunInputs:
     contact = ContactSettings(
         friction=math.inf if c["friction"] == "stick" else c["friction"],
         penalty_factor=c["penalty_factor"],
+        penetration_tol=c["penetration_tol"],
     )
     settings = SolverSettings(
         force_tol=s["force_tol"],

@@ -163,6 +163,16 @@ SCHEMA: dict[str, Any] = {
             hi=100,
         ),
         "penalty_factor": _f(100.0, "normal penalty / (E_sheet / h)", "", 0, 1e6, True),
+        "penetration_tol": _f(
+            0.01,
+            "largest penetration as a fraction of the depth: multiplier updates run until "
+            "the contact is within it (lower it on coarse meshes under stick, where the "
+            "answer then moves less with the load steps; docs/validation.md)",
+            "",
+            0,
+            0.1,
+            True,
+        ),
     },
     "solver": {
         "backend": Key(

@@ -17,7 +17,7 @@ from .calibrate import (
     save_calibration,
 )
 from .circles import Circle, disc_by_symmetry, find_disc, find_discs
-from .compare import Comparison, Profile, compare_maps, line_profile
+from .compare import Comparison, Profile, circle_profile, compare_maps, line_profile
 from .images import (
     SIX_STEP_ORDER,
     Frame,
@@ -99,6 +99,7 @@ __all__ = [
     "SixStep",
     "check_mask",
     "circle_mask",
+    "circle_profile",
     "compare_maps",
     "exclude_circle",
     "line_profile",

@@ -9,7 +9,7 @@ from scipy.ndimage import binary_erosion, map_coordinates
 from scipy.optimize import least_squares
 from skimage.registration import phase_cross_correlation
 
-__all__ = ["Profile", "line_profile", "Comparison", "compare_maps"]
+__all__ = ["Profile", "line_profile", "circle_profile", "Comparison", "compare_maps"]
 
 
 @dataclass(frozen=True)
@@ -97,6 +97,72 @@ def line_profile(image, start, end, *, pixel_size: float | None = None, n=None) 
     vals[near_nan] = np.nan
     dist = s * length * (pixel_size if pixel_size else 1.0)
     return Profile(dist, vals, (float(p0[0]), float(p0[1])), (float(p1[0]), float(p1[1])))
+
+
+def circle_profile(image, centre_rc, radius, *, pixel_size=None, n=720):
+    """A map read bilinearly on a circle about a point, at ``n`` equal angles.
+
+    The spread of the values over the angle on a circle about an axisymmetric load is the
+    faceting of its fringes (zero on a perfect model; ``bench/rings.py``).
+
+    Parameters
+    ----------
+    image : (rows, cols) float array
+        The map (fringe order, intensity), NaN where unknown.
+    centre_rc : (row, col)
+        The circle's centre (px; fractional allowed).
+    radius : float
+        The circle's radius: in pixels, or in the unit of ``pixel_size`` when given.
+    pixel_size : float, optional
+        Pixel pitch (the unit of ``radius``, e.g. mm per px).
+    n : int
+        Angles, from the +col direction counter-clockwise as seen with rows running
+        down (default 720: every 0.5 deg).
+
+    Returns
+    -------
+    theta : (n,) float array
+        The angles (rad).
+    values : (n,) float array
+        The map at each angle; NaN where a masked pixel is among the four read.
+
+    Raises
+    ------
+    ValueError
+        A map that is not 2-D, a radius that is not > 0, fewer than 3 angles, or a circle
+        that leaves the image.
+
+    Examples
+    --------
+    A cone of fringe order 2 - r (r in mm, 0.1 mm pixels) reads 1.5 all round at 0.5 mm,
+    less the bilinear reading's 0.002 between the pixels at 45 deg:
+
+    >>> import numpy as np
+    >>> from fringekit.analysis import circle_profile
+    >>> r_mm = 0.1 * np.hypot(*np.mgrid[-20:21, -20:21])
+    >>> theta, v = circle_profile(2.0 - r_mm, (20, 20), 0.5, pixel_size=0.1, n=8)
+    >>> np.degrees(theta)[:3].tolist(), v.round(3).tolist()
+    ([0.0, 45.0, 90.0], [1.5, 1.498, 1.5, 1.498, 1.5, 1.498, 1.5, 1.498])
+    """
+    img = np.asarray(image, float)
+    if img.ndim != 2:
+        raise ValueError(f"circle_profile needs a (rows, cols) map, got shape {img.shape}")
+    r_px = float(radius) / (pixel_size if pixel_size else 1.0)
+    if not (np.isfinite(r_px) and r_px > 0):
+        raise ValueError(f"circle_profile radius = {radius!r} is not allowed; it must be > 0")
+    if int(n) < 3:
+        raise ValueError(f"circle_profile n = {n!r} is not allowed; give at least 3 angles")
+    row, col = (float(v) for v in centre_rc)
+    if not (r_px <= row <= img.shape[0] - 1 - r_px and r_px <= col <= img.shape[1] - 1 - r_px):
+        raise ValueError(
+            f"the circle of radius {r_px:.4g} px about {(row, col)} leaves the image {img.shape}"
+        )
+    theta = np.linspace(0.0, 2.0 * np.pi, int(n), endpoint=False)
+    rc = np.array([row - r_px * np.sin(theta), col + r_px * np.cos(theta)])
+    nan = ~np.isfinite(img)
+    vals = map_coordinates(np.where(nan, 0.0, img), rc, order=1)
+    vals[map_coordinates(nan.astype(float), rc, order=1) > 0] = np.nan
+    return theta, vals
 
 
 @dataclass(frozen=True)

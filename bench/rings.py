@@ -25,14 +25,14 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy.ndimage import map_coordinates
 
+from fringekit.analysis import circle_profile
 from fringekit.config import as_config
 from fringekit.prediction.pipeline import solve_config
 from fringekit.prediction.render import fringe_order_map
 
 RADII_MM = (1.5, 2.0, 3.0, 4.0, 5.0, 6.0)
-ANGLES = np.linspace(0.0, 2.0 * np.pi, 720, endpoint=False)
+N_ANGLES = 720
 #: The finest mesh of docs/validation.md, solved in 4 load states (one fails to converge).
 REFERENCE = {
     "mesh.h_contact_mm": 0.2,
@@ -57,16 +57,8 @@ def run(overrides: dict) -> tuple[dict, np.ndarray]:
         order, _, centres = fringe_order_map(sols[-1], cfg.data)
         t_render = time.perf_counter() - t0
     pixel_mm = cfg.data["optics"]["field_of_view_mm"] / order.shape[1]
-    rows, cols = centres[0]
     vals = np.array(
-        [
-            map_coordinates(
-                order,
-                [rows - r * np.sin(ANGLES) / pixel_mm, cols + r * np.cos(ANGLES) / pixel_mm],
-                order=1,
-            )
-            for r in RADII_MM
-        ]
+        [circle_profile(order, centres[0], r, pixel_size=pixel_mm, n=N_ANGLES)[1] for r in RADII_MM]
     )
     ind = sols[-1].indenters[0]
     figures = {

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fringekit.analysis.compare import compare_maps, line_profile
+from fringekit.analysis.compare import circle_profile, compare_maps, line_profile
 from fringekit.analysis.images import load_image, load_six_step, normalise
 from fringekit.analysis.masks import circle_mask, exclude_circle, polygon_mask
 from fringekit.analysis.phase import principal_stress_difference, resolve_ambiguity, six_step, wrap
@@ -345,6 +345,32 @@ def test_masks_and_profiles():
     assert not finite[30:33].any()
     with pytest.raises(ValueError, match="outside the image"):
         line_profile(ramp, (10, 0), (10, 60))
+
+
+def test_circle_profile_reads_the_map_at_its_angles():
+    """A plane in (row, col) is read exactly by the bilinear reading, so on a circle of
+    radius R about (r0, c0) the values are the plane at (r0 - R sin, c0 + R cos): angles
+    counter-clockwise from +col with rows running down (90 deg is up, row r0 - R).
+    Masked pixels give NaN, and a circle leaving the image, a zero radius or two angles
+    fail."""
+    rows, cols = np.mgrid[:41, :61].astype(float)
+    plane = 3.0 * cols - 2.0 * rows  # exact under bilinear interpolation
+    theta, v = circle_profile(plane, (20.5, 30.0), 1.2, pixel_size=0.1, n=36)
+    assert theta[9] == pytest.approx(np.pi / 2)
+    r, c = 20.5 - 12.0 * np.sin(theta), 30.0 + 12.0 * np.cos(theta)
+    np.testing.assert_allclose(v, 3.0 * c - 2.0 * r, atol=1e-9)
+    assert v[9] == pytest.approx(3.0 * 30.0 - 2.0 * 8.5)  # up: row 8.5
+    holed = plane.copy()
+    holed[8, 29:32] = np.nan  # under the circle's top
+    _, vh = circle_profile(holed, (20.5, 30.0), 12.0, n=36)
+    assert np.isnan(vh[9]) and np.isfinite(vh[0]) and np.isfinite(vh[27])
+    for args, kw, words in [
+        ((plane, (20.5, 30.0), 25.0), {}, "leaves the image"),
+        ((plane, (20.5, 30.0), 0.0), {}, "radius = 0.0"),
+        ((plane, (20.5, 30.0), 5.0), {"n": 2}, "n = 2"),
+    ]:
+        with pytest.raises(ValueError, match=words):
+            circle_profile(*args, **kw)
 
 
 def test_compare_registers_shift_and_scale(dent, tmp_path):

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.ndimage import map_coordinates
 
+from fringekit.analysis import circle_profile
 from fringekit.config import as_config
 from fringekit.prediction.pipeline import solve_config
 from fringekit.prediction.render import fringe_order_map
@@ -34,17 +34,8 @@ def _rings(cache_dir, h_contact_mm: float, h_layer_mm: float):
     assert failure is None
     order, _, centres = fringe_order_map(sols[-1], cfg.data)
     pixel_mm = cfg.data["optics"]["field_of_view_mm"] / order.shape[1]
-    theta = np.linspace(0.0, 2.0 * np.pi, 720, endpoint=False)
-    rows, cols = centres[0]
     vals = np.array(
-        [
-            map_coordinates(
-                order,
-                [rows - r * np.sin(theta) / pixel_mm, cols + r * np.cos(theta) / pixel_mm],
-                order=1,
-            )
-            for r in RADII_MM
-        ]
+        [circle_profile(order, centres[0], r, pixel_size=pixel_mm)[1] for r in RADII_MM]
     )
     assert np.all(np.isfinite(vals))  # every circle lies outside the contact, in the view
     radius_mm = sols[-1].indenters[0].contact_radius * 1e3
@@ -53,9 +44,10 @@ def _rings(cache_dir, h_contact_mm: float, h_layer_mm: float):
 
 @pytest.mark.slow
 def test_a_finer_lateral_mesh_on_thick_layers_rounds_the_rings(cache_dir):
-    """0.3 mm under the indenter on 0.6 mm layers (h_layer) against the 0.6 mm default:
-    rounder rings (spread 0.20 / 0.20 / 0.12 / 0.08 fringe at 2 / 2.5 / 3 / 4 mm against
-    0.29 / 0.27 / 0.29 / 0.09), the same orders and contact radius as 0.3 mm through the
+    """0.3 mm under the indenter on 0.6 mm layers (h_layer; the reference case's default
+    mesh since 2026-11-27) against 0.6 mm (its default before): rounder rings (spread
+    0.20 / 0.20 / 0.12 / 0.08 fringe at 2 / 2.5 / 3 / 4 mm against 0.29 / 0.27 / 0.29 /
+    0.09), the same orders and contact radius as 0.3 mm through the
     whole thickness (10 layers, three times the solve) to 0.01 fringe and 0.5 %, where
     the 0.6 mm mesh is 0.05-0.09 fringe and 3.5 % off."""
     _, a6, mean6, spread6 = _rings(cache_dir, 0.6, 0.0)

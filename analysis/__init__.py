@@ -16,6 +16,7 @@ from .calibrate import (
     radial_profile,
     save_calibration,
 )
+from .channels import AGREE_MIN, channel_agreement, grey_channel, strongest_channel
 from .circles import Circle, disc_by_symmetry, find_disc, find_discs
 from .compare import Comparison, Profile, circle_profile, compare_maps, line_profile
 from .images import (
@@ -28,14 +29,7 @@ from .images import (
     read_pixels,
 )
 from .masks import border_anchor, check_mask, circle_mask, exclude_circle, polygon_mask
-from .mono import (
-    AGREE_MIN,
-    MonoResult,
-    channel_agreement,
-    grey_channel,
-    mono_order,
-    strongest_channel,
-)
+from .mono import MonoResult, mono_order
 from .phase import (
     Resolution,
     SixStep,

@@ -20,7 +20,7 @@ from skimage.feature import canny
 from skimage.measure import CircleModel
 from skimage.transform import hough_circle, hough_circle_peaks, rescale
 
-from .mono import grey_channel
+from .channels import grey_channel
 
 __all__ = [
     "Circle",

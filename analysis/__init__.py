@@ -7,18 +7,11 @@ tables and searches, line profiles, registration of two maps, and the feature an
 functions of load-to-fringe calibration.
 """
 
-from .calibrate import (
-    RADII_MM,
-    calibrate_from_maps,
-    estimate_load,
-    fringe_features,
-    load_calibration,
-    radial_profile,
-    save_calibration,
-)
+from .calibrate import calibrate_from_maps, estimate_load, load_calibration, save_calibration
 from .channels import AGREE_MIN, channel_agreement, grey_channel, strongest_channel
 from .circles import Circle, disc_by_symmetry, find_disc, find_discs
 from .compare import Comparison, Profile, circle_profile, compare_maps, line_profile
+from .features import RADII_MM, fringe_features, radial_profile
 from .images import (
     SIX_STEP_ORDER,
     Frame,

@@ -414,6 +414,49 @@ def test_the_basin_search_turns_a_wrong_tangential_load_back(test_library):
     assert changed == 0 and np.array_equal(same, truth.ravel())
 
 
+def test_a_fit_started_between_two_candidates_finds_the_contact_they_shared(tiny_library):
+    """fringekit.inversion.hop.hop_to: one contact of a two-contact frame held 0.42 mm off
+    with its 0.3 N tangential load lost (where the whole inverse left it when detection
+    split that contact into two candidates 1.7 mm either side, with the substrate meshed
+    more coarsely) comes back to the truth from a start midway between the candidates'
+    axes; the other contact is held; a start where no contact is changes nothing. The
+    search after a drop (``search_after_drop``) starts there from the model selection's
+    record, and searches nothing when the dropped candidate was far from both."""
+    from library_fixtures import TINY
+
+    from fringekit.inversion.fit import EXACT_MM, subsample
+    from fringekit.inversion.hop import hop_to, search_after_drop
+
+    inds = [
+        LoadedIndenter(-4.0e-3, 3.5e-3, 3.5e-3, 0.3, 0.0, 2.5),
+        LoadedIndenter(3.0e-3, -4.0e-3, 3.5e-3, 0.0, 0.3, 3.0),
+    ]
+    model = _model(tiny_library, "mono", inds, cfg=sensor_config(**TINY))
+    fine = replace(subsample(model, 2), exact=EXACT_MM * 1e-3)
+    truth = _truth(inds)
+    start = truth.copy()
+    start[1] = [3.117, -3.576, 3.018, -0.079, -0.002]
+    diam = [3.5e-3, 3.5e-3]
+    got, changed = hop_to(fine, start.ravel(), diam, 1e-3, 1, [(2.875, -4.125)])
+    q = got.reshape(-1, 5)
+    assert changed == 1
+    assert np.all(np.abs(q[1] - truth[1]) < [0.01, 0.01, 0.01, 0.01, 0.01]), q[1]
+    assert np.array_equal(q[0], start[0])
+    same, changed = hop_to(fine, start.ravel(), diam, 1e-3, 1, [(5.0, -1.0)])
+    assert changed == 0 and np.array_equal(same, start.ravel())
+    # the same from the model selection's record: the third candidate, dropped, shared
+    # the second contact's fringes; detection had put the three at these axes
+    before = np.vstack([start, [1.677, -5.197, 1.134, 0.288, 0.32]])
+    anchors = np.array([[-4.375, 3.875], [4.125, -2.625], [1.625, -5.625]])
+    got, moved = search_after_drop(fine, start.ravel(), diam, 1e-3, before, [0, 1], anchors)
+    assert moved >= 1
+    assert np.all(np.abs(got.reshape(-1, 5)[1] - truth[1]) < 0.01), got
+    far = before.copy()
+    far[2, :2] = anchors[2] = (-9.0, -9.0)  # dropped far from both: nothing is searched
+    same, moved = search_after_drop(fine, start.ravel(), diam, 1e-3, far, [0, 1], anchors)
+    assert moved == 0 and np.array_equal(same, start.ravel())
+
+
 def test_the_range_penalty_and_its_jacobian():
     from fringekit.inversion.model import range_penalty
 

@@ -40,7 +40,7 @@ from scipy.optimize import least_squares
 
 from fringekit.inversion.budget import Budget
 from fringekit.inversion.detect import detect, noise_sd
-from fringekit.inversion.hop import hop
+from fringekit.inversion.hop import hop, search_after_drop
 from fringekit.inversion.model import N_PARAMS, ImageModel, range_penalty, unpack
 from fringekit.inversion.start import scan_start
 from fringekit.inversion.uncertainty import model_sd, parameter_sd, stated_sd
@@ -452,8 +452,8 @@ def select_indenters(model, coarse, fine, pos, noise, sheared: bool, max_rounds:
         if budget.spent(f"model selection, round {round_ + 1}", found):
             break
         if not len(new):
-            if len(diam2) < len(diam):  # only dropped: the others are searched already
-                p, res, its = _refit(_exact(fine), p2, diam2, noise, its)
+            if len(diam2) < len(diam):  # only dropped: search the neighbours' basins again
+                p, res, its = _after_drop(fine, p, p2, diam2, kept, noise, its, anchors)
                 diam = diam2
             break
         pn, dn = start_params(coarse, new, sheared)
@@ -461,11 +461,21 @@ def select_indenters(model, coarse, fine, pos, noise, sheared: bool, max_rounds:
         anchors = np.concatenate([anchors[kept], _axes(pn)])
     if res is not None and not budget.stopped:  # the last fit may have let two meet
         sd = parameter_sd(res.jac, res.fun, int(np.count_nonzero(res.fun)))
-        p2, diam2, _ = prune(p, sd, diam, model.lib)
-        if len(diam2) < len(diam):  # the basins are searched already
-            p, res, its = _refit(_exact(fine), p2, diam2, noise, its)
+        p2, diam2, kept = prune(p, sd, diam, model.lib)
+        if len(diam2) < len(diam):
+            p, res, its = _after_drop(fine, p, p2, diam2, kept, noise, its, anchors)
             diam = diam2
     return p, diam, res, its
+
+
+def _after_drop(fine, p, p2, diam2, kept, noise, its, anchors):
+    """Fit the indenters ``kept`` of ``p`` (``p2``, ``diam2``) again after the others were
+    dropped, search again the basins of those that were near a dropped one
+    (:func:`search_after_drop`) and fit again when one moves: (p, result, evaluations)."""
+    exact = _exact(fine)
+    new, res, its = _refit(exact, p2, diam2, noise, its)
+    new, moved = search_after_drop(exact, new, diam2, noise, p, kept, anchors)
+    return _refit(exact, new, diam2, noise, its) if moved else (new, res, its)
 
 
 def _positions_only(pos, noise, t0, t_detect, stopped) -> InvertResult:

@@ -454,7 +454,7 @@ def select_indenters(model, coarse, fine, pos, noise, sheared: bool, max_rounds:
         if not len(new):
             if len(diam2) < len(diam):  # only dropped: search the neighbours' basins again
                 p, res, its = _after_drop(fine, p, p2, diam2, kept, noise, its, anchors)
-                diam = diam2
+                diam, anchors = diam2, anchors[kept]
             break
         pn, dn = start_params(coarse, new, sheared)
         p, diam = np.concatenate([p2, pn]), diam2 + dn

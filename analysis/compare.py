@@ -42,6 +42,15 @@ class Profile:
     end: tuple[float, float]
 
 
+def _read_bilinear(img: np.ndarray, rc) -> np.ndarray:
+    """``img`` read bilinearly at (rows, cols) coordinates ``rc``: NaN where a NaN pixel
+    is among the four read, or outside the image."""
+    nan = ~np.isfinite(img)
+    vals = map_coordinates(np.where(nan, 0.0, img), rc, order=1, cval=np.nan)
+    vals[map_coordinates(nan.astype(float), rc, order=1, cval=1.0) > 0] = np.nan
+    return vals
+
+
 def line_profile(image, start, end, *, pixel_size: float | None = None, n=None) -> Profile:
     """Sample a map along the line ``start`` -> ``end`` (row, col), one sample per pixel.
 
@@ -91,10 +100,7 @@ def line_profile(image, start, end, *, pixel_size: float | None = None, n=None) 
     k = int(n) if n is not None else max(int(np.ceil(length)) + 1, 2)
     s = np.linspace(0.0, 1.0, k)
     rc = p0[:, None] + (p1 - p0)[:, None] * s
-    nan = ~np.isfinite(img)
-    vals = map_coordinates(np.where(nan, 0.0, img), rc, order=1)
-    near_nan = map_coordinates(nan.astype(float), rc, order=1) > 0
-    vals[near_nan] = np.nan
+    vals = _read_bilinear(img, rc)
     dist = s * length * (pixel_size if pixel_size else 1.0)
     return Profile(dist, vals, (float(p0[0]), float(p0[1])), (float(p1[0]), float(p1[1])))
 
@@ -159,10 +165,7 @@ def circle_profile(image, centre_rc, radius, *, pixel_size=None, n=720):
         )
     theta = np.linspace(0.0, 2.0 * np.pi, int(n), endpoint=False)
     rc = np.array([row - r_px * np.sin(theta), col + r_px * np.cos(theta)])
-    nan = ~np.isfinite(img)
-    vals = map_coordinates(np.where(nan, 0.0, img), rc, order=1)
-    vals[map_coordinates(nan.astype(float), rc, order=1) > 0] = np.nan
-    return theta, vals
+    return theta, _read_bilinear(img, rc)
 
 
 @dataclass(frozen=True)
@@ -215,11 +218,7 @@ def _resample(pred, centre_pred, shape, centre_meas, scale, rot):
     cs, sn = np.cos(rot), np.sin(rot)
     pr = centre_pred[0] + scale * (cs * dr - sn * dc)
     pc = centre_pred[1] + scale * (sn * dr + cs * dc)
-    nan = ~np.isfinite(pred)
-    v = map_coordinates(np.where(nan, 0.0, pred), [pr, pc], order=1, cval=np.nan)
-    bad = map_coordinates(nan.astype(float), [pr, pc], order=1, cval=1.0) > 0
-    v[bad] = np.nan
-    return v
+    return _read_bilinear(pred, [pr, pc])
 
 
 def _register(pred, meas, cp, cm, scale, rot, res_pred):

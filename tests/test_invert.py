@@ -18,8 +18,9 @@ from fringekit.config.files import to_toml
 from fringekit.config.inputs import optics_setup
 from fringekit.inversion import LOAD_COLUMNS
 from fringekit.inversion.detect import detect, noise_sd
-from fringekit.inversion.fit import invert_image, prune
+from fringekit.inversion.fit import invert_image
 from fringekit.inversion.model import ImageModel
+from fringekit.inversion.selection import prune
 from fringekit.library.store import LoadedIndenter
 from fringekit.optics import Camera, write_image
 from fringekit.prediction.render import no_data_fill
@@ -455,6 +456,31 @@ def test_a_fit_started_between_two_candidates_finds_the_contact_they_shared(tiny
     far[2, :2] = anchors[2] = (-9.0, -9.0)  # dropped far from both: nothing is searched
     same, moved = search_after_drop(fine, start.ravel(), diam, 1e-3, far, [0, 1], anchors)
     assert moved == 0 and np.array_equal(same, start.ravel())
+
+
+def test_two_flagged_candidates_that_split_one_contact_are_merged(tiny_library):
+    """Model selection: a 3 N contact beside a 2.5 N one, started from the three
+    candidates detection gave on the tracker's 8-bit frame (the 3 N contact split 1.7 mm
+    either side), was fitted as 1.86 + 1.0 N 3.7 mm apart, both flagged (residuals 0.34
+    and 0.29); the weaker is now dropped and the stronger searched from between them,
+    which explains the frame: two contacts at the truth."""
+    from library_fixtures import TINY
+
+    from fringekit.inversion.fit import select_indenters, subsample
+    from fringekit.optics import PixelGrid
+
+    inds = [
+        LoadedIndenter(-3.0e-3, 3.0e-3, 3.5e-3, 0.3, 0.0, 2.5),
+        LoadedIndenter(3.0e-3, -3.0e-3, 3.5e-3, 0.0, 0.0, 3.0),
+    ]
+    grid = PixelGrid((64, 64), 0.25e-3)
+    model = _model(tiny_library, "mono", inds, grid=grid, cfg=sensor_config(**TINY))
+    pos = np.array([[-3.0, 3.0], [2.07, -4.55], [4.0, -1.39]])
+    coarse, fine = subsample(model, 4), subsample(model, 2)
+    p, diam, _, _ = select_indenters(model, coarse, fine, pos, 1e-3, True, 2)
+    q = p.reshape(-1, 5)
+    assert len(diam) == 2, q
+    assert np.all(np.abs(q - _truth(inds)) < 0.01), q
 
 
 def test_the_range_penalty_and_its_jacobian():

@@ -103,7 +103,7 @@ def twins(gaps, dropped, kept, new) -> dict:
     gaps : (n, n) array
         Distance between the contacts' axes less their spheres' radii (mm; below 0 for
         two closer than their spheres allow), as
-        :func:`~fringekit.inversion.fit.sphere_gaps` gives it.
+        :func:`~fringekit.inversion.selection.sphere_gaps` gives it.
     dropped, kept : sequences of int
         The contacts dropped and kept.
     new : (n,) bool array

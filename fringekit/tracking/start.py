@@ -20,12 +20,12 @@ from fringekit.inversion.fit import (
     EXACT_MM,
     WINDOW_MM,
     fit_indenters,
-    prune,
     start_params,
     subsample,
 )
 from fringekit.inversion.hop import hop
 from fringekit.inversion.model import N_PARAMS, ImageModel, unpack
+from fringekit.inversion.selection import prune
 from fringekit.inversion.uncertainty import parameter_sd
 from fringekit.inversion.verdict import window_rms
 from fringekit.tracking.warm import ChordFit

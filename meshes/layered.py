@@ -24,11 +24,12 @@ from .spec import MeshSpec
 __all__ = ["z_levels", "extrude", "layered_tets", "SUBSTRATE_GROWTH", "SUBSTRATE_CAP"]
 
 #: Ratio between the thicknesses of successive element layers in the substrate, from the
-#: sheet's layer thickness at the interface down to the cap.
-SUBSTRATE_GROWTH = 2.0
+#: sheet's layer thickness at the interface down to the cap (MESHER_VERSION 3; 2.0, with
+#: a cap of 2, before).
+SUBSTRATE_GROWTH = 4.0
 #: Cap on a substrate layer's thickness, in units of ``sizing.h_sheet`` (never above
 #: ``sizing.h_far``).
-SUBSTRATE_CAP = 2.0
+SUBSTRATE_CAP = 4.0
 
 
 def z_levels(spec: MeshSpec) -> np.ndarray:
@@ -40,9 +41,9 @@ def z_levels(spec: MeshSpec) -> np.ndarray:
     :data:`SUBSTRATE_GROWTH` from the sheet layer thickness at the interface, capped at
     :data:`SUBSTRATE_CAP` ``* h_sheet`` and ``h_far``, and are rescaled to fit exactly.
     The polycarbonate is ~600 times stiffer than the sheet: on the reference case growth
-    1.5 with a cap of ``h_sheet`` (9 substrate layers) and growth 4 with a cap of
-    ``4 h_sheet`` (3 layers, 18 % fewer DOF) gave the same 8 N depth and order at 1.5-6 mm
-    as these 5 layers to 1e-4.
+    1.5 with a cap of ``h_sheet`` (9 substrate layers) and growth 2 with a cap of
+    ``2 h_sheet`` (5 layers) gave the same 8 N depth and order at 1.5-6 mm as these 3
+    layers to 1e-4, with 22 % more DOF.
     """
     lay, siz = spec.layers, spec.sizing
     n_sheet = max(1, math.ceil(lay.sheet_thickness / max(siz.h_contact, siz.h_layer) - 1e-9))

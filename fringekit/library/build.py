@@ -48,6 +48,7 @@ from fringekit.library.store import (
     sha256,
 )
 from fringekit.meshes import default_cache_dir
+from fringekit.meshes.build import MESHER_VERSION
 from fringekit.output.folders import atomic_write, claim_output
 from fringekit.output.versions import run_versions
 
@@ -321,6 +322,7 @@ def _build(
     settings = {
         "sensor": key,
         "mesh": mesh,
+        "mesher": MESHER_VERSION,  # a mesher that meshes the same config otherwise
         "solver": cfg["solver"],
         "ratios": list(ratios),
         "lattice_r_mm": list(lat.r * 1e3),
@@ -465,6 +467,7 @@ def _assemble(cfg, out: Path, tasks, diameters, loads, ratios, lat, mesh, build_
             "n_slabs": lat.n_slabs,
         },
         "mesh": mesh,
+        "mesher": MESHER_VERSION,  # a mesher that meshes the same config otherwise
         "solver": cfg["solver"],
         "files": files,
         "build_s": build_s,

@@ -9,6 +9,7 @@ synthesised from a library. The frame sources (:mod:`fringekit.tracking.source`)
 (:mod:`fringekit.tracking.write`) writes frames to a video file.
 """
 
+from fringekit.tracking.frame import TrackedFrame
 from fringekit.tracking.source import (
     IMAGE_SUFFIXES,
     VIDEO_SUFFIXES,
@@ -21,7 +22,7 @@ from fringekit.tracking.source import (
 )
 from fringekit.tracking.stream import TRACK_COLUMNS, Track, track
 from fringekit.tracking.synthetic import library_frames
-from fringekit.tracking.tracker import TrackedFrame, Tracker
+from fringekit.tracking.tracker import Tracker
 from fringekit.tracking.write import write_video
 
 __all__ = [

@@ -71,7 +71,7 @@ class OverlayPainter:
 
     def paint(self, image: np.ndarray, params: np.ndarray, ids) -> np.ndarray:
         """The frame with its overlay, (rows, cols, 3) uint8; ``params`` (n, 5) x, y (mm),
-        Fz, Fx, Fy (N) as :class:`~fringekit.tracking.tracker.TrackedFrame` holds them."""
+        Fz, Fx, Fy (N) as :class:`~fringekit.tracking.frame.TrackedFrame` holds them."""
         ax = self.ax
         ax.clear()
         ax.set_axis_off()

@@ -41,7 +41,7 @@ class LiveView:
     Ten frames in 0.09 s against a 0.2 s interval: one is drawn.
 
     >>> import numpy as np
-    >>> from fringekit.tracking.tracker import TrackedFrame
+    >>> from fringekit.tracking.frame import TrackedFrame
     >>> shown, t = [], iter(np.arange(10) * 0.01)
     >>> class Painter:
     ...     def paint(self, image, params, ids): return image

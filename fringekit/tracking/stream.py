@@ -38,9 +38,10 @@ from fringekit.library.store import Library, check_sensor, load_library
 from fringekit.measurement.regions import no_data_regions
 from fringekit.output.folders import atomic_write
 from fringekit.tracking.figure import loads_figure
+from fringekit.tracking.frame import TrackedFrame
 from fringekit.tracking.source import FrameSource, open_source
 from fringekit.tracking.synthetic import blank_model
-from fringekit.tracking.tracker import TRACK_STRIDE, TrackedFrame, Tracker
+from fringekit.tracking.tracker import TRACK_STRIDE, Tracker
 
 __all__ = ["TRACK_COLUMNS", "Track", "track"]
 

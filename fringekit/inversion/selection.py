@@ -37,18 +37,18 @@ def sphere_gaps(p: np.ndarray, diam) -> np.ndarray:
 
 
 def prune(
-    p: np.ndarray, sd: np.ndarray, diam: list, lib, held=None
+    p: np.ndarray, sd: np.ndarray, diam: list, lib, held=None, floor: float = MIN_LOAD_FRACTION
 ) -> tuple[np.ndarray, list, list]:
     """Drop indenters whose normal load is not significant, and the weaker of two whose
     axes are closer than their spheres allow (centres at least a diameter apart; the
     stronger is kept whatever its sd, which such a pair inflates); returns (parameters,
     diameters, indices kept).
 
-    A load is significant above 3 sd and from MIN_LOAD_FRACTION of the library's first
-    load; ``held`` (n,) bool marks indenters already tracked (``track``), which need the
-    first only: a contact is taken from that level and let go when its load is no longer
-    told from zero, so a load ramping through the level does not give a contact a new id
-    every frame (found, dropped, found again)."""
+    A load is significant above 3 sd and from ``floor`` (default MIN_LOAD_FRACTION) of
+    the library's first load; ``held`` (n,) bool marks indenters already tracked
+    (``track``), which need the first only: a contact is taken from that level and let go
+    when its load is no longer told from zero, so a load ramping through the level does
+    not give a contact a new id every frame (found, dropped, found again)."""
     q = p.reshape(-1, N_PARAMS)
     s = sd.reshape(-1, N_PARAMS)
     with np.errstate(invalid="ignore"):
@@ -60,7 +60,7 @@ def prune(
     # stronger of them is kept and fitted again.
     twin = (gap < 0).any(axis=1)
     # an indenter held at the largest load is kept, to be refused (never dropped silently)
-    enough = q[:, 2] >= MIN_LOAD_FRACTION * lib.load_N[1]
+    enough = q[:, 2] >= floor * lib.load_N[1]
     if held is not None:
         enough |= np.asarray(held, bool)
     keep = enough & (significant | twin)

@@ -92,8 +92,9 @@ AREA_EVERY = 10
 #: frames, each search about 1 s) is not searched for again within GATE_MM of that place
 #: for this many frames.
 REJECTED_FRAMES = 5
+#: ... unless the residual there grows this many times (:meth:`Tracker._touch`).
 GROWN = 1.5
-#: A touch is kept from this fraction of the library's first load (:meth:`Tracker._light`).
+#: A touch is kept from this fraction of the library's first load (:meth:`Tracker._release`).
 TOUCH_FRACTION = 0.25
 
 
@@ -252,8 +253,7 @@ class Tracker:
         if self.diam and quiet and self._touch(fixed, r, rms, events, full):
             fixed, rms, r = self._evaluate(sub)
             sd = self._sd(fixed, r, events)
-            light = self._light(events)
-            if self._release(sd, events, told=True, drop=light) and self.diam:  # not told from 0
+            if self._release(sd, events, floor=TOUCH_FRACTION) and self.diam:
                 fixed, rms, r = self._evaluate(sub)
                 sd = self._sd(fixed, r, events)
         if not self.diam:
@@ -405,32 +405,20 @@ class Tracker:
         self.area, self.area_age = area, 0 if fresh else self.area_age + 1
         return sd
 
-    def _light(self, events: list) -> np.ndarray:
-        """(n,) bool: the contacts touched in this frame whose normal load is below
-        TOUCH_FRACTION of the library's first load. Below it the library interpolates
-        between no load and its first load, and a light contact's rings cannot be told
-        from a misfit of the model of the same size: an intensity bump of 0.1 (0.6 mm
-        wide) beside a contact fits as a 0.08 N contact at 7 sd on a library whose first
-        load is 2 N, and removes 93 % of the residual's sum of squares near it."""
-        fz = self.p.reshape(-1, N_PARAMS)[:, 2]
-        return ~self._held(events) & (fz < TOUCH_FRACTION * self.blank.lib.load_N[1])
-
-    def _release(
-        self, sd: np.ndarray, events: list, told: bool = False, drop: np.ndarray | None = None
-    ) -> bool:
+    def _release(self, sd: np.ndarray, events: list, floor: float = MIN_LOAD_FRACTION) -> bool:
         """Contacts whose normal load is no longer significant (or that met a stronger
         one) are released, their ids retired. A contact found in this frame that a
         contact already tracked met keeps the tracked one's id and history: they are one
-        contact, seen twice by a search after dropped frames. ``told``: every contact
-        needs only a load told from zero (the held rule of
-        :func:`~fringekit.inversion.selection.prune`), as a touch's check in its own frame;
-        ``drop`` (n,) bool: contacts dropped whatever their load."""
+        contact, seen twice by a search after dropped frames. A contact found in this
+        frame is kept from ``floor`` of the library's first load (the rule of
+        :func:`~fringekit.inversion.selection.prune`): a touch's check in its own frame
+        takes TOUCH_FRACTION. Below it the library interpolates between no load and its
+        first load, and a light contact's rings cannot be told from a misfit of the model
+        of the same size: an intensity bump of 0.1 (0.6 mm wide) beside a contact fits
+        as a 0.08 N contact at 7 sd on a library whose first load is 2 N, and removes
+        93 % of the residual's sum of squares near it."""
         new = ~self._held(events)
-        held = np.ones(len(self.diam), bool) if told else ~new
-        p, diam, kept = prune(self.p, sd.ravel(), self.diam, self.blank.lib, held)
-        if drop is not None:
-            kept = [i for i in kept if not drop[i]]
-            p, diam = self.p.reshape(-1, N_PARAMS)[kept].ravel(), [self.diam[i] for i in kept]
+        p, diam, kept = prune(self.p, sd.ravel(), self.diam, self.blank.lib, ~new, floor)
         if len(kept) == len(self.diam):
             return False
         dropped = np.setdiff1d(np.arange(len(self.diam)), kept)

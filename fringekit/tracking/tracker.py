@@ -52,6 +52,7 @@ from fringekit.inversion.fit import (
     subsample,
 )
 from fringekit.inversion.hop import hop
+from fringekit.inversion.match import match_candidates
 from fringekit.inversion.model import N_PARAMS, ImageModel, unpack
 from fringekit.inversion.selection import MIN_LOAD_FRACTION, prune, sphere_gaps
 from fringekit.inversion.uncertainty import model_sd, stated_sd
@@ -185,9 +186,11 @@ class Tracker:
     def _start(self, full: ImageModel, events: list) -> None:
         """No contact tracked: look for them (:func:`~fringekit.tracking.start.quick_start`);
         when that leaves one unexplained, the whole inverse (``invert``'s)."""
-        cand = detect(subsample(full, 2), self.noise)
+        half = subsample(full, 2)
+        cand = detect(half, self.noise)
         if not len(cand):
             return
+        cand = match_candidates(half, cand)
         p, diam = quick_start(full, cand, self.stride, self.noise)
         if p is None:
             try:

@@ -7,9 +7,12 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import pytest
 from library_fixtures import TINY, sensor_config
 
 from fringekit.config.inputs import optics_setup
+from fringekit.inversion.detect import detect, noise_sd
+from fringekit.inversion.fit import subsample
 from fringekit.inversion.match import MIN_OVERLAP, masked_ncc, match_candidates
 from fringekit.inversion.model import ImageModel
 from fringekit.library.store import LoadedIndenter
@@ -68,3 +71,34 @@ def test_a_candidate_at_the_border_keeps_to_its_contact(tiny_library):
     model = _image(tiny_library, ind, PixelGrid((64, 64), 0.25e-3))
     got = match_candidates(model, np.array([[-6.0, 2.5]]))
     assert np.hypot(got[0, 0] + 7.0, got[0, 1] - 1.0) <= 0.4, got
+
+
+@pytest.mark.slow
+def test_the_track_bench_s_frame_120_candidates(test_library):
+    """Four heads, two of them 4.4 mm apart (the track bench's frame 120, 128 px over
+    16 mm, 8-bit with noise): the gradient energy puts every candidate 1.7-2.3 mm off an
+    axis and none on the fourth head; matched, three candidates are on three heads (the
+    fourth is for the fit's residual to find)."""
+    heads = [
+        LoadedIndenter(-4.19e-3, 5.5e-3, 3.5e-3, 0.5, 0.0, 2.5),
+        LoadedIndenter(-2.2e-3, -1.08e-3, 3.5e-3, 0.0, 0.4, 3.0),
+        LoadedIndenter(2.2e-3, -1.22e-3, 3.5e-3, -0.3, 0.0, 2.0),
+        LoadedIndenter(5.5e-3, 4.5e-3, 3.5e-3, 0.0, 0.0, 3.0),
+    ]
+    grid = PixelGrid((128, 128), 0.125e-3)
+    n = grid.n_pixels
+    opt = optics_setup(sensor_config())
+    blank = ImageModel.build(test_library, grid, "mono", np.zeros((n, 1)), np.ones(n, bool), opt)
+    img, _ = blank.linear(heads)
+    noisy = 0.8 * img + 0.02 + np.random.default_rng(120).normal(0.0, 0.005, img.shape)
+    fine = subsample(replace(blank, measured=np.round(np.clip(noisy, 0, 1) * 255) / 255), 2)
+    noise = noise_sd(fine)
+    axes = np.array([[h.x, h.y] for h in heads]) * 1e3
+
+    def off(c):
+        return np.hypot(*(c[:, None] - axes[None]).transpose(2, 0, 1)).min(axis=1)
+
+    energy = detect(fine, noise)
+    assert np.all(off(energy) > 1.5), energy
+    matched = match_candidates(fine, energy)
+    assert len(matched) == 3 and np.all(off(matched) < 0.15), matched

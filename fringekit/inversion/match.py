@@ -21,11 +21,15 @@ fringes match a light template as well as a head matches its own (z 42-48, the h
 21-77), so it only refines what the energy found.
 
 It serves the tracker's first frame (:func:`fringekit.tracking.start.quick_start`),
-whose answer is kept only where it explains the frame to the camera's noise. ``invert``
-does not use it yet: on the track bench's stream it took two refused frames of five to
-none, but on a frame of the tests' tiny library (a 1 mm mesh, 2 and 4 N) it moved a
-2.5 N contact's candidate 0.6 mm off and ``invert`` returned the contact 0.3 mm off as
-reliable (residual 0.10, under the 0.22 warning level that FEM images need).
+whose answer is kept only where it explains the frame to the camera's noise, and
+``invert``'s last retry (:func:`fringekit.inversion.fit.invert_image`), taken only when
+an indenter is still flagged, which also matches the residual's peaks beyond a sphere
+diameter of every fitted axis (``taken``): two heads that detection gave one candidate
+leave their residual peak between them, 2 mm from the fitted one, inside detection's
+exclusion. It is not ``invert``'s first start: on a frame of the tests' tiny library (a
+1 mm mesh, 2 and 4 N) it moved a 2.5 N contact's candidate 0.6 mm off, and the contact
+came back 0.3 mm off with a residual of 0.10, under the warning level that FEM images
+need, so no retry would have mended it.
 """
 
 from __future__ import annotations
@@ -197,7 +201,7 @@ def _significance(img: np.ndarray, valid: np.ndarray, templates: np.ndarray) -> 
     return best
 
 
-def match_candidates(model: ImageModel, cand: np.ndarray) -> np.ndarray:
+def match_candidates(model: ImageModel, cand: np.ndarray, taken=()) -> np.ndarray:
     """Candidates moved to the best one-indenter match near each.
 
     Parameters
@@ -207,15 +211,19 @@ def match_candidates(model: ImageModel, cand: np.ndarray) -> np.ndarray:
         for a coarser pitch).
     cand : (k, 2) float array
         Candidate axes (mm), :func:`fringekit.inversion.detect.detect`'s.
+    taken : (m, 2) array_like, optional
+        Axes already fitted (mm): no candidate moves to within a sphere diameter of one
+        (a residual's peak beside a fitted contact is looked for beyond it).
 
     Returns
     -------
     (k', 2) float array
         The moved candidates (mm), best match first; a candidate on an unusable pixel (a
         no-data disc, which marks its contact) or with no valid match within
-        MATCH_WITHIN_MM stays where it was, and one that lands closer than a sphere
-        diameter (at least MIN_SEPARATION_MM) to a better-matched one is dropped: two axes
-        cannot be closer.
+        MATCH_WITHIN_MM stays where it was (and is dropped if that is within a sphere
+        diameter, at least MIN_SEPARATION_MM, of a taken axis), and one that lands closer
+        than a sphere diameter to a better-matched one is dropped: two axes cannot be
+        closer.
 
     Examples
     --------
@@ -232,6 +240,10 @@ def match_candidates(model: ImageModel, cand: np.ndarray) -> np.ndarray:
     best = _significance(img, valid, templates)
     xy = model.xy.reshape(rows, cols, 2) * 1e3
     apart_mm = max(MIN_SEPARATION_MM, min(model.lib.diameters_mm))
+    taken = np.reshape(np.asarray(taken, float), (-1, 2))
+    free = np.ones((rows, cols), bool)
+    for tx, ty in taken:  # a handful
+        free &= np.hypot(xy[..., 0] - tx, xy[..., 1] - ty) >= apart_mm
     moved, score = [], []
     r, c = model.grid.xy_to_pixel(cand[:, 0] * 1e-3, cand[:, 1] * 1e-3)
     r = np.clip(np.rint(r).astype(int), 0, rows - 1)
@@ -242,12 +254,15 @@ def match_candidates(model: ImageModel, cand: np.ndarray) -> np.ndarray:
             score.append(np.inf)
             continue
         near = np.hypot(xy[..., 0] - x, xy[..., 1] - y) <= MATCH_WITHIN_MM
-        s = np.where(near & np.isfinite(best), best, -np.inf)
+        s = np.where(near & free & np.isfinite(best), best, -np.inf)
         k = np.unravel_index(int(np.argmax(s)), s.shape)
         moved.append(xy[k] if np.isfinite(s[k]) else np.array([x, y]))
         score.append(s[k])
+    far = [not len(taken) or np.hypot(*(taken - m).T).min() >= apart_mm for m in moved]
     kept: list[int] = []
     for i in np.argsort(score)[::-1]:
+        if not far[i]:
+            continue
         if all(np.hypot(*(moved[i] - moved[j])) >= apart_mm for j in kept):
             kept.append(int(i))
-    return np.array([moved[i] for i in kept])
+    return np.reshape([moved[i] for i in kept], (-1, 2))

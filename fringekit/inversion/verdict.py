@@ -22,6 +22,8 @@ __all__ = [
     "MAX_RESIDUAL",
     "WARN_RESIDUAL",
     "at_library_edge",
+    "better_answer",
+    "flagged",
     "refuse",
     "residual_warnings",
     "fit_verdict",
@@ -186,3 +188,36 @@ def refuse(q: np.ndarray, lib, total: float) -> None:
             f"the loads are within the library's range (normal loads up to {lib.max_load_N:g} "
             "N; build a library with larger --load-N for more)"
         )
+
+
+def flagged(answer: tuple) -> bool:
+    """Whether an answer (p, diameters, result, verdict) has an indenter whose residual
+    near it is above WARN_RESIDUAL.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> flagged((None, [], None, None)), flagged((None, [1], None, (np.array([0.3]), 0.1)))
+    (False, True)
+    """
+    return answer[3] is not None and bool(np.any(answer[3][0] > WARN_RESIDUAL))
+
+
+def better_answer(fine, best: tuple, alt: tuple, radius_mm: float) -> tuple:
+    """The better of two answers of ``invert``'s retries: ``best`` (p, diameters, result,
+    verdict) and ``alt`` (p, diameters, result; its verdict is made here on ``fine``
+    within ``radius_mm``, as :func:`fit_verdict`): fewer flagged indenters, then the
+    smaller residual over the image.
+
+    Examples
+    --------
+    See :func:`fringekit.inversion.fit.invert_image`, whose retries keep the better.
+    """
+    other = fit_verdict(fine, alt[0], alt[1], radius_mm) if alt[1] else None
+    verdict = best[3]
+    if other is not None and (np.sum(other[0] > WARN_RESIDUAL), other[1]) < (
+        np.sum(verdict[0] > WARN_RESIDUAL),
+        verdict[1],
+    ):
+        return (*alt, other)
+    return best

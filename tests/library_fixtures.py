@@ -62,3 +62,28 @@ def outside(grid, centres_mm, radius_mm) -> np.ndarray:
     for x, y in centres_mm:
         keep &= np.hypot(xy[..., 0] - x, xy[..., 1] - y) > radius_mm
     return keep
+
+
+def four_heads_frame(lib):
+    """The track bench's frame 120 on ``lib`` (the coarse sensor's): four 3.5 mm heads,
+    two of them 4.4 mm apart, 128 x 128 px over 16 mm, 8-bit with noise 0.005 (seeded):
+    (ImageModel with the frame measured, the heads as LoadedIndenters)."""
+    from dataclasses import replace
+
+    from fringekit.inversion.model import ImageModel
+    from fringekit.library.store import LoadedIndenter
+    from fringekit.optics import PixelGrid
+
+    heads = [
+        LoadedIndenter(-4.19e-3, 5.5e-3, 3.5e-3, 0.5, 0.0, 2.5),
+        LoadedIndenter(-2.2e-3, -1.08e-3, 3.5e-3, 0.0, 0.4, 3.0),
+        LoadedIndenter(2.2e-3, -1.22e-3, 3.5e-3, -0.3, 0.0, 2.0),
+        LoadedIndenter(5.5e-3, 4.5e-3, 3.5e-3, 0.0, 0.0, 3.0),
+    ]
+    grid = PixelGrid((128, 128), 0.125e-3)
+    n = grid.n_pixels
+    opt = optics_setup(sensor_config())
+    blank = ImageModel.build(lib, grid, "mono", np.zeros((n, 1)), np.ones(n, bool), opt)
+    img, _ = blank.linear(heads)
+    noisy = 0.8 * img + 0.02 + np.random.default_rng(120).normal(0.0, 0.005, img.shape)
+    return replace(blank, measured=np.round(np.clip(noisy, 0, 1) * 255) / 255), heads

@@ -120,22 +120,11 @@ def test_a_head_beside_a_fitted_one_is_found_by_its_matched_residual_peak(test_l
     to one-indenter images: the fourth head leaves its residual peak between the pair,
     1.8 mm from the fitted one, where detection's exclusion drops it (three heads stay);
     matched beyond a diameter of the fitted axes it is added, and all four are read."""
-    from fringekit.inversion.fit import select_indenters, subsample
-    from fringekit.optics import PixelGrid
+    from library_fixtures import four_heads_frame
 
-    heads = [
-        LoadedIndenter(-4.19e-3, 5.5e-3, 3.5e-3, 0.5, 0.0, 2.5),
-        LoadedIndenter(-2.2e-3, -1.08e-3, 3.5e-3, 0.0, 0.4, 3.0),
-        LoadedIndenter(2.2e-3, -1.22e-3, 3.5e-3, -0.3, 0.0, 2.0),
-        LoadedIndenter(5.5e-3, 4.5e-3, 3.5e-3, 0.0, 0.0, 3.0),
-    ]
-    grid = PixelGrid((128, 128), 0.125e-3)
-    n = grid.n_pixels
-    opt = optics_setup(sensor_config())
-    blank = ImageModel.build(test_library, grid, "mono", np.zeros((n, 1)), np.ones(n, bool), opt)
-    img, _ = blank.linear(heads)
-    noisy = 0.8 * img + 0.02 + np.random.default_rng(120).normal(0.0, 0.005, img.shape)
-    model = replace(blank, measured=np.round(np.clip(noisy, 0, 1) * 255) / 255)
+    from fringekit.inversion.fit import select_indenters, subsample
+
+    model, heads = four_heads_frame(test_library)
     coarse, fine = subsample(model, 4), subsample(model, 2)
     noise = noise_sd(model)
     three = np.array([[5.56, 4.44], [-4.19, 5.44], [-2.19, -1.06]])  # the matched ones

@@ -8,7 +8,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from library_fixtures import TINY, sensor_config
+from library_fixtures import TINY, four_heads_frame, sensor_config
 
 from fringekit.config.inputs import optics_setup
 from fringekit.inversion.detect import detect, noise_sd
@@ -79,19 +79,8 @@ def test_the_track_bench_s_frame_120_candidates(test_library):
     16 mm, 8-bit with noise): the gradient energy puts every candidate 1.7-2.3 mm off an
     axis and none on the fourth head; matched, three candidates are on three heads (the
     fourth is for the fit's residual to find)."""
-    heads = [
-        LoadedIndenter(-4.19e-3, 5.5e-3, 3.5e-3, 0.5, 0.0, 2.5),
-        LoadedIndenter(-2.2e-3, -1.08e-3, 3.5e-3, 0.0, 0.4, 3.0),
-        LoadedIndenter(2.2e-3, -1.22e-3, 3.5e-3, -0.3, 0.0, 2.0),
-        LoadedIndenter(5.5e-3, 4.5e-3, 3.5e-3, 0.0, 0.0, 3.0),
-    ]
-    grid = PixelGrid((128, 128), 0.125e-3)
-    n = grid.n_pixels
-    opt = optics_setup(sensor_config())
-    blank = ImageModel.build(test_library, grid, "mono", np.zeros((n, 1)), np.ones(n, bool), opt)
-    img, _ = blank.linear(heads)
-    noisy = 0.8 * img + 0.02 + np.random.default_rng(120).normal(0.0, 0.005, img.shape)
-    fine = subsample(replace(blank, measured=np.round(np.clip(noisy, 0, 1) * 255) / 255), 2)
+    model, heads = four_heads_frame(test_library)
+    fine = subsample(model, 2)
     noise = noise_sd(fine)
     axes = np.array([[h.x, h.y] for h in heads]) * 1e3
 

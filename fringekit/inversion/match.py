@@ -73,7 +73,7 @@ MATCH_WITHIN_MM = 2.5
 MIN_OVERLAP = 0.5
 
 
-def one_indenter_templates(model: ImageModel, half_mm: float = MATCH_HALF_MM):
+def one_indenter_templates(model: ImageModel, half_mm: float = MATCH_HALF_MM) -> np.ndarray:
     """The library's one-indenter images about the axis, on ``model``'s pixel pitch.
 
     Parameters
@@ -85,15 +85,12 @@ def one_indenter_templates(model: ImageModel, half_mm: float = MATCH_HALF_MM):
 
     Returns
     -------
-    templates : (K, h, h, C) float array
+    (K, h, h, C) float array
         Intensities before gain and offset, one equivalent retarder per ray; h =
-        2 round(half_mm / pitch) + 1, rows downwards (y falls), columns along x.
-    rows : (K, 5) float array
-        Each template's (0, 0, Fz, Fx, Fy) (mm, N): MATCH_LOADS normal loads from half
-        the library's first load to its largest, without tangential load and at
-        MATCH_RATIOS in MATCH_DIRECTIONS directions.
-    diameters : (K,) float array
-        Each template's indenter diameter (m).
+        2 round(half_mm / pitch) + 1, rows downwards (y falls), columns along x. For
+        every diameter of the library: MATCH_LOADS normal loads from half the library's
+        first load to its largest, without tangential load and at MATCH_RATIOS in
+        MATCH_DIRECTIONS directions.
 
     Examples
     --------
@@ -107,7 +104,7 @@ def one_indenter_templates(model: ImageModel, half_mm: float = MATCH_HALF_MM):
     dx, dy = np.meshgrid(o, -o)
     dx, dy = dx.ravel()[None], dy.ravel()[None]
     psi = np.linspace(0.0, 2 * np.pi, MATCH_DIRECTIONS, endpoint=False)
-    tots, rows, diams = [], [], []
+    tots = []
     for d in lib.diameters_mm:  # one or a few
         for fz in np.geomspace(0.5 * lib.load_N[1], lib.max_load_N, MATCH_LOADS):
             for ratio in (0.0, *MATCH_RATIOS):
@@ -116,13 +113,10 @@ def one_indenter_templates(model: ImageModel, half_mm: float = MATCH_HALF_MM):
                 AB = lib.state(d, float(fz), float(ratio))[0].sum(axis=2, keepdims=True)
                 dirs = psi if ratio > 0 else psi[:1]
                 tots.append(interpolate_turned(AB, lib.lattice, dx, dy, dirs[:, None])[..., 0, :])
-                ft = ratio * fz
-                rows += [[0.0, 0.0, fz, ft * np.cos(a), ft * np.sin(a)] for a in dirs]
-                diams += [d * 1e-3] * len(dirs)
     sub = model.restrict(np.zeros(dx.size, int))  # the polariscope's table only
     lin, _ = retarder_lookup(sub, np.concatenate(tots))
     size = 2 * h + 1
-    return lin.reshape(-1, size, size, lin.shape[-1]), np.array(rows), np.array(diams)
+    return lin.reshape(-1, size, size, lin.shape[-1])
 
 
 def masked_ncc(image: np.ndarray, valid: np.ndarray, templates: np.ndarray):
@@ -236,7 +230,7 @@ def match_candidates(model: ImageModel, cand: np.ndarray, taken=()) -> np.ndarra
     rows, cols = model.grid.shape
     img = model.measured.reshape(rows, cols, -1)
     valid = model.usable.reshape(rows, cols)
-    templates, _, _ = one_indenter_templates(model)
+    templates = one_indenter_templates(model)
     best = _significance(img, valid, templates)
     xy = model.xy.reshape(rows, cols, 2) * 1e3
     apart_mm = max(MIN_SEPARATION_MM, min(model.lib.diameters_mm))

@@ -33,7 +33,7 @@ __all__ = ["mesh_uncached", "MESHER_VERSION"]
 log = logging.getLogger("fringekit.meshes")
 
 #: Bumped whenever a mesher changes what it produces (part of the cache key).
-MESHER_VERSION = "3"
+MESHER_VERSION = "4"
 
 #: Tolerance (m) for "on the plane" with the layered mesher, whose planes are exact.
 _EXACT_TOL = 1e-12

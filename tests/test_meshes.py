@@ -379,7 +379,7 @@ def test_extruded_prisms_are_conforming():
 
 
 def test_z_levels_cover_the_layers_exactly():
-    from fringekit.meshes.layered import SUBSTRATE_CAP, z_levels
+    from fringekit.meshes.layered import SUBSTRATE_ASPECT, SUBSTRATE_CAP, z_levels
 
     spec = MeshSpec(symmetry="quarter")
     z = z_levels(spec)
@@ -388,8 +388,25 @@ def test_z_levels_cover_the_layers_exactly():
     dz_sheet = np.diff(z[z >= 0])
     thickest = max(spec.sizing.h_contact, spec.sizing.h_layer)
     assert np.allclose(dz_sheet, dz_sheet[0]) and dz_sheet[0] <= thickest * (1 + 1e-12)
-    cap = min(SUBSTRATE_CAP * spec.sizing.h_sheet, spec.sizing.h_far)
-    assert np.diff(z).max() <= 1.5 * cap  # a dropped last layer stretches the others
+    siz = spec.sizing
+    cap = min(SUBSTRATE_CAP * siz.h_sheet, siz.h_far, SUBSTRATE_ASPECT * siz.h_contact)
+    assert np.diff(z).max() <= cap * (1 + 1e-12)  # a dropped last layer stretches the others
+
+
+@pytest.mark.parametrize("h_contact", [0.3e-3, 0.2e-3, 0.15e-3])
+def test_a_fine_contact_mesh_on_a_thick_substrate_keeps_its_tets_sound(h_contact):
+    """The contact zone's small triangles are swept through every substrate layer: on the
+    reference sensor's 15 mm substrate, layers of up to 6.3 mm gave 0.99 deg tets at
+    h_contact 0.2 mm, which the quality check refused. The layers are now capped at
+    SUBSTRATE_ASPECT h_contact, which keeps the smallest dihedral above 1.5 deg."""
+    from fringekit.meshes.layered import layered_tets
+    from fringekit.meshes.quality import dihedral_angles
+
+    layers = Layers(sheet_thickness=3e-3, substrate_thickness=15e-3, width=20e-3, length=20e-3)
+    sizing = Sizing(h_contact=h_contact, refine_radius=2e-3, h_sheet=2e-3, h_far=8e-3)
+    spec = MeshSpec(layers, (IndenterSite(radius=1.75e-3),), sizing, symmetry="quarter")
+    pts, tets = layered_tets(spec)
+    assert dihedral_angles(pts, tets).min() > 1.5
 
 
 @pytest.mark.parametrize(

@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from .contact_edge import edge_radius
 from .materials import cauchy_stress
 from .model import Model, State
 from .newton import evaluate
@@ -45,16 +46,21 @@ def _indenter_state(model: Model, st: State, j: int, x: np.ndarray) -> IndenterS
         model.face.contact_hull_area(x, faces, indicator, on_planes),
     )
     pts = model.face.points(x, faces)
+    # the edge from the open gap beyond it (fea.contact_edge); the area's circle where
+    # too few open points lie near the edge to fit
+    edge = edge_radius(pts, res.gap, act, st.c[j, :2], tuple(on_planes))
+    radius, radius_sd = edge if edge is not None else (math.sqrt(area / math.pi), math.nan)
     pen = float(max(0.0, -res.gap[act].min())) if np.any(act) else 0.0
     return IndenterState(
         centre=st.c[j].copy(),
         radius=ind.radius,
         depth=float(model.c0[j, 2] - st.c[j, 2]),
         force=force,
-        contact_radius=math.sqrt(area / math.pi),
+        contact_radius=radius,
         max_penetration=pen,
         points=pts[act],
         pressure=(res.p * ref / np.where(cur > 0, cur, 1.0))[act],
+        contact_radius_sd=radius_sd,
     )
 
 

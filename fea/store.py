@@ -45,10 +45,11 @@ log = logging.getLogger("fringekit.fea")
 #: Bump when the stored arrays or the solver's converged answer change meaning.
 #: 2: every entry holds its key and the inputs it was hashed from.
 #: 3: under friction a point sticks where it first touches (fea.contact.first_touch_anchors).
-STORE_VERSION = 3
+#: 4: the contact radius is the edge fitted to the open gap (fea.contact_edge), with its sd.
+STORE_VERSION = 4
 
 _IND_ARRAYS = ("centre", "force", "points", "pressure")
-_IND_SCALARS = ("radius", "depth", "contact_radius", "max_penetration")
+_IND_SCALARS = ("radius", "depth", "contact_radius", "max_penetration", "contact_radius_sd")
 
 
 class KeyMismatch(ValueError):

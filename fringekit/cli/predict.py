@@ -78,9 +78,11 @@ def run(args: argparse.Namespace) -> int:
         print(f"fringekit {__version__} - {cfg['case']}: done in {took:.1f} s")
         for j, ind in enumerate(summary["indenters"]):
             f = ", ".join(f"{v:.3g}" for v in ind["force_N"])
+            sd = ind.get("contact_radius_sd_mm")
+            pm = f" +- {sd:.4f}" if sd is not None else ""
             print(
                 f"  indenter {j}: force [{f}] N, depth {ind['depth_mm']:.4f} mm, "
-                f"contact radius {ind['contact_radius_mm']:.3f} mm"
+                f"contact radius {ind['contact_radius_mm']:.4f}{pm} mm"
             )
         print(f"  max fringe order {summary['max_fringe_order']:.2f} (contact zone masked)")
         print(f"  results in {out}/ (summary.json, state_*/solution.vtu, images, figures)")

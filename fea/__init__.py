@@ -4,13 +4,14 @@ Quadratic tets with mean dilatation (fea.assembly), neo-Hookean and Mooney-Rivli
 and their Cauchy stress (fea.materials), augmented-Lagrangian sphere contact with Coulomb
 friction or full stick (fea.contact), the discrete problem (fea.model), Newton with line
 search (fea.newton), load stepping with cut-back (fea.solver) and its cost before it
-starts (fea.estimate), stress and contact
-recovery (fea.recovery), one :class:`Solution` per load state (fea.solution), and the
-closed-form checks (fea.analytic).
+starts (fea.estimate), stress and contact recovery (fea.recovery) with the contact edge
+fitted to the open gap (fea.contact_edge), one :class:`Solution` per load state
+(fea.solution), and the closed-form checks (fea.analytic).
 """
 
 from .analytic import depth_guess, dimitriadis_force, hertz_force
 from .contact import FRICTION_STICK
+from .contact_edge import edge_radius
 from .estimate import SolveEstimate, estimate_solve
 from .linsolve import LinearSolver, available_backends
 from .materials import (
@@ -50,4 +51,5 @@ __all__ = [
     "depth_guess",
     "dimitriadis_force",
     "hertz_force",
+    "edge_radius",
 ]

@@ -47,7 +47,7 @@ def _indenter_state(model: Model, st: State, j: int, x: np.ndarray) -> IndenterS
     )
     pts = model.face.points(x, faces)
     # the edge from the open gap beyond it (fea.contact_edge); the area's circle where
-    # too few open points lie near the edge to fit
+    # that fit cannot resolve it (too few open points near the edge, or its sd > 0.5 %)
     edge = edge_radius(pts, res.gap, act, st.c[j, :2], tuple(on_planes))
     radius, radius_sd = edge if edge is not None else (math.sqrt(area / math.pi), math.nan)
     pen = float(max(0.0, -res.gap[act].min())) if np.any(act) else 0.0

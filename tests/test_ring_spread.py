@@ -49,8 +49,9 @@ def test_a_finer_lateral_mesh_on_thick_layers_rounds_the_rings(cache_dir):
     0.20 / 0.20 / 0.12 / 0.08 fringe at 2 / 2.5 / 3 / 4 mm against 0.29 / 0.27 / 0.29 /
     0.09), the same orders and contact radius as 0.3 mm through the
     whole thickness (10 layers, three times the solve) to 0.01 fringe and 0.5 %, where
-    the 0.6 mm mesh is 0.05-0.09 fringe and 1.5 % off (its contact radius fitted to the
-    open gap: 1.162 against 1.180 mm; 3.5 % by the contact area's circle)."""
+    the 0.6 mm mesh is 0.05-0.09 fringe and 3.7 % off (contact radius 1.144 against
+    1.189 mm: on 0.6 mm facets the edge fit's sd exceeds 0.5 % and the contact area's
+    circle is given; 0.3 mm on 0.6 mm layers is fitted, 1.187 mm)."""
     _, a6, mean6, spread6 = _rings(cache_dir, 0.6, 0.0)
     dofs3, a3, mean3, spread3 = _rings(cache_dir, 0.3, 0.6)
     dofs_fine, a_fine, mean_fine, _ = _rings(cache_dir, 0.3, 0.0)
@@ -59,4 +60,4 @@ def test_a_finer_lateral_mesh_on_thick_layers_rounds_the_rings(cache_dir):
     assert np.all(spread6[:3] > 0.25), spread6  # the default's facets, as measured
     assert np.max(np.abs(mean3 - mean_fine)) < 0.012, (mean3, mean_fine)
     assert abs(a3 / a_fine - 1) < 0.005, (a3, a_fine)
-    assert np.max(np.abs(mean6 - mean_fine)[:2]) > 0.04 and a6 / a_fine < 0.99
+    assert np.max(np.abs(mean6 - mean_fine)[:2]) > 0.04 and a6 / a_fine < 0.97

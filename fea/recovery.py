@@ -23,33 +23,40 @@ from .stats import SolveStats
 __all__ = ["make_solution"]
 
 
+def _area_radius(model: Model, res, j: int, x: np.ndarray, on_planes: list) -> float:
+    """Radius (m) of the circle with indenter ``j``'s projected contact area, its edge
+    placed inside the facets by the sign of the trial pressure p - eps_N g; with the
+    convex hull of that patch, which bridges pressure-free points inside it (the hull's
+    samples sit a fraction of a sub-triangle inside the edge, the plain area misses the
+    holes: the larger of the two)."""
+    faces = model.cand[j]
+    indicator = np.where(res.p > 0, res.p, -model.eps_n[j] * res.gap)
+    area = max(
+        model.face.projected_contact_area(x, faces, indicator) / model.frac[j],
+        model.face.contact_hull_area(x, faces, indicator, on_planes),
+    )
+    return math.sqrt(area / math.pi)
+
+
 def _indenter_state(model: Model, st: State, j: int, x: np.ndarray) -> IndenterState:
     """Force, depth, contact radius and pressure of indenter ``j`` at ``st``."""
     ind = model.indenters[j]
     res = st.results[j]  # the converged contact state (before the last multiplier copy)
     faces = model.cand[j]
     act = res.p > 0
+    on_planes = [a for a in model.sym_axes if abs(model.c0[j, a]) < 1e-12]
     force = res.force[:, 6].sum(axis=0) / model.frac[j]
-    for a in model.sym_axes:
-        if abs(model.c0[j, a]) < 1e-12:
-            force[a] = 0.0
+    force[on_planes] = 0.0  # the symmetry planes the indenter sits on carry none across
     cur = model.face.current_area(x, faces)
     ref = model.face.weights[faces]
-    # contact edge inside the facets: the sign of the trial pressure p - eps_N g,
-    # and the convex hull of that patch (bridges pressure-free points inside it);
-    indicator = np.where(act, res.p, -model.eps_n[j] * res.gap)
-    # the hull's samples sit a fraction of a sub-triangle inside the edge, the plain
-    # area misses the holes: the larger of the two
-    on_planes = [a for a in model.sym_axes if abs(model.c0[j, a]) < 1e-12]
-    area = max(
-        model.face.projected_contact_area(x, faces, indicator) / model.frac[j],
-        model.face.contact_hull_area(x, faces, indicator, on_planes),
-    )
     pts = model.face.points(x, faces)
     # the edge from the open gap beyond it (fea.contact_edge); the area's circle where
     # that fit cannot resolve it (too few open points near the edge, or its sd > 0.5 %)
     edge = edge_radius(pts, res.gap, act, st.c[j, :2], tuple(on_planes))
-    radius, radius_sd = edge if edge is not None else (math.sqrt(area / math.pi), math.nan)
+    if edge is None:
+        radius, radius_sd = _area_radius(model, res, j, x, on_planes), math.nan
+    else:
+        radius, radius_sd = edge
     pen = float(max(0.0, -res.gap[act].min())) if np.any(act) else 0.0
     return IndenterState(
         centre=st.c[j].copy(),

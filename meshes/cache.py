@@ -36,10 +36,14 @@ def default_cache_dir() -> Path:
     --------
     >>> import os
     >>> from fringekit.meshes import default_cache_dir
+    >>> before = os.environ.get("FRINGEKIT_CACHE_DIR")
     >>> os.environ["FRINGEKIT_CACHE_DIR"] = "/tmp/fk-cache"
     >>> str(default_cache_dir())
     '/tmp/fk-cache'
-    >>> del os.environ["FRINGEKIT_CACHE_DIR"]
+    >>> if before is None:
+    ...     del os.environ["FRINGEKIT_CACHE_DIR"]
+    ... else:
+    ...     os.environ["FRINGEKIT_CACHE_DIR"] = before
     """
     env = os.environ.get("FRINGEKIT_CACHE_DIR")
     if env:

@@ -252,15 +252,20 @@ def test_predict_rerender_uses_the_cached_solution(tiny_run, capsys):
 
 
 def _predict_failing(toml: str, tmp_path, cache_dir, capsys) -> tuple[Path, str, dict]:
-    """Run ``predict`` on a config that must fail: exit 1 and no traceback. Returns the
-    output folder, stderr and the summary."""
+    """Run ``predict`` on a config that must fail, with ``--out`` given relative to the
+    working directory: exit 1 and no traceback, the states written to that folder and no
+    mention of an earlier run (there is none). Returns the output folder, stderr and the
+    summary."""
     cfg = tmp_path / "fail.toml"
     cfg.write_text(toml)
     out = tmp_path / "out"
-    code = main(["predict", str(cfg), "--out", str(out), "--cache-dir", str(cache_dir), "--quiet"])
+    with pytest.MonkeyPatch.context() as mp:
+        mp.chdir(tmp_path)
+        code = main(["predict", str(cfg), "--out", "out", "--cache-dir", str(cache_dir), "--quiet"])
     assert code == 1
     err = capsys.readouterr().err
     assert "Traceback" not in err
+    assert f"written to {out}" in err and "earlier run" not in err
     return out, err, json.loads((out / "summary.json").read_text())
 
 

@@ -391,7 +391,8 @@ def run_predict(
     if error is not None:
         raise type(error)(
             f"{pred.summary['error']}; the {len(pred.solutions)} converged state(s) are "
-            f"written to {dest}" + (f" (the earlier run in {out} is kept)" if dest != out else ""),
+            f"written to {dest}"
+            + (f" (the earlier run in {claim.out} is kept)" if dest != claim.out else ""),
             prediction=pred,
         ) from error
     return pred.summary

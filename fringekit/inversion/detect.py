@@ -24,8 +24,10 @@ __all__ = [
     "DETECT_SNR",
     "MIN_SEPARATION_MM",
     "SMOOTH_MM",
+    "axis_separation_mm",
     "detect",
     "detection_bytes",
+    "far_from",
     "noise_sd",
 ]
 
@@ -109,7 +111,7 @@ def detect(model: ImageModel, noise: float, exclude=()) -> np.ndarray:
     peaks within a sphere diameter, are dropped)."""
     px = model.grid.pixel_size * 1e3
     taken = np.reshape(np.asarray(exclude, float), (-1, 2))
-    discs = _far_from(_discs(model), taken)
+    discs = far_from(_discs(model), taken)
     taken = np.concatenate([taken, discs])
     e = _energy(model, smooth_px=SMOOTH_MM / px)
     floor = DETECT_SNR * noise**2 * model.measured.shape[1]
@@ -120,19 +122,33 @@ def detect(model: ImageModel, noise: float, exclude=()) -> np.ndarray:
         threshold_rel=DETECT_REL,
         exclude_border=False,
     )
-    apart = max(MIN_SEPARATION_MM, min(model.lib.diameters_mm))
+    apart = axis_separation_mm(model.lib)
     peaks = peaks[_separated(e, peaks, apart / px)]
     x, y = model.grid.pixel_to_xy(peaks[:, 0], peaks[:, 1])
     pos = np.column_stack([x, y]) * 1e3
-    return np.concatenate([discs, _far_from(pos, taken, apart)])
+    return np.concatenate([discs, far_from(pos, taken, apart)])
 
 
-def _far_from(pos: np.ndarray, taken: np.ndarray, apart: float = MIN_SEPARATION_MM):
-    """The positions (k, 2) farther than ``apart`` (mm) from every taken one (mm)."""
+def axis_separation_mm(lib) -> float:
+    """The closest two indenter axes can be (mm): a sphere diameter of the library, at
+    least MIN_SEPARATION_MM (two spheres cannot overlap)."""
+    return max(MIN_SEPARATION_MM, min(lib.diameters_mm))
+
+
+def far_from(pos, taken, apart: float = MIN_SEPARATION_MM) -> np.ndarray:
+    """The positions (k, 2) (mm) at least ``apart`` (mm) from every taken one (m, 2) (mm).
+
+    Examples
+    --------
+    >>> far_from([[0.0, 0.0], [5.0, 0.0]], [[1.0, 0.0]], apart=3.5).tolist()
+    [[5.0, 0.0]]
+    """
+    pos = np.reshape(np.asarray(pos, float), (-1, 2))
+    taken = np.reshape(np.asarray(taken, float), (-1, 2))
     if not len(taken) or not len(pos):
         return pos
     d = np.hypot(*(pos[:, None, :] - taken[None]).transpose(2, 0, 1))
-    return pos[d.min(axis=1) > apart]
+    return pos[d.min(axis=1) >= apart]
 
 
 def _discs(model: ImageModel) -> np.ndarray:

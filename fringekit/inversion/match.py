@@ -37,7 +37,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.fft import irfft2, next_fast_len, rfft2
 
-from fringekit.inversion.detect import MIN_SEPARATION_MM
+from fringekit.inversion.detect import axis_separation_mm, far_from
 from fringekit.inversion.hop import retarder_lookup
 from fringekit.inversion.model import ImageModel
 from fringekit.library.lattice import interpolate_turned
@@ -233,7 +233,7 @@ def match_candidates(model: ImageModel, cand: np.ndarray, taken=()) -> np.ndarra
     templates = one_indenter_templates(model)
     best = _significance(img, valid, templates)
     xy = model.xy.reshape(rows, cols, 2) * 1e3
-    apart_mm = max(MIN_SEPARATION_MM, min(model.lib.diameters_mm))
+    apart_mm = axis_separation_mm(model.lib)
     taken = np.reshape(np.asarray(taken, float), (-1, 2))
     free = np.ones((rows, cols), bool)
     for tx, ty in taken:  # a handful
@@ -252,7 +252,7 @@ def match_candidates(model: ImageModel, cand: np.ndarray, taken=()) -> np.ndarra
         k = np.unravel_index(int(np.argmax(s)), s.shape)
         moved.append(xy[k] if np.isfinite(s[k]) else np.array([x, y]))
         score.append(s[k])
-    far = [not len(taken) or np.hypot(*(taken - m).T).min() >= apart_mm for m in moved]
+    far = [len(far_from(m, taken, apart_mm)) == 1 for m in moved]
     kept: list[int] = []
     for i in np.argsort(score)[::-1]:
         if not far[i]:

@@ -10,7 +10,8 @@ starts, the script lists the cases with their expected time (fringekit.fea.estim
 each case then prints the estimate against the time it took.
 
 vertical:  one 3.5 mm indenter, load path 1..8 N, quarter model.
-shear:     8 N vertical then 8 N shear along x with full stick, half model.
+shear:     8 N vertical then 6.4 N shear along x with full stick, half model (the built-in
+           shear case; 8 N, a ratio of 1.0, until 2026-11-27).
 reference: 8 N in one load state, quarter model (what ``fringekit predict`` solves).
 plate4:    the seed paper's loading plate, four 3.5 mm heads on a 16 mm square pitch at
            8 N each, quarter model (one head at (8, 8) mm).
@@ -114,7 +115,7 @@ def _problem(case: str, mesh_name: str):
     elif case == "reference":
         ind = Indenter(normal_force=(8.0,))
     else:
-        ind = Indenter(normal_force=(8.0, 8.0), shear_force=((0.0, 0.0), (8.0, 0.0)))
+        ind = Indenter(normal_force=(8.0, 8.0), shear_force=((0.0, 0.0), (6.4, 0.0)))
         contact = ContactSettings(friction=math.inf)
     return mesh, [ind], contact
 

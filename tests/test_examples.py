@@ -33,7 +33,7 @@ def test_fig3_shear_shifts_the_pattern(tmp_path, cache_dir):
     assert res["shear"]["max_fringe_order"] > res["vertical"]["max_fringe_order"]
     assert (tmp_path / "fig3_white_light.png").stat().st_size > 10_000
     assert json.loads((tmp_path / "fig3.json").read_text())["shear"]["force_N"][0] == pytest.approx(
-        8.0
+        6.4
     )
 
 

@@ -79,6 +79,13 @@ def test_the_terminal_loads_csv_and_summary_give_one_residual(tiny_library, tmp_
     assert summary["residual_rms"] == pytest.approx([row[-1]], rel=1e-5)
     assert "residual" not in summary
     assert len(said) == 1 and f"residual_rms {row[-1]:.3f} " in said[0], said
+    # where the time went: the fit's stages add up to the fit, the parts to the whole
+    t = summary["times_s"]
+    stages = ("detection_s", "start_scan_s", "far_fit_s", "near_fit_s", "basin_search_s")
+    assert set(stages) <= set(t) and all(t[k] >= 0 for k in t), t
+    parts = [v for k, v in t.items() if k not in ("read_s", "fit_s", "refine_s", "total_s")]
+    assert sum(parts) == pytest.approx(t["fit_s"], rel=1e-6), t
+    assert t["read_s"] + t["fit_s"] + t["refine_s"] <= t["total_s"], t
 
 
 @pytest.mark.slow

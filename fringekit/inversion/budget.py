@@ -7,12 +7,15 @@ each with the time so far. The same calls are the fit's safe points: once the bu
 loop of the fit stops at its next safe point and the answer is what the stages so far
 made, flagged (:attr:`Budget.stopped` names the last stage that ended). The clock is
 read only at the safe points, so a budget of 0 stops after the first stage, whatever
-the machine's speed.
+the machine's speed. The time between two safe points (the first from
+:meth:`Budget.begin_stages`) is the stage's that ended at the second; :meth:`Budget.stage_times` sums them per kind of stage (every round of the basin
+search together), which ``invert`` writes to ``summary.json``.
 """
 
 from __future__ import annotations
 
 import math
+import re
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -38,6 +41,9 @@ class Budget:
         Seconds, read at the safe points only (default ``time.monotonic``).
     stopped : str or None
         The stage after which the budget was found spent; None while it lasts.
+    stages : dict
+        Seconds per kind of stage so far (``"far fit"``, ``"basin search"``...), in the
+        order they first ended.
 
     Examples
     --------
@@ -49,16 +55,33 @@ class Budget:
     True
     >>> b.spent("far fit"), b.stopped
     (True, 'detection')
+
+    The time of each kind of stage, on a clock that advances 2 s a reading:
+
+    >>> ticks = iter(range(0, 100, 2))
+    >>> b = Budget(clock=lambda: next(ticks))
+    >>> for stage in ("detection", "basin search, round 1", "basin search, round 2"):
+    ...     _ = b.spent(stage)
+    >>> b.stage_times(total_s=9.0)
+    {'detection_s': 2.0, 'basin_search_s': 4.0, 'other_s': 3.0}
     """
 
     max_seconds: float = DEFAULT_MAX_SECONDS
     say: Callable[[str], None] = field(default=lambda s: None, repr=False)
     clock: Callable[[], float] = field(default=time.monotonic, repr=False)
     stopped: str | None = None
+    stages: dict = field(default_factory=dict, init=False)
     start: float = field(init=False)
+    _last: float = field(init=False, repr=False)
 
     def __post_init__(self):
-        self.start = self.clock()
+        self.start = self._last = self.clock()
+
+    def begin_stages(self) -> None:
+        """Start timing the stages here (the fit's start; the budget itself still counts
+        from its creation)."""
+        self._last = self.clock()
+        self.stages.clear()
 
     def elapsed(self) -> float:
         """Seconds since the budget began."""
@@ -69,7 +92,11 @@ class Budget:
         at an earlier safe point (then nothing is reported)."""
         if self.stopped is not None:
             return True
-        t = self.elapsed()
+        now = self.clock()
+        t = now - self.start
+        kind = re.sub(r", round \d+$", "", stage)
+        self.stages[kind] = self.stages.get(kind, 0.0) + (now - self._last)
+        self._last = now
         self.say(f"invert: {stage}" + (f": {detail}" if detail else "") + f" ({t:.1f} s)")
         if math.isfinite(self.max_seconds) and t >= self.max_seconds:
             self.stopped = stage
@@ -78,3 +105,12 @@ class Budget:
                 "stopping there"
             )
         return self.stopped is not None
+
+    def stage_times(self, total_s: float) -> dict[str, float]:
+        """Seconds per kind of stage, keyed ``"<stage>_s"`` (spaces as underscores), and
+        ``other_s``: the rest of ``total_s`` (s), the work after the last safe point
+        (the retries' own stages are counted with their kind; the verdict, the merge of
+        split contacts and the uncertainty are the rest)."""
+        out = {f"{k.replace(' ', '_')}_s": float(v) for k, v in self.stages.items()}
+        out["other_s"] = max(0.0, float(total_s) - sum(out.values()))
+        return out

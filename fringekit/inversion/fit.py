@@ -317,11 +317,13 @@ def refit(model: ImageModel, p: np.ndarray, diam, noise: float) -> InvertResult:
     (n * 5,) with diameters ``diam`` (m) on every 2nd pixel of ``model`` (Jones near each
     indenter), with its verdict and stated 1-sigma (a refinement's fit, started from the
     answer before it)."""
-    t0 = time.perf_counter()
+    t0, budget = time.perf_counter(), Budget(math.inf)
     fine = _exact(subsample(model, 2))
     diam = list(diam)
     p, res, its = _refit(fine, np.asarray(p, float).ravel(), diam, noise, 0)
-    return _finish(fine, p, diam, res, fit_verdict(fine, p, diam, WINDOW_MM), noise, its, (t0, 0.0))
+    budget.spent("refit")
+    verdict = fit_verdict(fine, p, diam, WINDOW_MM)
+    return _finish(fine, p, diam, res, verdict, noise, its, (t0, budget))
 
 
 def invert_image(
@@ -349,12 +351,12 @@ def invert_image(
     """
     t0 = time.perf_counter()
     budget = budget or Budget(math.inf)
+    budget.begin_stages()
     noise = noise_sd(model) if noise is None else noise
     coarse, fine = subsample(model, 4), subsample(model, 2)
     pos = detect(fine, noise)
-    t_detect = time.perf_counter() - t0
     if budget.spent("detection", f"{len(pos)} candidate(s)"):
-        return _positions_only(pos, noise, t0, t_detect, budget.stopped)
+        return _positions_only(pos, noise, _times(t0, budget), budget.stopped)
     p, diam, res, its = select_indenters(model, coarse, fine, pos, noise, True, max_rounds, budget)
     best = (p, diam, res, fit_verdict(fine, p, diam, WINDOW_MM) if diam else None)
     # while an indenter is flagged: again from starts without shear, then from candidates
@@ -377,8 +379,7 @@ def invert_image(
             f"range (up to {model.lib.max_load_N:g} N) fits; check the sensor, the pixel "
             "size and the method, or build a library with larger --load-N"
         )
-    times = (t0, t_detect)
-    return _finish(fine, p, diam, res, verdict, noise, its, times, budget.stopped)
+    return _finish(fine, p, diam, res, verdict, noise, its, (t0, budget), budget.stopped)
 
 
 def select_indenters(
@@ -474,13 +475,19 @@ def _after_drop(fine, p, p2, diam2, kept, noise, its, anchors):
     return _refit(exact, new, diam2, noise, its) if moved else (new, res, its)
 
 
-def _positions_only(pos, noise, t0, t_detect, stopped) -> InvertResult:
+def _times(t0: float, budget: Budget) -> dict[str, float]:
+    """Seconds per kind of stage (:meth:`Budget.stage_times`) and in all since ``t0``
+    (``time.perf_counter``)."""
+    total = time.perf_counter() - t0
+    return {**budget.stage_times(total), "total_s": total}
+
+
+def _positions_only(pos, noise, times: dict, stopped) -> InvertResult:
     """The answer of a budget spent at detection: the candidates' positions (mm), their
     loads, diameters and residuals unknown (NaN)."""
     n = len(pos)
     q = np.column_stack([np.reshape(pos, (n, 2)), np.full((n, N_PARAMS - 2), np.nan)])
     nan = np.full(n, np.nan)
-    times = {"detect_s": t_detect, "total_s": time.perf_counter() - t0}
     empty = np.zeros(0)
     return InvertResult(
         q, np.full_like(q, np.nan), nan, nan, empty, empty, noise, 0, np.nan, times, stopped
@@ -492,14 +499,12 @@ def _finish(fine, p, diam, res, verdict, noise, its, times, stopped=None) -> Inv
     :func:`_verdict` and stated sd (:func:`stated_sd`), or refusal; an answer cut short by
     the time budget (``stopped``, the last stage) is not refused (every indenter of it is
     flagged), and without a fit its sd are NaN."""
-    t0, t_detect = times
     lib = fine.lib
     n = len(diam)
-    times_s = {"detect_s": t_detect, "total_s": time.perf_counter() - t0}
     if n == 0:
         z = np.zeros((0, N_PARAMS))
         e = np.zeros(0)
-        return InvertResult(z, z, e, e, e, e, noise, its, 0.0, times_s, stopped)
+        return InvertResult(z, z, e, e, e, e, noise, its, 0.0, _times(*times), stopped)
     q = p.reshape(n, N_PARAMS)
     if res is None or stopped is not None:  # no converged fit: no uncertainty stated
         sd, area = np.full((n, N_PARAMS), np.nan), np.full((n, N_PARAMS), np.nan)
@@ -511,5 +516,16 @@ def _finish(fine, p, diam, res, verdict, noise, its, times, stopped=None) -> Inv
         refuse(q, lib, total)
     diam = np.array(diam)
     return InvertResult(
-        q, sd, diam, rms, gains, offs, noise, its, total, times_s, stopped, correlation_px=area
+        q,
+        sd,
+        diam,
+        rms,
+        gains,
+        offs,
+        noise,
+        its,
+        total,
+        _times(*times),
+        stopped,
+        correlation_px=area,
     )

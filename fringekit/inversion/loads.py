@@ -334,8 +334,11 @@ def invert(
     if scale is not None:
         lo, hi = scale["pixel_mm_range"]
         say(f"invert: scale check: the fringes suggest {lo:.3g}-{hi:.3g} mm per pixel")
+    t_read = time.perf_counter() - t0  # the library, the image, its noise and scale check
     res = invert_image(model, budget=budget, noise=noise)
+    fit_times, t_refine = res.times_s, time.perf_counter()
     res, refined, more = _refine(refine, model, res, cfg, lib, optics, cal, say)
+    t_refine = time.perf_counter() - t_refine
     warnings += more
     more, off = _verdicts(res, cal, sheet_mm, max_seconds)
     warnings += more
@@ -373,9 +376,23 @@ def invert(
         "stopped_after": res.stopped,
         "scale_check": scale,
         "refine": refined,
-        "times_s": {**res.times_s, "total_s": time.perf_counter() - t0},
+        "times_s": _time_split(t_read, fit_times, t_refine, time.perf_counter() - t0),
     }
     return Inversion(method, res, model, summary, cal)
+
+
+def _time_split(read_s: float, fit: dict, refine_s: float, total_s: float) -> dict:
+    """``summary.json``'s ``times_s``: reading the inputs, each kind of stage of the fit
+    (:meth:`~fringekit.inversion.budget.Budget.stage_times`; the fit's own total as
+    ``fit_s``), ``--refine fem`` and the whole run (s)."""
+    stages = {k: v for k, v in fit.items() if k != "total_s"}
+    return {
+        "read_s": read_s,
+        **stages,
+        "fit_s": fit.get("total_s"),
+        "refine_s": refine_s,
+        "total_s": total_s,
+    }
 
 
 def _source(sensor) -> str | None:

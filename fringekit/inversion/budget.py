@@ -5,11 +5,12 @@ round of the basin search and of the model selection) through :class:`Budget`, o
 each with the time so far. The same calls are the fit's safe points: once the budget's
 ``max_seconds`` are spent, :meth:`Budget.spent` says so there and from then on, every
 loop of the fit stops at its next safe point and the answer is what the stages so far
-made, flagged (:attr:`Budget.stopped` names the last stage that ended). The clock is
-read only at the safe points, so a budget of 0 stops after the first stage, whatever
+made, flagged (:attr:`Budget.stopped` names the last stage that ended). The budget is
+judged only at the safe points, so a budget of 0 stops after the first stage, whatever
 the machine's speed. The time between two safe points (the first from
-:meth:`Budget.begin_stages`) is the stage's that ended at the second; :meth:`Budget.stage_times` sums them per kind of stage (every round of the basin
-search together), which ``invert`` writes to ``summary.json``.
+:meth:`Budget.begin_stages`) is the stage's that ended at the second;
+:meth:`Budget.stage_times` sums them per kind of stage (every round of the basin search
+together), which ``invert`` writes to ``summary.json``.
 """
 
 from __future__ import annotations

@@ -59,6 +59,7 @@ def test_refinement_converges_to_the_model_the_image_came_from(tiny_library, tmp
     assert np.all(rms < 0.005) and np.all(rms < 0.5 * plain_rms), (rms, plain_rms)
     rep = fine.summary["refine"]
     assert rep["converged"] and 1 <= len(rep["rounds"]) <= refine.MAX_ROUNDS
+    assert fine.summary["times_s"]["refine_s"] == rep["time_s"] > 0  # its solves timed
 
 
 def test_a_turned_image_is_rendered_on_a_grid_in_the_sheets_axes(tiny_library):

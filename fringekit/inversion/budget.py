@@ -74,14 +74,15 @@ class Budget:
     stages: dict = field(default_factory=dict, init=False)
     start: float = field(init=False)
     _last: float = field(init=False, repr=False)
+    _begun: float = field(init=False, repr=False)
 
     def __post_init__(self):
-        self.start = self._last = self.clock()
+        self.start = self._last = self._begun = self.clock()
 
     def begin_stages(self) -> None:
         """Start timing the stages here (the fit's start; the budget itself still counts
         from its creation)."""
-        self._last = self.clock()
+        self._begun = self._last = self.clock()
         self.stages.clear()
 
     def elapsed(self) -> float:
@@ -107,11 +108,13 @@ class Budget:
             )
         return self.stopped is not None
 
-    def stage_times(self, total_s: float) -> dict[str, float]:
-        """Seconds per kind of stage, keyed ``"<stage>_s"`` (spaces as underscores), and
-        ``other_s``: the rest of ``total_s`` (s), the work after the last safe point
-        (the retries' own stages are counted with their kind; the verdict, the merge of
-        split contacts and the uncertainty are the rest)."""
+    def stage_times(self, total_s: float | None = None) -> dict[str, float]:
+        """Seconds per kind of stage, keyed ``"<stage>_s"`` (spaces as underscores),
+        ``other_s``: the rest of ``total_s`` (s; default the time since
+        :meth:`begin_stages`, then also given as ``total_s``), the work after the last
+        safe point (the retries' own stages are counted with their kind; the verdict,
+        the merge of split contacts and the uncertainty are the rest)."""
         out = {f"{k.replace(' ', '_')}_s": float(v) for k, v in self.stages.items()}
-        out["other_s"] = max(0.0, float(total_s) - sum(out.values()))
-        return out
+        total = self.clock() - self._begun if total_s is None else float(total_s)
+        out["other_s"] = max(0.0, total - sum(out.values()))
+        return out if total_s is not None else {**out, "total_s": total}

@@ -37,7 +37,6 @@
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -317,13 +316,13 @@ def refit(model: ImageModel, p: np.ndarray, diam, noise: float) -> InvertResult:
     (n * 5,) with diameters ``diam`` (m) on every 2nd pixel of ``model`` (Jones near each
     indenter), with its verdict and stated 1-sigma (a refinement's fit, started from the
     answer before it)."""
-    t0, budget = time.perf_counter(), Budget(math.inf)
+    budget = Budget(math.inf)
     fine = _exact(subsample(model, 2))
     diam = list(diam)
     p, res, its = _refit(fine, np.asarray(p, float).ravel(), diam, noise, 0)
     budget.spent("refit")
     verdict = fit_verdict(fine, p, diam, WINDOW_MM)
-    return _finish(fine, p, diam, res, verdict, noise, its, (t0, budget))
+    return _finish(fine, p, diam, res, verdict, noise, its, budget)
 
 
 def invert_image(
@@ -349,14 +348,13 @@ def invert_image(
     stages; when it is spent the answer is that of the last stage, ``stopped`` set.
     ``noise``: the image's noise sd when the caller has it (default :func:`noise_sd`).
     """
-    t0 = time.perf_counter()
     budget = budget or Budget(math.inf)
     budget.begin_stages()
     noise = noise_sd(model) if noise is None else noise
     coarse, fine = subsample(model, 4), subsample(model, 2)
     pos = detect(fine, noise)
     if budget.spent("detection", f"{len(pos)} candidate(s)"):
-        return _positions_only(pos, noise, _times(t0, budget), budget.stopped)
+        return _positions_only(pos, noise, budget.stage_times(), budget.stopped)
     p, diam, res, its = select_indenters(model, coarse, fine, pos, noise, True, max_rounds, budget)
     best = (p, diam, res, fit_verdict(fine, p, diam, WINDOW_MM) if diam else None)
     # while an indenter is flagged: again from starts without shear, then from candidates
@@ -379,7 +377,7 @@ def invert_image(
             f"range (up to {model.lib.max_load_N:g} N) fits; check the sensor, the pixel "
             "size and the method, or build a library with larger --load-N"
         )
-    return _finish(fine, p, diam, res, verdict, noise, its, (t0, budget), budget.stopped)
+    return _finish(fine, p, diam, res, verdict, noise, its, budget, budget.stopped)
 
 
 def select_indenters(
@@ -475,13 +473,6 @@ def _after_drop(fine, p, p2, diam2, kept, noise, its, anchors):
     return _refit(exact, new, diam2, noise, its) if moved else (new, res, its)
 
 
-def _times(t0: float, budget: Budget) -> dict[str, float]:
-    """Seconds per kind of stage (:meth:`Budget.stage_times`) and in all since ``t0``
-    (``time.perf_counter``)."""
-    total = time.perf_counter() - t0
-    return {**budget.stage_times(total), "total_s": total}
-
-
 def _positions_only(pos, noise, times: dict, stopped) -> InvertResult:
     """The answer of a budget spent at detection: the candidates' positions (mm), their
     loads, diameters and residuals unknown (NaN)."""
@@ -494,17 +485,17 @@ def _positions_only(pos, noise, times: dict, stopped) -> InvertResult:
     )
 
 
-def _finish(fine, p, diam, res, verdict, noise, its, times, stopped=None) -> InvertResult:
+def _finish(fine, p, diam, res, verdict, noise, its, budget, stopped=None) -> InvertResult:
     """The result of the fit ``res`` of ``p`` on ``fine`` (every 2nd pixel) with its
     :func:`_verdict` and stated sd (:func:`stated_sd`), or refusal; an answer cut short by
     the time budget (``stopped``, the last stage) is not refused (every indenter of it is
-    flagged), and without a fit its sd are NaN."""
+    flagged), and without a fit its sd are NaN; ``budget`` times the stages."""
     lib = fine.lib
     n = len(diam)
     if n == 0:
         z = np.zeros((0, N_PARAMS))
         e = np.zeros(0)
-        return InvertResult(z, z, e, e, e, e, noise, its, 0.0, _times(*times), stopped)
+        return InvertResult(z, z, e, e, e, e, noise, its, 0.0, budget.stage_times(), stopped)
     q = p.reshape(n, N_PARAMS)
     if res is None or stopped is not None:  # no converged fit: no uncertainty stated
         sd, area = np.full((n, N_PARAMS), np.nan), np.full((n, N_PARAMS), np.nan)
@@ -516,16 +507,5 @@ def _finish(fine, p, diam, res, verdict, noise, its, times, stopped=None) -> Inv
         refuse(q, lib, total)
     diam = np.array(diam)
     return InvertResult(
-        q,
-        sd,
-        diam,
-        rms,
-        gains,
-        offs,
-        noise,
-        its,
-        total,
-        _times(*times),
-        stopped,
-        correlation_px=area,
+        q, sd, diam, rms, gains, offs, noise, its, total, budget.stage_times(), stopped, area
     )

@@ -320,10 +320,9 @@ def invert(
         hint="give the pixel pitch on the sheet (mm)",
         error=ConfigError,
     )
-    o = cfg["optics"]
     sheet_mm = (cfg["sheet"]["width_mm"], cfg["sheet"]["length_mm"])
     grid = pixel_grid(shape, pixel_mm, origin_px)
-    wl = {"light": o["light"], "white_light_wavelengths": o["white_light_wavelengths"]}
+    wl = {k: cfg["optics"][k] for k in ("light", "white_light_wavelengths")}
     model = ImageModel.build(lib, grid, method, measured, usable, optics, nodata=nodata, **wl)
     say(
         f"invert: {method}, {shape[0]} x {shape[1]} px, library {lib.folder} "
@@ -336,9 +335,8 @@ def invert(
         say(f"invert: scale check: the fringes suggest {lo:.3g}-{hi:.3g} mm per pixel")
     t_read = time.perf_counter() - t0  # the library, the image, its noise and scale check
     res = invert_image(model, budget=budget, noise=noise)
-    fit_times, t_refine = res.times_s, time.perf_counter()
+    fit_times = res.times_s
     res, refined, more = _refine(refine, model, res, cfg, lib, optics, cal, say)
-    t_refine = time.perf_counter() - t_refine
     warnings += more
     more, off = _verdicts(res, cal, sheet_mm, max_seconds)
     warnings += more
@@ -376,21 +374,21 @@ def invert(
         "stopped_after": res.stopped,
         "scale_check": scale,
         "refine": refined,
-        "times_s": _time_split(t_read, fit_times, t_refine, time.perf_counter() - t0),
+        "times_s": _time_split(t_read, fit_times, refined, time.perf_counter() - t0),
     }
     return Inversion(method, res, model, summary, cal)
 
 
-def _time_split(read_s: float, fit: dict, refine_s: float, total_s: float) -> dict:
+def _time_split(read_s: float, fit: dict, refined: dict | None, total_s: float) -> dict:
     """``summary.json``'s ``times_s``: reading the inputs, each kind of stage of the fit
     (:meth:`~fringekit.inversion.budget.Budget.stage_times`; the fit's own total as
-    ``fit_s``), ``--refine fem`` and the whole run (s)."""
+    ``fit_s``), ``--refine fem`` (its report's ``time_s``) and the whole run (s)."""
     stages = {k: v for k, v in fit.items() if k != "total_s"}
     return {
         "read_s": read_s,
         **stages,
         "fit_s": fit.get("total_s"),
-        "refine_s": refine_s,
+        "refine_s": refined.get("time_s", 0.0) if refined else 0.0,
         "total_s": total_s,
     }
 
@@ -401,10 +399,18 @@ def _source(sensor) -> str | None:
 
 def _refine(refine, model, res: InvertResult, cfg, lib, optics, cal, say):
     """The result after ``--refine fem``, its report (None without it, or when the fit
-    found nothing or was cut short) and its warnings. A solve that fails leaves the
-    library's answer, with the failure in the report and a warning."""
+    found nothing or was cut short; with the seconds it took as ``time_s``) and its
+    warnings. A solve that fails leaves the library's answer, with the failure in the
+    report and a warning."""
     if refine is None or not len(res.params) or res.stopped is not None:
         return res, None, []
+    t0 = time.perf_counter()
+    res, report, warnings = _refine_rounds(model, res, cfg, lib, optics, cal, say)
+    return res, {**report, "time_s": time.perf_counter() - t0}, warnings
+
+
+def _refine_rounds(model, res: InvertResult, cfg, lib, optics, cal, say):
+    """:func:`_refine`'s rounds: (result, report, warnings)."""
     friction = lib.manifest.get("grid", {}).get("friction", "stick")
     try:
         res, report = refine_fem(model, res, cfg, friction, optics, sensor=cal, say=say)

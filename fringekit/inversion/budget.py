@@ -112,8 +112,9 @@ class Budget:
         """Seconds per kind of stage, keyed ``"<stage>_s"`` (spaces as underscores),
         ``other_s``: the rest of ``total_s`` (s; default the time since
         :meth:`begin_stages`, then also given as ``total_s``), the work after the last
-        safe point (the retries' own stages are counted with their kind; the verdict,
-        the merge of split contacts and the uncertainty are the rest)."""
+        safe point (the retries' own stages are counted with their kind; the refits
+        after a dropped or merged contact, the verdict and the uncertainty are the
+        rest)."""
         out = {f"{k.replace(' ', '_')}_s": float(v) for k, v in self.stages.items()}
         total = self.clock() - self._begun if total_s is None else float(total_s)
         out["other_s"] = max(0.0, total - sum(out.values()))

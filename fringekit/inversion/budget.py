@@ -7,8 +7,9 @@ each with the time so far. The same calls are the fit's safe points: once the bu
 loop of the fit stops at its next safe point and the answer is what the stages so far
 made, flagged (:attr:`Budget.stopped` names the last stage that ended). The budget is
 judged only at the safe points, so a budget of 0 stops after the first stage, whatever
-the machine's speed. The time between two safe points (the first from
-:meth:`Budget.begin_stages`) is the stage's that ended at the second;
+the machine's speed. The stages are timed on a second clock (``timer``, the real one),
+so a test's clock sees the same readings: the time between two safe points (the first
+from :meth:`Budget.begin_stages`) is the stage's that ended at the second;
 :meth:`Budget.stage_times` sums them per kind of stage (every round of the basin search
 together), which ``invert`` writes to ``summary.json``.
 """
@@ -40,6 +41,8 @@ class Budget:
         Where the stage lines go (nothing by default).
     clock : callable
         Seconds, read at the safe points only (default ``time.monotonic``).
+    timer : callable
+        Seconds, for the stages' times (default ``time.perf_counter``).
     stopped : str or None
         The stage after which the budget was found spent; None while it lasts.
     stages : dict
@@ -57,10 +60,10 @@ class Budget:
     >>> b.spent("far fit"), b.stopped
     (True, 'detection')
 
-    The time of each kind of stage, on a clock that advances 2 s a reading:
+    The time of each kind of stage, on a timer that advances 2 s a reading:
 
     >>> ticks = iter(range(0, 100, 2))
-    >>> b = Budget(clock=lambda: next(ticks))
+    >>> b = Budget(timer=lambda: next(ticks))
     >>> for stage in ("detection", "basin search, round 1", "basin search, round 2"):
     ...     _ = b.spent(stage)
     >>> b.stage_times(total_s=9.0)
@@ -70,6 +73,7 @@ class Budget:
     max_seconds: float = DEFAULT_MAX_SECONDS
     say: Callable[[str], None] = field(default=lambda s: None, repr=False)
     clock: Callable[[], float] = field(default=time.monotonic, repr=False)
+    timer: Callable[[], float] = field(default=time.perf_counter, repr=False)
     stopped: str | None = None
     stages: dict = field(default_factory=dict, init=False)
     start: float = field(init=False)
@@ -77,12 +81,13 @@ class Budget:
     _begun: float = field(init=False, repr=False)
 
     def __post_init__(self):
-        self.start = self._last = self._begun = self.clock()
+        self.start = self.clock()
+        self._last = self._begun = self.timer()
 
     def begin_stages(self) -> None:
         """Start timing the stages here (the fit's start; the budget itself still counts
         from its creation)."""
-        self._begun = self._last = self.clock()
+        self._begun = self._last = self.timer()
         self.stages.clear()
 
     def elapsed(self) -> float:
@@ -94,8 +99,8 @@ class Budget:
         at an earlier safe point (then nothing is reported)."""
         if self.stopped is not None:
             return True
-        now = self.clock()
-        t = now - self.start
+        t = self.elapsed()
+        now = self.timer()
         kind = re.sub(r", round \d+$", "", stage)
         self.stages[kind] = self.stages.get(kind, 0.0) + (now - self._last)
         self._last = now
@@ -116,6 +121,6 @@ class Budget:
         after a dropped or merged contact, the verdict and the uncertainty are the
         rest)."""
         out = {f"{k.replace(' ', '_')}_s": float(v) for k, v in self.stages.items()}
-        total = self.clock() - self._begun if total_s is None else float(total_s)
+        total = self.timer() - self._begun if total_s is None else float(total_s)
         out["other_s"] = max(0.0, total - sum(out.values()))
         return out if total_s is not None else {**out, "total_s": total}

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from fringekit.cli.main import main
+from fringekit.cli.predict import UNRESOLVED_EDGE
 from fringekit.config.files import (
     BUILTIN_CASES,
     ConfigError,
@@ -245,6 +246,10 @@ def test_predict_rerender_uses_the_cached_solution(tiny_run, capsys):
     assert "in the solution cache" in said and "to solve on 2 cores" not in said, said
     s = json.loads((out2 / "summary.json").read_text())
     assert s["model"]["solution_from_cache"] is True
+    # the tiny block's 1 mm facets cannot resolve the contact's edge: the radius given is
+    # the contact area's, flagged, with no sd
+    assert s["indenters"][0]["contact_radius_sd_mm"] is None
+    assert f"mm {UNRESOLVED_EDGE}" in cap.out and "+-" not in cap.out, cap.out
     a, b = (np.load(o / "state_01" / "maps.npz")["fringe_order"] for o in (out, out2))
     np.testing.assert_array_equal(a, b)  # same solution, same optics integral
     i1, i2 = (iio.imread(o / "state_01" / "six_step" / "step3.png") for o in (out, out2))

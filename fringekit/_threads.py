@@ -1,16 +1,25 @@
 """Cores and one shared thread pool for the vectorised kernels of fea and optics.
 
 numpy's batched products and elementwise loops release the GIL, so blocks of cells
-(fea.assembly) or rays (optics.jones) run on the cores in plain threads.
+(fea.assembly) or rays (optics.jones) run on the cores in plain threads. The inverse's
+least-squares fits run with one BLAS thread (:func:`single_blas_thread`): the rays
+between them already use the cores, and OpenBLAS's own threads made the fits' SVDs of
+tall Jacobians (tens of thousands of residuals by 5-20 parameters) take 60-67 ms
+instead of 2-20 ms; with one thread the colour tracker's cold start on its bench (four
+contacts, 256 px, 2 cores) fell from 10.7-12.8 to 8.6-9.2 s (four runs each), and the
+grey one stayed within its run-to-run spread.
 """
 
 from __future__ import annotations
 
 import os
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from functools import cache
 
-__all__ = ["usable_cores", "thread_pool"]
+from threadpoolctl import threadpool_limits
+
+__all__ = ["single_blas_thread", "usable_cores", "thread_pool"]
 
 
 def usable_cores() -> int:
@@ -24,3 +33,19 @@ def usable_cores() -> int:
 def thread_pool() -> ThreadPoolExecutor:
     """The process-wide pool, one worker per usable core (created on first use)."""
     return ThreadPoolExecutor(max_workers=usable_cores(), thread_name_prefix="fringekit")
+
+
+@contextmanager
+def single_blas_thread():
+    """BLAS (OpenBLAS, MKL...) limited to one thread inside the block, restored after.
+
+    Examples
+    --------
+    >>> from threadpoolctl import threadpool_info
+    >>> with single_blas_thread():
+    ...     blas = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+    >>> set(blas) <= {1}
+    True
+    """
+    with threadpool_limits(limits=1, user_api="blas"):
+        yield

@@ -781,3 +781,32 @@ def test_a_fit_of_some_indenters_holds_the_others(tiny_library):
     np.testing.assert_array_equal(held[0], wrong[0])
     p, changed = hop(model, wrong.ravel(), diam, 1e-3, which=[])
     assert changed == 0 and np.array_equal(p, wrong.ravel())
+
+
+def test_the_fits_run_on_one_blas_thread_and_give_it_back(tiny_library, monkeypatch):
+    """The inverse's least squares run with BLAS on one thread (fringekit._threads: its
+    many threads made the SVDs of tall Jacobians 3-30 times slower on the colour bench),
+    and BLAS has its threads back once the fit returns."""
+    from library_fixtures import TINY
+    from threadpoolctl import threadpool_info
+
+    import fringekit.inversion.fit as fit
+
+    def blas_threads() -> set[int]:
+        return {p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"}
+
+    seen, real = [], fit.least_squares
+
+    def spy(*args, **kwargs):
+        seen.append(blas_threads())
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(fit, "least_squares", spy)
+    ind = LoadedIndenter(0.5e-3, -0.5e-3, 3.5e-3, 0.2, 0.0, 2.0)
+    model = _model(tiny_library, "mono", [ind], cfg=sensor_config(**TINY))
+    before = blas_threads()
+    start = _truth([ind]).ravel() + [0.2, -0.1, 0.3, 0.0, 0.0]
+    got = fit.fit_indenters(model, start, [3.5e-3], 1e-3).x
+    assert seen == [{1}], seen
+    assert blas_threads() == before
+    assert np.all(np.abs(got - _truth([ind]).ravel()) <= 1e-3 * np.array([1, 1, 2, 2, 2]))

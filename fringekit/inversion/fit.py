@@ -42,6 +42,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.optimize import least_squares
 
+from fringekit._threads import single_blas_thread
 from fringekit.inversion.budget import Budget
 from fringekit.inversion.detect import detect, noise_sd
 from fringekit.inversion.hop import hop, search_after_drop
@@ -233,18 +234,19 @@ def fit_indenters(model: ImageModel, p0, diam, noise: float, box=None, ftol=FIT_
         pen = range_penalty(p, R, f_scale)[1][:, cols]
         return np.vstack([fixed.jacobian(p, diam, which=free), pen])
 
-    res = least_squares(
-        fun,
-        full[cols],
-        jac=jac,
-        bounds=(lo[cols], hi[cols]),
-        loss="soft_l1",
-        f_scale=f_scale,
-        x_scale="jac",
-        max_nfev=FIT_NFEV,
-        ftol=ftol,
-        xtol=1e-6,
-    )
+    with single_blas_thread():  # the Jacobian's SVDs: see fringekit._threads
+        res = least_squares(
+            fun,
+            full[cols],
+            jac=jac,
+            bounds=(lo[cols], hi[cols]),
+            loss="soft_l1",
+            f_scale=f_scale,
+            x_scale="jac",
+            max_nfev=FIT_NFEV,
+            ftol=ftol,
+            xtol=1e-6,
+        )
     res.x = whole(res.x)
     return res
 

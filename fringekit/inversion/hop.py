@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
+from fringekit._threads import single_blas_thread
 from fringekit.inversion.model import N_PARAMS, ImageModel, range_penalty, unpack
 from fringekit.library.lattice import interpolate_turned
 
@@ -276,18 +277,19 @@ def _refine(fine: ImageModel, p, diam, k, starts, gains, offs, f_scale):
     for v in starts:
         lo = np.array([v[0] - HOP_BOX_MM, v[1] - HOP_BOX_MM, 0.0, -t, -t])
         hi = np.array([v[0] + HOP_BOX_MM, v[1] + HOP_BOX_MM, lib.max_load_N, t, t])
-        res = least_squares(
-            residual,
-            np.clip(v, lo + 1e-9, hi - 1e-9),
-            bounds=(lo, hi),
-            loss="soft_l1",
-            f_scale=f_scale,
-            x_scale="jac",
-            max_nfev=HOP_NFEV,
-            ftol=1e-4,
-            xtol=1e-4,
-            diff_step=DIFF_STEP,
-        )
+        with single_blas_thread():  # fringekit._threads: its SVDs are faster on one
+            res = least_squares(
+                residual,
+                np.clip(v, lo + 1e-9, hi - 1e-9),
+                bounds=(lo, hi),
+                loss="soft_l1",
+                f_scale=f_scale,
+                x_scale="jac",
+                max_nfev=HOP_NFEV,
+                ftol=1e-4,
+                xtol=1e-4,
+                diff_step=DIFF_STEP,
+            )
         c = float(robust_cost(res.fun, f_scale))
         if c < best[0]:
             best = (c, res.x)

@@ -66,8 +66,8 @@ class Budget:
     >>> b = Budget(timer=lambda: next(ticks))
     >>> for stage in ("detection", "basin search, round 1", "basin search, round 2"):
     ...     _ = b.spent(stage)
-    >>> b.stage_times(total_s=9.0)
-    {'detection_s': 2.0, 'basin_search_s': 4.0, 'other_s': 3.0}
+    >>> b.stage_times()
+    {'detection_s': 2.0, 'basin_search_s': 4.0, 'other_s': 2.0, 'total_s': 8.0}
     """
 
     max_seconds: float = DEFAULT_MAX_SECONDS
@@ -113,14 +113,12 @@ class Budget:
             )
         return self.stopped is not None
 
-    def stage_times(self, total_s: float | None = None) -> dict[str, float]:
-        """Seconds per kind of stage, keyed ``"<stage>_s"`` (spaces as underscores),
-        ``other_s``: the rest of ``total_s`` (s; default the time since
-        :meth:`begin_stages`, then also given as ``total_s``), the work after the last
-        safe point (the retries' own stages are counted with their kind; the refits
-        after a dropped or merged contact, the verdict and the uncertainty are the
-        rest)."""
+    def stage_times(self) -> dict[str, float]:
+        """Seconds per kind of stage, keyed ``"<stage>_s"`` (spaces as underscores);
+        ``other_s``, the work after the last safe point (the retries' own stages are
+        counted with their kind; the refits after a dropped or merged contact, the
+        verdict and the uncertainty are the rest); and ``total_s``, all since
+        :meth:`begin_stages`."""
         out = {f"{k.replace(' ', '_')}_s": float(v) for k, v in self.stages.items()}
-        total = self.timer() - self._begun if total_s is None else float(total_s)
-        out["other_s"] = max(0.0, total - sum(out.values()))
-        return out if total_s is not None else {**out, "total_s": total}
+        total = float(self.timer() - self._begun)
+        return {**out, "other_s": max(0.0, total - sum(out.values())), "total_s": total}

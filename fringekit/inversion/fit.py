@@ -356,7 +356,7 @@ def invert_image(
     coarse, fine = subsample(model, 4), subsample(model, 2)
     pos = detect(fine, noise)
     if budget.spent("detection", f"{len(pos)} candidate(s)"):
-        return _positions_only(pos, noise, budget.stage_times(), budget.stopped)
+        return _positions_only(pos, noise, budget)
     p, diam, res, its = select_indenters(model, coarse, fine, pos, noise, True, max_rounds, budget)
     best = (p, diam, res, fit_verdict(fine, p, diam, WINDOW_MM) if diam else None)
     # while an indenter is flagged: again from starts without shear, then from candidates
@@ -379,7 +379,7 @@ def invert_image(
             f"range (up to {model.lib.max_load_N:g} N) fits; check the sensor, the pixel "
             "size and the method, or build a library with larger --load-N"
         )
-    return _finish(fine, p, diam, res, verdict, noise, its, budget, budget.stopped)
+    return _finish(fine, p, diam, res, verdict, noise, its, budget)
 
 
 def select_indenters(
@@ -475,24 +475,26 @@ def _after_drop(fine, p, p2, diam2, kept, noise, its, anchors):
     return _refit(exact, new, diam2, noise, its) if moved else (new, res, its)
 
 
-def _positions_only(pos, noise, times: dict, stopped) -> InvertResult:
+def _positions_only(pos, noise, budget: Budget) -> InvertResult:
     """The answer of a budget spent at detection: the candidates' positions (mm), their
     loads, diameters and residuals unknown (NaN)."""
     n = len(pos)
     q = np.column_stack([np.reshape(pos, (n, 2)), np.full((n, N_PARAMS - 2), np.nan)])
     nan = np.full(n, np.nan)
     empty = np.zeros(0)
-    return InvertResult(
-        q, np.full_like(q, np.nan), nan, nan, empty, empty, noise, 0, np.nan, times, stopped
-    )
+    sd = np.full_like(q, np.nan)
+    times = budget.stage_times()
+    return InvertResult(q, sd, nan, nan, empty, empty, noise, 0, np.nan, times, budget.stopped)
 
 
-def _finish(fine, p, diam, res, verdict, noise, its, budget, stopped=None) -> InvertResult:
+def _finish(fine, p, diam, res, verdict, noise, its, budget: Budget) -> InvertResult:
     """The result of the fit ``res`` of ``p`` on ``fine`` (every 2nd pixel) with its
     :func:`_verdict` and stated sd (:func:`stated_sd`), or refusal; an answer cut short by
-    the time budget (``stopped``, the last stage) is not refused (every indenter of it is
-    flagged), and without a fit its sd are NaN; ``budget`` times the stages."""
+    the time ``budget`` (``budget.stopped``, the last stage) is not refused (every
+    indenter of it is flagged), and without a fit its sd are NaN; the budget times the
+    stages."""
     lib = fine.lib
+    stopped = budget.stopped
     n = len(diam)
     if n == 0:
         z = np.zeros((0, N_PARAMS))

@@ -23,24 +23,25 @@ from fringekit.prediction.render import fringe_order_map
 RADII_MM = (2.0, 2.5, 3.0, 4.0)
 
 
-def _rings(cache_dir, h_contact_mm: float, h_layer_mm: float):
-    """(DOF, contact radius (mm), mean order (4,), spread over angle (4,)) on RADII_MM."""
-    cfg = as_config("small").replace(
-        {
-            "mesh.h_contact_mm": h_contact_mm,
-            "mesh.h_layer_mm": h_layer_mm,
-            "optics.pixels": 128,
-        }
-    )
+def _small_order(cache_dir, mesh: dict):
+    """The small case with the ``mesh`` keys, rendered at 128 px over 12 mm: (the last
+    solution, the solve's stats, fringe order (128, 128), the axis (row, col), the pixel
+    (mm))."""
+    cfg = as_config("small").replace({**mesh, "optics.pixels": 128})
     _, sols, stats, failure = solve_config(cfg.data, cache_dir=cache_dir, progress=False)
     assert failure is None
     order, _, centres = fringe_order_map(sols[-1], cfg.data)
     pixel_mm = cfg.data["optics"]["field_of_view_mm"] / order.shape[1]
-    vals = np.array(
-        [circle_profile(order, centres[0], r, pixel_size=pixel_mm)[1] for r in RADII_MM]
-    )
+    return sols[-1], stats, order, centres[0], pixel_mm
+
+
+def _rings(cache_dir, h_contact_mm: float, h_layer_mm: float):
+    """(DOF, contact radius (mm), mean order (4,), spread over angle (4,)) on RADII_MM."""
+    mesh = {"mesh.h_contact_mm": h_contact_mm, "mesh.h_layer_mm": h_layer_mm}
+    sol, stats, order, axis, pixel_mm = _small_order(cache_dir, mesh)
+    vals = np.array([circle_profile(order, axis, r, pixel_size=pixel_mm)[1] for r in RADII_MM])
     assert np.all(np.isfinite(vals))  # every circle lies outside the contact, in the view
-    radius_mm = sols[-1].indenters[0].contact_radius * 1e3
+    radius_mm = sol.indenters[0].contact_radius * 1e3
     return stats.dofs, radius_mm, vals.mean(axis=1), vals.max(axis=1) - vals.min(axis=1)
 
 
@@ -70,21 +71,15 @@ def _order_annulus(cache_dir, scale: float) -> np.ndarray:
     ``scale`` (0.6 mm under the indenter, 1.5 mm in the sheet, 4 mm far, layers as thick
     as the contact's elements), on pixels 1.55-5.5 mm from the axis (1.3 contact radii
     out to the view's edge)."""
-    cfg = as_config("small").replace(
-        {
-            "mesh.h_contact_mm": 0.6 * scale,
-            "mesh.h_sheet_mm": 1.5 * scale,
-            "mesh.h_far_mm": 4.0 * scale,
-            "mesh.h_layer_mm": 0.0,
-            "optics.pixels": 128,
-        }
-    )
-    _, sols, _, failure = solve_config(cfg.data, cache_dir=cache_dir, progress=False)
-    assert failure is None
-    order, _, centres = fringe_order_map(sols[-1], cfg.data)
-    pixel_mm = cfg.data["optics"]["field_of_view_mm"] / order.shape[1]
+    mesh = {
+        "mesh.h_contact_mm": 0.6 * scale,
+        "mesh.h_sheet_mm": 1.5 * scale,
+        "mesh.h_far_mm": 4.0 * scale,
+        "mesh.h_layer_mm": 0.0,
+    }
+    _, _, order, axis, pixel_mm = _small_order(cache_dir, mesh)
     rows, cols = np.indices(order.shape)
-    r_mm = np.hypot(rows - centres[0][0], cols - centres[0][1]) * pixel_mm
+    r_mm = np.hypot(rows - axis[0], cols - axis[1]) * pixel_mm
     return order[(r_mm > 1.55) & (r_mm < 5.5)]
 
 

@@ -17,9 +17,12 @@ from fringekit.analysis import read_pixels
 from fringekit.cli.main import main
 from fringekit.config.files import to_toml
 from fringekit.errors import ConfigError, InputError, LibraryError
+from fringekit.inversion.verdict import InvertError
 from fringekit.library.calibrated import CalibratedSensor
 from fringekit.optics import write_image
 from fringekit.tracking import TRACK_COLUMNS, library_frames, open_source, track, write_video
+from fringekit.tracking.figure import OverlayPainter
+from fringekit.tracking.tracker import Tracker
 
 PX, PIXEL_MM = 64, 0.25  # 16 x 16 mm frames of the tiny library's sensor
 
@@ -302,6 +305,44 @@ def test_the_command_writes_loads_and_keeps_what_a_bad_frame_stopped(
     summary = json.loads((out / "summary.json").read_text())
     assert summary["stopped"]["after_frames"] == 3
     assert (out / "loads.png").is_file()
+
+
+@pytest.mark.parametrize("left_out", [0, 1])
+def test_a_frame_the_library_cannot_explain_is_drawn_without_contacts(
+    tiny_library, tmp_path, monkeypatch, left_out
+):
+    """A frame the tracker refuses (``InvertError``) is left out of the table; the video
+    shows it without contacts. The overlay used to draw the frame before's contacts on
+    it, and crashed (IndexError) when the first frame was the one left out."""
+    folder = tmp_path / "frames"
+    library_frames(
+        tiny_library, [_moving(k) for k in range(3)], folder, pixels=PX, pixel_mm=PIXEL_MM
+    )
+    step = Tracker.step
+    drawn = []
+
+    def refuse(self, measured, usable, nodata, index, time_s):
+        if index == left_out:
+            raise InvertError("the library cannot explain this frame")
+        return step(self, measured, usable, nodata, index, time_s)
+
+    def paint(self, image, params, ids):
+        drawn.append(len(params))
+        return np.zeros((*image.shape[:2], 3), np.uint8)
+
+    monkeypatch.setattr(Tracker, "step", refuse)
+    monkeypatch.setattr(OverlayPainter, "paint", paint)
+    out = tmp_path / "out"
+    lib = str(tiny_library.folder)
+    argv = ["track", str(folder), "--library", lib, "--pixel-mm", "0.25", "--out", str(out)]
+    assert main([*argv, "--video", "--quiet"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert [f["frame"] for f in summary["frames_refused"]] == [left_out]
+    assert sorted({r["frame"] for r in _rows(out / "loads.csv")}) == sorted(
+        {"0", "1", "2"} - {str(left_out)}
+    )
+    assert drawn[left_out] == 0 and all(n == 2 for k, n in enumerate(drawn) if k != left_out)
+    assert (out / "track.mp4").stat().st_size > 0
 
 
 def test_a_residual_bump_is_not_a_contact_nor_searched_every_frame(

@@ -24,10 +24,9 @@ any other direction is the +x solution turned about the axis.
 
 from __future__ import annotations
 
-from bisect import bisect_left
-
 import hashlib
 import json
+from bisect import bisect_left
 from dataclasses import dataclass, replace
 from pathlib import Path
 

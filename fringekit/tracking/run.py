@@ -11,6 +11,8 @@ from __future__ import annotations
 import os
 import time
 
+import numpy as np
+
 from fringekit.library.calibrated import as_calibrated
 from fringekit.output.folders import claim_output
 from fringekit.tracking.figure import OverlayPainter
@@ -18,7 +20,7 @@ from fringekit.tracking.stream import track
 from fringekit.tracking.tracker import TRACK_STRIDE
 from fringekit.tracking.write import write_video
 
-__all__ = ["LiveView", "run_track"]
+__all__ = ["LiveView", "marks", "run_track"]
 
 
 class LiveView:
@@ -71,8 +73,23 @@ class LiveView:
             return
         if self.painter is None:
             self.painter = self.factory(image.shape[:2])
-        self.show(self.painter.paint(image, frame.params, frame.ids))
+        self.show(self.painter.paint(image, *marks(frame)))
         self.last = now
+
+
+def marks(frame) -> tuple[np.ndarray, tuple]:
+    """The overlay's (params (n, 5), ids) of a tracked frame; none for a frame left out
+    (None: the library could not explain it).
+
+    Examples
+    --------
+    >>> params, ids = marks(None)
+    >>> params.shape, ids
+    ((0, 5), ())
+    """
+    if frame is None:
+        return np.zeros((0, 5)), ()
+    return frame.params, tuple(frame.ids)
 
 
 def _window():
@@ -162,4 +179,4 @@ def _overlay_video(path, frames, pixel_mm, origin_px, summary) -> None:
     shape = frames[0][1].shape[:2]
     painter = OverlayPainter(shape, _to_rc(shape, pixel_mm, origin_px))
     fps = summary["source"]["fps"] or 25.0
-    write_video(path, (painter.paint(img, f.params, f.ids) for f, img in frames), fps)
+    write_video(path, (painter.paint(img, *marks(f)) for f, img in frames), fps)

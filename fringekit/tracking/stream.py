@@ -244,7 +244,8 @@ def track(
     progress : bool
         A progress bar (frames of a file source; the rate of a camera's).
     on_frame : callable, optional
-        Called with (TrackedFrame, decoded image) after every frame (a live view).
+        Called with (TrackedFrame, decoded image) after every frame (a live view); the
+        TrackedFrame is None for a frame the library cannot explain (left out).
 
     Returns
     -------
@@ -325,14 +326,16 @@ class _Run:
         try:
             for raw in self.src:
                 self.read += 1
+                solved = None
                 try:
-                    self.frames.append(self._solve(raw))
+                    solved = self._solve(raw)
+                    self.frames.append(solved)
                 except InvertError as exc:  # this frame only: the next one starts afresh
                     self.refused.append({"frame": raw.index, "reason": str(exc)})
                     self.tracker.reset()
                 bar.update(1)
-                if self.on_frame is not None:
-                    self.on_frame(self.frames[-1], raw.image)
+                if self.on_frame is not None:  # a refused frame: its image, no contacts
+                    self.on_frame(solved, raw.image)
                 if max_frames is not None and self.read >= max_frames:
                     break
         except SourceError as exc:

@@ -345,6 +345,28 @@ def test_a_frame_the_library_cannot_explain_is_drawn_without_contacts(
     assert (out / "track.mp4").stat().st_size > 0
 
 
+def test_the_live_view_shows_the_frame_and_every_contact_s_rolling_loads(tiny_library, tmp_path):
+    """``--show``: the newest frame beside a rolling plot of each contact's Fz and
+    tangential load (here through matplotlib's file backend, as on a machine without a
+    display)."""
+    import matplotlib.pyplot as plt
+
+    folder = tmp_path / "frames"
+    library_frames(
+        tiny_library, [_moving(k) for k in range(3)], folder, pixels=PX, pixel_mm=PIXEL_MM
+    )
+    plt.close("all")
+    lib = str(tiny_library.folder)
+    argv = ["track", str(folder), "--library", lib, "--pixel-mm", "0.25"]
+    assert main([*argv, "--out", str(tmp_path / "out"), "--show", "--quiet"]) == 0
+    image_ax, load_ax = plt.gcf().axes
+    assert image_ax.images[0].get_array().shape[:2] == (PX, PX)
+    fz = [line.get_ydata() for line in load_ax.lines[::2]]  # Fz solid, tangential dashed
+    assert len(fz) == 2 and all(len(y) >= 1 for y in fz)
+    np.testing.assert_allclose(sorted(y[0] for y in fz), [2.5, 3.0], atol=0.05)
+    plt.close("all")
+
+
 def test_a_residual_bump_is_not_a_contact_nor_searched_every_frame(
     tiny_library, tmp_path, monkeypatch
 ):

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import time
+from collections import deque
 
 import numpy as np
 
@@ -20,42 +21,49 @@ from fringekit.tracking.stream import track
 from fringekit.tracking.tracker import TRACK_STRIDE
 from fringekit.tracking.write import write_video
 
-__all__ = ["LiveView", "marks", "run_track"]
+__all__ = ["LiveView", "marks", "rolling_loads", "run_track"]
 
 
 class LiveView:
-    """A frame callback that shows the newest frame with its overlay, redrawn at most
-    every ``interval_s`` (display updates are skipped, never data frames).
+    """A frame callback that shows the newest frame with its overlay and a rolling plot
+    of every contact's loads, redrawn at most every ``interval_s`` (display updates are
+    skipped, never data frames: every solved frame enters the rolling plot).
 
     Parameters
     ----------
     show : callable
-        Takes an RGB uint8 image (rows, cols, 3) and displays it.
+        Takes an RGB uint8 image (rows, cols, 3) and the rolling loads
+        (:func:`rolling_loads`), and displays them.
     painter_factory : callable
         (rows, cols) -> an object with ``paint(image, params, ids)``.
     interval_s : float
         The least time between two displayed frames (s).
     clock : callable
         Seconds (a test's fake clock).
+    history : int
+        Frames the rolling plot holds (the oldest are dropped: bounded memory).
 
     Examples
     --------
-    Ten frames in 0.09 s against a 0.2 s interval: one is drawn.
+    Ten frames in 0.09 s against a 0.2 s interval: one is drawn, all ten are kept.
 
     >>> import numpy as np
     >>> from fringekit.tracking.frame import TrackedFrame
     >>> shown, t = [], iter(np.arange(10) * 0.01)
     >>> class Painter:
     ...     def paint(self, image, params, ids): return image
-    >>> view = LiveView(shown.append, lambda shape: Painter(), 0.2, clock=lambda: next(t))
+    >>> view = LiveView(lambda rgb, loads: shown.append(rgb), lambda shape: Painter(), 0.2,
+    ...                 clock=lambda: next(t))
     >>> f = TrackedFrame(0, 0.0, np.zeros(0, int), *[np.zeros((0, 5))] * 2, *[np.zeros(0)] * 2)
     >>> for _ in range(10):
     ...     view(f, np.zeros((4, 4, 3), np.uint8))
-    >>> len(shown), view.skipped
-    (1, 9)
+    >>> len(shown), view.skipped, len(view.history)
+    (1, 9, 10)
     """
 
-    def __init__(self, show, painter_factory, interval_s: float = 0.2, clock=time.monotonic):
+    def __init__(
+        self, show, painter_factory, interval_s: float = 0.2, clock=time.monotonic, history=500
+    ):
         self.show, self.factory, self.interval, self.clock = (
             show,
             painter_factory,
@@ -65,16 +73,41 @@ class LiveView:
         self.painter = None
         self.last = -float("inf")
         self.skipped = 0
+        self.history: deque = deque(maxlen=int(history))
 
     def __call__(self, frame, image) -> None:
+        if frame is not None:
+            self.history.append((frame.time_s, tuple(int(i) for i in frame.ids), frame.params))
         now = self.clock()
         if now - self.last < self.interval:
             self.skipped += 1
             return
         if self.painter is None:
             self.painter = self.factory(image.shape[:2])
-        self.show(self.painter.paint(image, *marks(frame)))
+        self.show(self.painter.paint(image, *marks(frame)), rolling_loads(self.history))
         self.last = now
+
+
+def rolling_loads(history) -> dict:
+    """Each contact's loads through ``history``, a sequence of (time_s, ids (n,), params
+    (n, 5)) as :class:`LiveView` keeps them: {id: (time (k,) s, Fz (k,) N, tangential
+    magnitude (k,) N)}, in the order of the frames.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> h = [(0.0, (1,), np.array([[0, 0, 2.0, 0.3, 0.4]])),
+    ...      (0.1, (1, 2), np.array([[0, 0, 2.5, 0.6, 0.8], [3, 3, 1.0, 0, 0]]))]
+    >>> loads = rolling_loads(h)
+    >>> sorted(loads), loads[1][1].tolist(), loads[1][2].tolist(), loads[2][0].tolist()
+    ([1, 2], [2.0, 2.5], [0.5, 1.0], [0.1])
+    """
+    rows: dict = {}
+    for t, ids, params in history:  # a few hundred frames of a handful of contacts
+        p = np.reshape(params, (-1, 5))
+        for i, (fz, fx, fy) in zip(ids, p[:, 2:], strict=True):
+            rows.setdefault(i, []).append((t, fz, float(np.hypot(fx, fy))))
+    return {i: tuple(np.array(col) for col in zip(*r, strict=True)) for i, r in rows.items()}
 
 
 def marks(frame) -> tuple[np.ndarray, tuple]:
@@ -93,18 +126,28 @@ def marks(frame) -> tuple[np.ndarray, tuple]:
 
 
 def _window():
-    """A matplotlib window showing RGB images (the ``--show`` view)."""
+    """A matplotlib window: the newest frame with its overlay, and the rolling loads
+    (Fz solid, tangential dashed, one colour per contact id) (the ``--show`` view)."""
     import matplotlib.pyplot as plt  # lazy: a window only when --show asks for one
 
-    fig, ax = plt.subplots()
+    fig, (ax, ax_load) = plt.subplots(1, 2, figsize=(10, 4.5))
     ax.set_axis_off()
     holder: dict = {}
 
-    def show(rgb) -> None:
+    def show(rgb, loads) -> None:
         if "im" not in holder:
             holder["im"] = ax.imshow(rgb)
         else:
             holder["im"].set_data(rgb)
+        ax_load.clear()
+        for i, (t, fz, ft) in sorted(loads.items()):  # a handful of contacts
+            colour = f"C{i % 10}"
+            ax_load.plot(t, fz, color=colour, label=f"{i}")
+            ax_load.plot(t, ft, color=colour, linestyle="--")
+        ax_load.set_xlabel("time (s)")
+        ax_load.set_ylabel("Fz (solid), tangential (dashed) (N)")
+        if loads:
+            ax_load.legend(title="id", loc="upper left", fontsize="small")
         plt.pause(0.001)
 
     return show

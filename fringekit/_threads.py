@@ -19,7 +19,7 @@ from functools import cache
 
 from threadpoolctl import ThreadpoolController
 
-__all__ = ["single_blas_thread", "usable_cores", "thread_pool"]
+__all__ = ["single_blas_thread", "task_pool", "thread_pool", "usable_cores"]
 
 
 def usable_cores() -> int:
@@ -33,6 +33,13 @@ def usable_cores() -> int:
 def thread_pool() -> ThreadPoolExecutor:
     """The process-wide pool, one worker per usable core (created on first use)."""
     return ThreadPoolExecutor(max_workers=usable_cores(), thread_name_prefix="fringekit")
+
+
+@cache
+def task_pool() -> ThreadPoolExecutor:
+    """A second pool, one worker per usable core, for tasks that themselves use
+    :func:`thread_pool` (a task waiting on its own pool's workers could wait forever)."""
+    return ThreadPoolExecutor(max_workers=usable_cores(), thread_name_prefix="fringekit-task")
 
 
 @contextmanager

@@ -810,3 +810,25 @@ def test_the_fits_run_on_one_blas_thread_and_give_it_back(tiny_library, monkeypa
     assert seen == [{1}], seen
     assert blas_threads() == before
     assert np.all(np.abs(got - _truth([ind]).ravel()) <= 1e-3 * np.array([1, 1, 2, 2, 2]))
+
+
+@pytest.mark.parametrize("method", ["mono", "rgb"])
+def test_the_jacobian_s_indenters_on_the_cores_give_the_columns_of_one_core(
+    tiny_library, monkeypatch, method
+):
+    """Each indenter's five columns are made in a worker thread when there are cores to
+    spare: bit for bit the columns made one after another (each is computed alone, into
+    its own columns; the inverse's path depends on the last bit)."""
+    from library_fixtures import TINY
+
+    import fringekit.inversion.model as model_module
+
+    model = _model(tiny_library, method, TWO, cfg=sensor_config(**TINY))
+    p = _truth(TWO).ravel() + np.tile([0.1, -0.05, 0.2, 0.05, -0.05], 2)
+    model = replace(model, keep=model.outside_contacts(TWO), exact=2.5e-3)
+    monkeypatch.setattr(model_module, "usable_cores", lambda: 2)
+    threaded = model.jacobian(p, [3.5e-3, 3.5e-3])
+    monkeypatch.setattr(model_module, "usable_cores", lambda: 1)
+    alone = model.jacobian(p, [3.5e-3, 3.5e-3])
+    assert threaded.shape == (model.measured.size, 10)
+    assert np.array_equal(threaded, alone) and np.abs(alone).max() > 0

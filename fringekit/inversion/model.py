@@ -19,6 +19,7 @@ from functools import cached_property
 
 import numpy as np
 
+from fringekit._threads import task_pool, usable_cores
 from fringekit.library.store import Library, LoadedIndenter
 from fringekit.library.synth import exact_rays, quaternions_where, superpose
 from fringekit.optics import (
@@ -259,7 +260,9 @@ class ImageModel:
         use = self.usable & self.keep
         which = range(len(inds)) if which is None else [int(i) for i in which]
         J = np.empty((int(use.size * self.measured.shape[1]), N_PARAMS * len(which)))
-        for col, i in enumerate(which):  # a handful of indenters; each batch is vectorised
+
+        def columns(col_i) -> None:  # one indenter's five columns, one batch of rays
+            col, i = col_i
             sl = slice(i * N_PARAMS, (i + 1) * N_PARAMS)
             h = step * np.maximum(1.0, np.abs(p[sl]))
             batch = [total]
@@ -273,6 +276,13 @@ class ImageModel:
             J[:, col * N_PARAMS : (col + 1) * N_PARAMS] = (
                 np.stack(res[1:], axis=1) - res[0][:, None]
             ) / h
+
+        jobs = list(enumerate(which))
+        if len(jobs) > 1 and usable_cores() > 1:  # indenters on the cores; each bitwise alone
+            list(task_pool().map(columns, jobs))
+        else:
+            for job in jobs:
+                columns(job)
         return J
 
     def _residual_of(self, ab: np.ndarray, indenters, use: np.ndarray) -> np.ndarray:

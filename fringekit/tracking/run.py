@@ -1,7 +1,9 @@
 """``fringekit track``: :func:`~fringekit.tracking.stream.track`, then its folder.
 
 The folder holds the files of :meth:`~fringekit.tracking.stream.Track.write`, and
-``track.mp4`` (each frame with its overlay) when asked. It is written beside ``--out``
+``track.mp4`` (each frame with its overlay) when asked: the frames are kept on disk
+while the stream runs (:class:`FrameSpool`) and painted when it ends, so neither memory
+nor the solver pays for the video. It is written beside ``--out``
 and swapped in when the run ends; a stream stopped by a bad frame or Ctrl-C still writes
 the frames solved before it (``summary.json`` says where and why it stopped).
 """
@@ -11,6 +13,7 @@ from __future__ import annotations
 import os
 import time
 from collections import deque
+from pathlib import Path
 
 import numpy as np
 
@@ -21,7 +24,7 @@ from fringekit.tracking.stream import track
 from fringekit.tracking.tracker import TRACK_STRIDE
 from fringekit.tracking.write import write_video
 
-__all__ = ["LiveView", "marks", "rolling_loads", "run_track"]
+__all__ = ["FrameSpool", "LiveView", "marks", "rolling_loads", "run_track"]
 
 
 class LiveView:
@@ -178,20 +181,19 @@ def run_track(
         getattr(library, "folder", library),
         sensor,
     ]
-    frames: list = []
-    keep = (lambda f, img: frames.append((f, img))) if video else None
     view = (
         LiveView(_window(), lambda shape: OverlayPainter(shape, _to_rc(shape, pixel_mm, origin_px)))
         if show
         else None
     )
-
-    def on_frame(f, img):
-        for cb in (keep, view):
-            if cb is not None:
-                cb(f, img)
-
     with claim_output(out, command="track", inputs=inputs) as work:
+        spool = FrameSpool(work / ".frames") if video else None
+
+        def on_frame(f, img):
+            for cb in (spool, view):
+                if cb is not None:
+                    cb(f, img)
+
         t = track(
             source,
             library,
@@ -203,12 +205,56 @@ def run_track(
             fps=fps,
             max_frames=max_frames,
             progress=progress,
-            on_frame=on_frame if (keep or view) else None,
+            on_frame=None if spool is None and view is None else on_frame,
         )
         t.write(work)
-        if video and frames:
-            _overlay_video(work / "track.mp4", frames, pixel_mm, origin_px, t.summary)
+        if spool is not None:
+            if len(spool):
+                _overlay_video(work / "track.mp4", spool, pixel_mm, origin_px, t.summary)
+            spool.remove()
     return t.summary
+
+
+class FrameSpool:
+    """The frames of a stream kept on disk as they come, for the overlay video made when
+    the run ends: one ``.npy`` file a frame (its own dtype and channels) in ``folder``,
+    so that memory stays bounded however long a camera runs (disk takes rows x cols x
+    channels x bytes a frame: 0.4 MB at 256 x 256 16-bit colour). Called as an
+    ``on_frame`` callback; iterating gives (overlay marks, image) in frame order.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> import numpy as np
+    >>> spool = FrameSpool(Path(tempfile.mkdtemp()) / "spool")
+    >>> spool(None, np.full((2, 3), 7, np.uint16))
+    >>> [(len(params), image.dtype.name, int(image[0, 0])) for (params, ids), image in spool]
+    [(0, 'uint16', 7)]
+    >>> spool.remove(); spool.folder.exists()
+    False
+    """
+
+    def __init__(self, folder):
+        self.folder = Path(folder)
+        self.folder.mkdir()
+        self.marks: list = []
+
+    def __call__(self, frame, image) -> None:
+        np.save(self.folder / f"{len(self.marks):07d}.npy", np.asarray(image))
+        self.marks.append(marks(frame))
+
+    def __len__(self) -> int:
+        return len(self.marks)
+
+    def __iter__(self):
+        for k, m in enumerate(self.marks):  # one frame in memory at a time
+            yield m, np.load(self.folder / f"{k:07d}.npy")
+
+    def remove(self) -> None:
+        """Delete the spool: its own files, then its folder (nothing else is in it)."""
+        for k in range(len(self.marks)):
+            (self.folder / f"{k:07d}.npy").unlink(missing_ok=True)
+        self.folder.rmdir()
 
 
 def _to_rc(shape, pixel_mm: float, origin_px):
@@ -218,8 +264,8 @@ def _to_rc(shape, pixel_mm: float, origin_px):
     return lambda x, y: (r0 - y / pixel_mm, c0 + x / pixel_mm)
 
 
-def _overlay_video(path, frames, pixel_mm, origin_px, summary) -> None:
-    shape = frames[0][1].shape[:2]
+def _overlay_video(path, spool, pixel_mm, origin_px, summary) -> None:
+    shape = next(iter(spool))[1].shape[:2]
     painter = OverlayPainter(shape, _to_rc(shape, pixel_mm, origin_px))
     fps = summary["source"]["fps"] or 25.0
-    write_video(path, (painter.paint(img, *marks(f)) for f, img in frames), fps)
+    write_video(path, (painter.paint(img, *m) for m, img in spool), fps)

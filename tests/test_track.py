@@ -348,6 +348,34 @@ def test_a_frame_the_library_cannot_explain_is_drawn_without_contacts(
     assert written == {"loads.csv", "loads.png", "summary.json", "track.mp4"}  # no spool
 
 
+def test_ctrl_c_writes_the_frames_solved_before_it(tiny_library, tmp_path, monkeypatch, capsys):
+    """Ctrl-C in the third frame: exit 130 in one line, the two frames before it in
+    loads.csv, summary.json and the video, and summary.json says where it stopped."""
+    folder = tmp_path / "frames"
+    library_frames(
+        tiny_library, [_moving(k) for k in range(4)], folder, pixels=PX, pixel_mm=PIXEL_MM
+    )
+    step = Tracker.step
+
+    def interrupted(self, measured, usable, nodata, index, time_s):
+        if index == 2:
+            raise KeyboardInterrupt
+        return step(self, measured, usable, nodata, index, time_s)
+
+    monkeypatch.setattr(Tracker, "step", interrupted)
+    out = tmp_path / "out"
+    lib = str(tiny_library.folder)
+    argv = ["track", str(folder), "--library", lib, "--pixel-mm", "0.25", "--out", str(out)]
+    assert main([*argv, "--video", "--quiet"]) == 130
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "stopped after 2 frame(s)" in err[0] and "Ctrl-C" in err[0]
+    assert sorted({r["frame"] for r in _rows(out / "loads.csv")}) == ["0", "1"]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["stopped"] == {"after_frames": 2, "reason": "interrupted (Ctrl-C)"}
+    with open_source(str(out / "track.mp4")) as video:
+        assert sum(1 for _ in video) == 2
+
+
 def test_the_live_view_shows_the_frame_and_every_contact_s_rolling_loads(tiny_library, tmp_path):
     """``--show``: the newest frame beside a rolling plot of each contact's Fz and
     tangential load (here through matplotlib's file backend, as on a machine without a

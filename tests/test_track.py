@@ -263,6 +263,7 @@ def test_a_camera_stream_solves_the_newest_frame_and_counts_the_dropped(tiny_lib
     assert s["source"]["kind"] == "camera"
     assert [f.index for f in t.frames] == [0, 4, 11]
     assert s["frames_solved"] == 3 and s["frames_dropped"] == 9, s
+    assert any(w.startswith("9 camera frame(s) were dropped") for w in s["warnings"])
     which = {}  # id -> the truth row (contact) it reads
     for f in t.frames:  # each solved frame is the frame of its index, each id its contact
         want = _matched(f, frames[f.index])

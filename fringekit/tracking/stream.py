@@ -373,6 +373,11 @@ class _Run:
                 f"{len(self.refused)} frame(s) the library cannot explain were left out "
                 f"(the first, frame {self.refused[0]['frame']}: {self.refused[0]['reason']})"
             )
+        if self.src.dropped:
+            warnings.append(
+                f"{int(self.src.dropped)} camera frame(s) were dropped while earlier ones were "
+                "solved (the newest frame is always the one solved): see frames_dropped"
+            )
         if unreliable:
             warnings.append(
                 f"{unreliable} contact-frame(s) are flagged not reliable (their residual "

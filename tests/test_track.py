@@ -349,6 +349,16 @@ def test_a_frame_the_library_cannot_explain_is_drawn_without_contacts(
     assert written == {"loads.csv", "loads.png", "summary.json", "track.mp4"}  # no spool
 
 
+def test_the_command_writes_to_fringekit_out_track_by_default(tiny_library, tmp_path, monkeypatch):
+    """``--out`` is optional, as for ``predict`` and ``analyze``: fringekit-out/track."""
+    folder = tmp_path / "frames"
+    library_frames(tiny_library, [_moving(0)], folder, pixels=PX, pixel_mm=PIXEL_MM)
+    monkeypatch.chdir(tmp_path)
+    argv = ["track", str(folder), "--library", str(tiny_library.folder), "--pixel-mm", "0.25"]
+    assert main([*argv, "--quiet"]) == 0
+    assert len(_rows(tmp_path / "fringekit-out" / "track" / "loads.csv")) == 2
+
+
 def test_ctrl_c_writes_the_frames_solved_before_it(tiny_library, tmp_path, monkeypatch, capsys):
     """Ctrl-C in the third frame: exit 130 in one line, the two frames before it in
     loads.csv, summary.json and the video, and summary.json says where it stopped."""

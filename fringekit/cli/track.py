@@ -26,7 +26,9 @@ def add_parser(sub) -> None:
         "source", help="a folder of frames, a video file (mp4, avi, mkv, mov) or camera:N"
     )
     tr.add_argument("--library", required=True, help="library folder (fringekit library build)")
-    tr.add_argument("--out", required=True, help="output folder")
+    tr.add_argument(
+        "--out", default="fringekit-out/track", help="output folder (default fringekit-out/track)"
+    )
     tr.add_argument(
         "--pixel-mm",
         type=in_range(PIXEL_MM),

@@ -89,6 +89,37 @@ def test_a_still_contact_under_noise_keeps_its_jacobian(tiny_library, tmp_path, 
         assert np.all(np.abs(f.params[0] - still[0][0]) <= 2 * f.sd[0]), f.index
 
 
+def test_a_warm_jacobian_reuses_the_fields_of_its_point(tiny_library, tmp_path, monkeypatch):
+    """The chord fit's Jacobian, made at a point it has just evaluated, takes the
+    contacts' fields of that evaluation (five interpolations fewer a refresh): the same
+    table, bit for bit, as fields made again."""
+    from fringekit.inversion.model import ImageModel
+    from fringekit.tracking import warm
+
+    library_frames(
+        tiny_library, [_moving(k) for k in range(4)], tmp_path, pixels=PX, pixel_mm=PIXEL_MM
+    )
+    given, jacobian = [], ImageModel.jacobian
+
+    def spy(self, p, diameters, step=1e-3, which=None, own=None):
+        given.append(own is not None)
+        return jacobian(self, p, diameters, step, which, own)
+
+    monkeypatch.setattr(ImageModel, "jacobian", spy)
+    reused = track(tmp_path, tiny_library, pixel_mm=PIXEL_MM).table()
+    assert any(given)
+    refresh = warm.ChordFit.refresh
+
+    def afresh(self, fixed, p, diam, which):
+        self.fields.clear()
+        return refresh(self, fixed, p, diam, which)
+
+    monkeypatch.setattr(warm.ChordFit, "refresh", afresh)
+    made = track(tmp_path, tiny_library, pixel_mm=PIXEL_MM).table()
+    for k in ("frame", "id", "x_mm", "y_mm", "Fz_N", "Fx_N", "Fy_N", "sFz_N", "residual_rms"):
+        np.testing.assert_array_equal(reused[k], made[k], err_msg=k)
+
+
 @pytest.mark.slow
 def test_a_light_touch_keeps_one_id_through_the_release_level(tiny_library, tmp_path):
     """A contact pressed from 0.6 N up through the release level (1 N, half the tiny

@@ -239,11 +239,14 @@ class ImageModel:
             return intensity(q, self.setup["arrangements"][0]) @ self.setup["to_rgb"]
         return np.stack([intensity(q[:, 0], a) for a in self.setup["arrangements"]], axis=1)
 
-    def jacobian(self, p: np.ndarray, diameters, step: float = 1e-3, which=None) -> np.ndarray:
+    def jacobian(
+        self, p: np.ndarray, diameters, step: float = 1e-3, which=None, own=None
+    ) -> np.ndarray:
         """Forward-difference Jacobian (P * C, n) of :meth:`residual` (``keep`` must be
         set), ``step`` times max(1, |p|) as scipy's 2-point rule; ``which``: the indices of
         the indenters whose columns are made (default all), the array then (P * C,
-        5 len(which)), their columns in that order.
+        5 len(which)), their columns in that order; ``own``: every indenter's slab pairs
+        at ``p`` on the model's pixels (``lib.slabs``), when the caller has them already.
 
         A column moves one indenter: only its field is sampled again, the others' sum is
         reused. An indenter's five columns and their base are synthesised as one batch
@@ -255,7 +258,8 @@ class ImageModel:
         inds = unpack(p, diameters)
         xy = self.xy
         P = len(xy)
-        own = [self.lib.slabs(ind, xy)[0] for ind in inds]
+        if own is None:
+            own = [self.lib.slabs(ind, xy)[0] for ind in inds]
         total = np.sum(own, axis=0) if own else np.zeros((P, 1, 2), np.float32)
         use = self.usable & self.keep
         which = range(len(inds)) if which is None else [int(i) for i in which]

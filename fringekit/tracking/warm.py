@@ -17,13 +17,13 @@ wrong columns, not to the minimum.
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import replace
 
 import numpy as np
 
 from fringekit.inversion.fit import fit_bounds
 from fringekit.inversion.model import N_PARAMS, ImageModel, range_penalty, unpack
-from fringekit.library.synth import superpose
 
 __all__ = ["CHORD_STEPS", "FTOL", "JAC_LOAD", "JAC_MOVE_MM", "STEP_TOL", "ChordFit"]
 
@@ -68,19 +68,23 @@ class ChordFit:
         self.jac: np.ndarray | None = None
         self.p_jac = np.zeros(0)
         self.last: tuple | None = None  # (p, residuals, gains) of the last evaluation
+        #: (model, p, every contact's slab pairs) of the last two evaluations: the
+        #: Jacobian made at one of them reuses its fields (five interpolations a refresh)
+        self.fields: deque = deque(maxlen=2)
 
     def forget(self) -> None:
         """Another set of contacts: the Jacobian and the last evaluation are void."""
         self.jac = None
         self.last = None
+        self.fields.clear()
 
     def run(self, sub: ImageModel, p: np.ndarray, diam: list) -> tuple[np.ndarray, bool]:
         """Chord steps from ``p`` (n * 5,) on ``sub``: (the parameters, whether the fit
         converged)."""
         lo, hi = fit_bounds(sub, len(diam))
         fixed = replace(sub, keep=sub.outside_contacts(unpack(p, diam)))
-        self.refresh(fixed, p, diam, self.stale(p, diam, sub.lib))
         r, gains = self.residual(fixed, p, diam)
+        self.refresh(fixed, p, diam, self.stale(p, diam, sub.lib))
         cost = float(r @ r)
         self.last = (p, r, gains)
         fresh, done = False, False
@@ -135,7 +139,8 @@ class ChordFit:
         if not len(which):
             return
         cols = (which[:, None] * N_PARAMS + np.arange(N_PARAMS)).ravel()
-        part = fixed.jacobian(p, diam, which=which)
+        own = next((f for m, q, f in self.fields if m is fixed and np.array_equal(q, p)), None)
+        part = fixed.jacobian(p, diam, which=which, own=own)
         if self.jac is None or len(which) == len(diam) or len(self.p_jac) != len(p):
             self.jac = np.zeros((part.shape[0], len(p)))
             self.p_jac = p.copy()
@@ -153,7 +158,11 @@ class ChordFit:
     def residual(self, fixed: ImageModel, p: np.ndarray, diam: list):
         """Residuals of the image (P * C,) and of the range penalty, and the gains (C,)."""
         inds = unpack(p, diam)
-        ab, _ = superpose(fixed.lib, inds, fixed.xy)
+        own = [fixed.lib.slabs(ind, fixed.xy)[0] for ind in inds]
+        self.fields.append((fixed, p.copy(), own))
+        ab = np.zeros((len(fixed.xy), fixed.lib.lattice.n_slabs, 2), np.float32)
+        for one in own:  # summed as superpose sums them
+            ab += one
         use = fixed.usable & fixed.keep
         fitted, gains, _ = fixed.project(fixed.intensities(ab, inds), use)
         res = fixed.measured - fitted

@@ -8,7 +8,8 @@ Usage: python bench/track.py [--sequence library|fem] [--frames 200] [--pixels 2
 
 ``--sequence fem`` (sequence (a) of the tracking issue, on the coarse sensor, whose
 library the bench uses, not on the reference sensor to 8 N as the issue asks: its
-library takes hours to build on 2 cores and its FEM frames minutes each): one ``predict`` run under full stick, every load state a frame,
+library takes hours to build on 2 cores and its FEM frames minutes each): one
+``predict`` run under full stick, every load state a frame,
 FRAMES of them: two contacts (3.5 mm spheres 6.7 mm apart) ramping Fz together from 0.5
 to 3.4 N (TOP_N, inside the library's 4 N) over the first 60 % of the frames, then a
 tangential load on one of them ramping along +x to 0.4 of its normal load. The frames

@@ -22,6 +22,7 @@ from fringekit.library.calibrated import CalibratedSensor
 from fringekit.optics import write_image
 from fringekit.tracking import TRACK_COLUMNS, library_frames, open_source, track, write_video
 from fringekit.tracking.figure import OverlayPainter
+from fringekit.tracking.run import FrameSpool
 from fringekit.tracking.tracker import Tracker
 
 PX, PIXEL_MM = 64, 0.25  # 16 x 16 mm frames of the tiny library's sensor
@@ -390,6 +391,17 @@ def test_the_command_writes_to_fringekit_out_track_by_default(tiny_library, tmp_
     assert len(_rows(tmp_path / "fringekit-out" / "track" / "loads.csv")) == 2
 
 
+def test_the_frame_spool_removes_a_frame_saved_but_not_yet_counted(tmp_path):
+    """Ctrl-C between a frame's save and its count left a file the spool did not know,
+    its folder could not be removed, and the run that Ctrl-C should have kept was lost."""
+    spool = FrameSpool(tmp_path / ".frames")
+    spool(None, np.zeros((4, 4), np.uint8))
+    np.save(spool.folder / "0000001.npy", np.zeros((4, 4), np.uint8))  # saved, not counted
+    assert len(spool) == 1
+    spool.remove()
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_ctrl_c_writes_the_frames_solved_before_it(tiny_library, tmp_path, monkeypatch, capsys):
     """Ctrl-C in the third frame: exit 130 in one line, the two frames before it in
     loads.csv, summary.json and the video, and summary.json says where it stopped."""
@@ -422,8 +434,10 @@ def test_the_live_view_shows_the_frame_and_every_contact_s_rolling_loads(tiny_li
     """``--show``: the newest frame beside a rolling plot of each contact's Fz and
     tangential load (here through matplotlib's file backend, as on a machine without a
     display)."""
+    import matplotlib
     import matplotlib.pyplot as plt
 
+    matplotlib.use("Agg")  # no window, whatever display the machine has
     folder = tmp_path / "frames"
     library_frames(
         tiny_library, [_moving(k) for k in range(3)], folder, pixels=PX, pixel_mm=PIXEL_MM

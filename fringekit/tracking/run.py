@@ -2,8 +2,9 @@
 
 The folder holds the files of :meth:`~fringekit.tracking.stream.Track.write`, and
 ``track.mp4`` (each frame with its overlay) when asked: the frames are kept on disk
-while the stream runs (:class:`FrameSpool`) and painted when it ends, so neither memory
-nor the solver pays for the video. It is written beside ``--out``
+while the stream runs (:class:`FrameSpool`: one save a frame in the solve loop) and
+painted when it ends, so memory does not grow with the stream and the solver does not
+paint. It is written beside ``--out``
 and swapped in when the run ends; a stream stopped by a bad frame or Ctrl-C still writes
 the frames solved before it (``summary.json`` says where and why it stopped).
 """
@@ -11,6 +12,7 @@ the frames solved before it (``summary.json`` says where and why it stopped).
 from __future__ import annotations
 
 import os
+import shutil
 import time
 from collections import deque
 from pathlib import Path
@@ -251,10 +253,10 @@ class FrameSpool:
             yield m, np.load(self.folder / f"{k:07d}.npy")
 
     def remove(self) -> None:
-        """Delete the spool: its own files, then its folder (nothing else is in it)."""
-        for k in range(len(self.marks)):
-            (self.folder / f"{k:07d}.npy").unlink(missing_ok=True)
-        self.folder.rmdir()
+        """Delete the spool's folder, which fringekit made inside its own work folder and
+        which holds only its frames (with, after a Ctrl-C during a save, one not yet
+        counted)."""
+        shutil.rmtree(self.folder)
 
 
 def _to_rc(shape, pixel_mm: float, origin_px):

@@ -340,6 +340,18 @@ def test_the_command_writes_loads_and_keeps_what_a_bad_frame_stopped(
     assert (out / "loads.png").is_file()
 
 
+def _raise_in_frame(monkeypatch, index: int, exc: BaseException) -> None:
+    """``Tracker.step`` raises ``exc`` in frame ``index`` and solves every other frame."""
+    step = Tracker.step
+
+    def raising(self, measured, usable, nodata, frame_index, time_s):
+        if frame_index == index:
+            raise exc
+        return step(self, measured, usable, nodata, frame_index, time_s)
+
+    monkeypatch.setattr(Tracker, "step", raising)
+
+
 @pytest.mark.parametrize("left_out", [0, 1])
 def test_a_frame_the_library_cannot_explain_is_drawn_without_contacts(
     tiny_library, tmp_path, monkeypatch, left_out
@@ -351,19 +363,13 @@ def test_a_frame_the_library_cannot_explain_is_drawn_without_contacts(
     library_frames(
         tiny_library, [_moving(k) for k in range(3)], folder, pixels=PX, pixel_mm=PIXEL_MM
     )
-    step = Tracker.step
     drawn = []
-
-    def refuse(self, measured, usable, nodata, index, time_s):
-        if index == left_out:
-            raise InvertError("the library cannot explain this frame")
-        return step(self, measured, usable, nodata, index, time_s)
 
     def paint(self, image, params, ids):
         drawn.append(len(params))
         return np.zeros((*image.shape[:2], 3), np.uint8)
 
-    monkeypatch.setattr(Tracker, "step", refuse)
+    _raise_in_frame(monkeypatch, left_out, InvertError("the library cannot explain this frame"))
     monkeypatch.setattr(OverlayPainter, "paint", paint)
     out = tmp_path / "out"
     lib = str(tiny_library.folder)
@@ -409,14 +415,7 @@ def test_ctrl_c_writes_the_frames_solved_before_it(tiny_library, tmp_path, monke
     library_frames(
         tiny_library, [_moving(k) for k in range(4)], folder, pixels=PX, pixel_mm=PIXEL_MM
     )
-    step = Tracker.step
-
-    def interrupted(self, measured, usable, nodata, index, time_s):
-        if index == 2:
-            raise KeyboardInterrupt
-        return step(self, measured, usable, nodata, index, time_s)
-
-    monkeypatch.setattr(Tracker, "step", interrupted)
+    _raise_in_frame(monkeypatch, 2, KeyboardInterrupt())
     out = tmp_path / "out"
     lib = str(tiny_library.folder)
     argv = ["track", str(folder), "--library", lib, "--pixel-mm", "0.25", "--out", str(out)]

@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import json
 import threading
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -427,6 +428,72 @@ def test_ctrl_c_writes_the_frames_solved_before_it(tiny_library, tmp_path, monke
     assert summary["stopped"] == {"after_frames": 2, "reason": "interrupted (Ctrl-C)"}
     with open_source(str(out / "track.mp4")) as video:
         assert sum(1 for _ in video) == 2
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("trouble", ["ctrl-c", "error"])
+def test_a_video_that_fails_while_painted_keeps_the_tables(
+    tiny_library, tmp_path, monkeypatch, capsys, trouble
+):
+    """Ctrl-C or an error while track.mp4 is painted, after the stream: the tables and
+    summary are kept (the whole run used to be discarded), no partial video is left,
+    summary.json says why, and Ctrl-C exits 130."""
+    folder = tmp_path / "frames"
+    library_frames(
+        tiny_library, [_moving(k) for k in range(3)], folder, pixels=PX, pixel_mm=PIXEL_MM
+    )
+    paint, drawn = OverlayPainter.paint, []
+
+    def failing(self, image, params, ids):
+        if len(drawn) == 1:
+            raise KeyboardInterrupt() if trouble == "ctrl-c" else ValueError("bad overlay")
+        drawn.append(1)
+        return paint(self, image, params, ids)
+
+    monkeypatch.setattr(OverlayPainter, "paint", failing)
+    out = tmp_path / "out"
+    lib = str(tiny_library.folder)
+    argv = ["track", str(folder), "--library", lib, "--pixel-mm", "0.25", "--out", str(out)]
+    assert main([*argv, "--video", "--quiet"]) == (130 if trouble == "ctrl-c" else 0)
+    assert sorted({r["frame"] for r in _rows(out / "loads.csv")}) == ["0", "1", "2"]
+    summary = json.loads((out / "summary.json").read_text())
+    video = summary["video"]
+    assert video["file"] is None and video["frames"] == 1
+    assert ("Ctrl-C" if trouble == "ctrl-c" else "ValueError") in video["error"]
+    assert any(w.startswith("track.mp4 was not written") for w in summary["warnings"])
+    written = {p.name for p in out.iterdir()} - {".fringekit-run.json"}
+    assert written == {"loads.csv", "loads.png", "summary.json"}  # no spool, no half video
+    assert "track.mp4 was not written" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_a_full_disk_gives_the_video_up_not_the_run(tiny_library, tmp_path, monkeypatch):
+    """The spool cannot save a frame (a full disk): the video is given up and its frames
+    deleted (their space freed), every frame is still solved and written."""
+    folder = tmp_path / "frames"
+    library_frames(
+        tiny_library, [_moving(k) for k in range(3)], folder, pixels=PX, pixel_mm=PIXEL_MM
+    )
+    save, saved = np.save, []
+
+    def full(path, array, *args, **kwargs):
+        if Path(path).parent.name == ".frames":
+            if len(saved) == 1:
+                raise OSError(28, "No space left on device")
+            saved.append(path)
+        return save(path, array, *args, **kwargs)
+
+    monkeypatch.setattr(np, "save", full)
+    out = tmp_path / "out"
+    lib = str(tiny_library.folder)
+    argv = ["track", str(folder), "--library", lib, "--pixel-mm", "0.25", "--out", str(out)]
+    assert main([*argv, "--video", "--quiet"]) == 0
+    assert sorted({r["frame"] for r in _rows(out / "loads.csv")}) == ["0", "1", "2"]
+    video = json.loads((out / "summary.json").read_text())["video"]
+    assert video["file"] is None and "frame 1" in video["error"]
+    assert "No space left" in video["error"]
+    written = {p.name for p in out.iterdir()} - {".fringekit-run.json"}
+    assert written == {"loads.csv", "loads.png", "summary.json"}
 
 
 def test_the_live_view_shows_the_frame_and_every_contact_s_rolling_loads(tiny_library, tmp_path):

@@ -98,4 +98,5 @@ def run(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 130 if stop["reason"].startswith("interrupted") else 2
-    return 0
+    video_error = (s.get("video") or {}).get("error") or ""
+    return 130 if video_error.startswith("interrupted") else 0

@@ -6,7 +6,9 @@ while the stream runs (:class:`FrameSpool`: one save a frame in the solve loop) 
 painted when it ends, so memory does not grow with the stream and the solver does not
 paint. It is written beside ``--out``
 and swapped in when the run ends; a stream stopped by a bad frame or Ctrl-C still writes
-the frames solved before it (``summary.json`` says where and why it stopped).
+the frames solved before it (``summary.json`` says where and why it stopped). The tables
+are written before the video is painted, and a video that fails (a full disk while the
+frames are saved, Ctrl-C or an error while they are painted) is given up, not the run.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from collections import deque
 from pathlib import Path
 
 import numpy as np
+from tqdm.auto import tqdm
 
 from fringekit.library.calibrated import as_calibrated
 from fringekit.output.folders import claim_output
@@ -209,11 +212,15 @@ def run_track(
             progress=progress,
             on_frame=None if spool is None and view is None else on_frame,
         )
-        t.write(work)
+        t.write(work)  # the tables first: whatever befalls the video, they are kept
         if spool is not None:
-            if len(spool):
-                _overlay_video(work / "track.mp4", spool, pixel_mm, origin_px, t.summary)
-            spool.remove()
+            t.summary["video"] = _paint_video(work, spool, pixel_mm, origin_px, t.summary, progress)
+            if t.summary["video"]["error"] is not None:
+                t.summary["warnings"].append(
+                    f"track.mp4 was not written ({t.summary['video']['error']}); the tables "
+                    "are complete"
+                )
+            t.write_summary(work)
     return t.summary
 
 
@@ -240,9 +247,18 @@ class FrameSpool:
         self.folder = Path(folder)
         self.folder.mkdir()
         self.marks: list = []
+        self.error: str | None = None
 
     def __call__(self, frame, image) -> None:
-        np.save(self.folder / f"{len(self.marks):07d}.npy", np.asarray(image))
+        if self.error is not None:
+            return
+        try:
+            np.save(self.folder / f"{len(self.marks):07d}.npy", np.asarray(image))
+        except OSError as exc:  # a full disk: give the video up, free its space, go on
+            self.error = f"its frames could not be saved at frame {len(self.marks)}: {exc}"
+            self.marks.clear()
+            self.remove()
+            return
         self.marks.append(marks(frame))
 
     def __len__(self) -> int:
@@ -256,7 +272,7 @@ class FrameSpool:
         """Delete the spool's folder, which fringekit made inside its own work folder and
         which holds only its frames (with, after a Ctrl-C during a save, one not yet
         counted)."""
-        shutil.rmtree(self.folder)
+        shutil.rmtree(self.folder, ignore_errors=True)
 
 
 def _to_rc(shape, pixel_mm: float, origin_px):
@@ -266,8 +282,36 @@ def _to_rc(shape, pixel_mm: float, origin_px):
     return lambda x, y: (r0 - y / pixel_mm, c0 + x / pixel_mm)
 
 
-def _overlay_video(path, spool, pixel_mm, origin_px, summary) -> None:
-    shape = next(iter(spool))[1].shape[:2]
-    painter = OverlayPainter(shape, _to_rc(shape, pixel_mm, origin_px))
-    fps = summary["source"]["fps"] or 25.0
-    write_video(path, (painter.paint(img, *m) for m, img in spool), fps)
+def _paint_video(work: Path, spool: FrameSpool, pixel_mm, origin_px, summary, progress):
+    """Paint the spooled frames into ``work/track.mp4`` (with a progress bar) and remove
+    the spool; return ``summary["video"]``: the file (None when not written), the frames
+    painted and the error (None, or why the video was given up: the spool's own failure,
+    Ctrl-C or an error while painting, after which a partial file is removed)."""
+    path, painted = work / "track.mp4", [0]
+    error = spool.error
+    try:
+        if error is None and len(spool):
+            shape = next(iter(spool))[1].shape[:2]
+            painter = OverlayPainter(shape, _to_rc(shape, pixel_mm, origin_px))
+            bar = tqdm(total=len(spool), unit="frame", desc="track.mp4", disable=not progress)
+
+            def frames():
+                for m, img in spool:
+                    yield painter.paint(img, *m)
+                    painted[0] += 1
+                    bar.update(1)
+
+            try:
+                write_video(path, frames(), summary["source"]["fps"] or 25.0)
+            finally:
+                bar.close()
+    except KeyboardInterrupt:
+        error = f"interrupted (Ctrl-C) after {painted[0]} of {len(spool)} frame(s)"
+    except Exception as exc:  # the tables are written: a failed video must not lose them
+        error = f"{type(exc).__name__} after {painted[0]} of {len(spool)} frame(s): {exc}"
+    finally:
+        spool.remove()
+    if error is not None:
+        path.unlink(missing_ok=True)
+    written = error is None and path.is_file()
+    return {"file": path.name if written else None, "frames": painted[0], "error": error}

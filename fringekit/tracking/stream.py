@@ -128,8 +128,13 @@ class Track:
             for row in zip(*(table[k] for k in TRACK_COLUMNS), strict=True):
                 w.writerow([_cell(x) for x in row])
         loads_figure(out / "loads.png", table)
-        atomic_write(out / "summary.json", json.dumps(self.summary, indent=2))
-        return out
+        return self.write_summary(out)
+
+    def write_summary(self, folder: str | os.PathLike) -> Path:
+        """(Re)write ``summary.json`` in ``folder`` (whole or not at all); return the
+        folder."""
+        atomic_write(Path(folder) / "summary.json", json.dumps(self.summary, indent=2))
+        return Path(folder)
 
 
 def _cell(x) -> str:

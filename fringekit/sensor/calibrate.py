@@ -356,6 +356,14 @@ def _rotation(fit: KnownFit, geo) -> tuple[float, float]:
     return sum(wi * v for wi, (v, _) in zip(w, vals, strict=True)) / sum(w), 1.0 / math.sqrt(sum(w))
 
 
+def _rotation_estimates(fit: KnownFit, geo) -> dict:
+    """The two estimates :func:`_rotation` combines, each (deg, 1-sigma) or None: of the
+    known positions and of the tangential loads' directions."""
+    pos = [geo.rotation_deg, _finite(geo.sd["rotation_deg"])] if geo.n_known >= 2 else None
+    tan = [fit.rotation_deg, fit.sd["rotation_deg"]]
+    return {"positions": pos, "tangential_loads": tan if math.isfinite(tan[1]) else None}
+
+
 def _line(fit: KnownFit, geo, seconds: float) -> str:
     return (
         f"sensor calibrate: modulus x{fit.modulus_scale:.4f} +- {fit.sd['modulus_scale']:.4f}, "
@@ -392,6 +400,7 @@ def _assemble(lib, cfg, method, shape, fit, geo, rest, black, black_sd, black_fr
         "black_level_from": black_from,
         "exposure_gain": gains,
         "known_positions": geo.n_known,
+        "rotation_estimates_deg": _rotation_estimates(fit, geo),
         "frames": [
             {"image": str(fr.path), "residual_rms": float(r), "positions_image_mm": p.tolist()}
             for fr, r, p in zip(frames, fit.residual_rms, fit.positions_mm, strict=True)

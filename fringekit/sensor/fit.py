@@ -23,7 +23,11 @@ least-squares problem at the solution (sigma^2 (J^T J)^-1, sigma^2 the residual'
 variance) times the residual's correlation area (the largest of the frames':
 :func:`~fringekit.inversion.uncertainty.correlation_area`, as ``invert`` states its
 1-sigma): neighbouring pixels of a misfit fringe err together, so the frames carry fewer
-independent values than pixels.
+independent values than pixels. The positions' and the rotation's add, in quadrature, the
+model-error floor ``invert`` states its answers with
+(:func:`~fringekit.inversion.uncertainty.model_sd`): the fit absorbs the library's own
+error into them, which leaves no trace in the residual (:func:`direction_floor` for the
+rotation).
 """
 
 from __future__ import annotations
@@ -37,11 +41,17 @@ from scipy.optimize import least_squares
 
 from fringekit.inversion.fit import EXACT_MM, subsample
 from fringekit.inversion.model import ImageModel
-from fringekit.inversion.uncertainty import correlation_area, parameter_sd
+from fringekit.inversion.uncertainty import correlation_area, model_sd, parameter_sd
 from fringekit.library.calibrated import linearise
 from fringekit.library.store import LoadedIndenter
 
-__all__ = ["ILLUMINATION_DEGREE", "KnownFit", "fit_known", "illumination_basis"]
+__all__ = [
+    "ILLUMINATION_DEGREE",
+    "KnownFit",
+    "direction_floor",
+    "fit_known",
+    "illumination_basis",
+]
 
 #: Total degree of the illumination's polynomial (6 terms: vignetting and a tilt of the
 #: light, which vary over the field of view, not from pixel to pixel).
@@ -276,8 +286,10 @@ def fit_known(base: ImageModel, frames, rest, black, starts, scales=None) -> Kno
     ccov = area * ccov
     k, s = math.exp(theta[0]), math.exp(theta[1])
     rho = theta[3] if problem.sheared else 0.0
+    floor = model_sd(base.lib.shear_ratio)
     xy = theta[n:].reshape(-1, 2)
-    xy_sd = sd[n:].reshape(-1, 2)
+    xy_sd = np.hypot(sd[n:].reshape(-1, 2), floor[:2])
+    rho_sd = math.hypot(sd[3], direction_floor(frames, floor[3])) if problem.sheared else math.nan
     split = np.cumsum([len(fr.loads) for fr in frames])[:-1]
     gain = np.abs(coef[0]).mean() or 1.0
     return KnownFit(
@@ -289,7 +301,7 @@ def fit_known(base: ImageModel, frames, rest, black, starts, scales=None) -> Kno
             "modulus_scale": k * sd[0],
             "fringe_scale": s * sd[1],
             "gamma": float(sd[2]),
-            "rotation_deg": math.degrees(sd[3]) if problem.sheared else math.nan,
+            "rotation_deg": math.degrees(rho_sd),
         },
         positions_mm=np.split(xy, split),
         position_sd_mm=np.split(xy_sd, split),
@@ -307,6 +319,28 @@ def fit_known(base: ImageModel, frames, rest, black, starts, scales=None) -> Kno
             if min(v - a, b - v) < 1e-6 * max(1.0, abs(v))
         ),
     )
+
+
+def direction_floor(frames, tangential_floor: float) -> float:
+    """The model-error floor (rad) of the rotation the known frames' tangential loads
+    give: each contact's load direction errs by ``tangential_floor`` Fz / Ft (rad; the
+    floor of a tangential component, :func:`~fringekit.inversion.uncertainty.model_sd`,
+    is a fraction of Fz), the contacts' combined by inverse variance. Infinite without
+    a tangential load.
+
+    Examples
+    --------
+    Two contacts, each with a tangential load of a quarter of Fz, a floor of 0.011 Fz:
+
+    >>> from types import SimpleNamespace
+    >>> fr = SimpleNamespace(loads=np.array([[0, 0, 0.5, 0, 2.0], [0, 0, 0, 1.0, 4.0]]))
+    >>> round(math.degrees(direction_floor([fr], 0.011)), 3)
+    1.783
+    """
+    loads = np.concatenate([np.asarray(fr.loads, float) for fr in frames])
+    ratio = np.hypot(loads[:, 2], loads[:, 3]) / loads[:, 4]
+    weight = float(np.sum((ratio / tangential_floor) ** 2))
+    return 1.0 / math.sqrt(weight) if weight > 0 else math.inf
 
 
 def _frame_rms(problem: _Problem, theta, D, fitted, use, gain: float) -> np.ndarray:

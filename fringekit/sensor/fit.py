@@ -338,6 +338,7 @@ def direction_floor(frames, tangential_floor: float) -> float:
     1.783
     """
     loads = np.concatenate([np.asarray(fr.loads, float) for fr in frames])
+    loads = loads[loads[:, 4] > 0]  # a contact without normal load gives no direction
     ratio = np.hypot(loads[:, 2], loads[:, 3]) / loads[:, 4]
     weight = float(np.sum((ratio / tangential_floor) ** 2))
     return 1.0 / math.sqrt(weight) if weight > 0 else math.inf

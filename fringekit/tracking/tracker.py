@@ -51,7 +51,7 @@ from fringekit.inversion.fit import (
     start_params,
     subsample,
 )
-from fringekit.inversion.hop import hop, hop_to
+from fringekit.inversion.hop import hop
 from fringekit.inversion.match import match_candidates
 from fringekit.inversion.model import N_PARAMS, ImageModel, unpack
 from fringekit.inversion.selection import MIN_LOAD_FRACTION, prune, sphere_gaps
@@ -59,7 +59,7 @@ from fringekit.inversion.uncertainty import model_sd, stated_sd
 from fringekit.inversion.verdict import WARN_RESIDUAL, InvertError, at_library_edge, window_rms
 from fringekit.tracking.frame import TrackedFrame
 from fringekit.tracking.ids import assign, twins, velocity
-from fringekit.tracking.start import near_residual, quick_start
+from fringekit.tracking.start import near_residual, quick_start, settle_new
 from fringekit.tracking.warm import ChordFit
 
 __all__ = [
@@ -97,12 +97,6 @@ REJECTED_FRAMES = 5
 GROWN = 1.5
 #: A touch is kept from this fraction of the library's first load (:meth:`Tracker._release`).
 TOUCH_FRACTION = 0.25
-#: A contact found in a redetection whose residual is this many times the held contacts'
-#: (at least 3 noise sd) has the axes about it searched (:meth:`Tracker._settle_new`) ...
-MISFIT_TIMES = 5.0
-#: ... from RING_POINTS axes on each of these circles about it (mm).
-RING_MM = (0.5, 1.0)
-RING_POINTS = 8
 
 
 class Tracker:
@@ -498,36 +492,10 @@ class Tracker:
         searched and the fit repeated when one moved; the new ones get ids (touched)."""
         diam = self.diam + new_diam
         p, moved = hop(model, fit_indenters(model, p, diam, self.noise).x, diam, self.noise)
-        moved += self._settle_new(model, p, diam, len(self.diam))
+        moved += settle_new(model, p, diam, len(self.diam), self.noise)
         if moved:
             p = fit_indenters(model, p, diam, self.noise).x
         self._adopt(p, diam, events)
-
-    def _settle_new(self, model: ImageModel, p: np.ndarray, diam: list, n_held: int) -> int:
-        """Search the axes about each new contact (indices from ``n_held`` of ``p``, which
-        is changed in place) whose residual stays MISFIT_TIMES above the held contacts'
-        (their median, at least the noise's share): local fits from RING_MM rings about
-        it (:func:`~fringekit.inversion.hop.hop_to`). The basin search scans loads at a
-        fixed axis, and a touch detected 0.9 mm off its axis was fitted there with a
-        tangential load it did not bear (residual 0.15 against 0.004 of its neighbours,
-        under the warning level: taken as reliable). How many moved."""
-        if n_held == 0 or len(diam) == n_held:
-            return 0
-        fixed = replace(model, keep=model.outside_contacts(unpack(p, diam)))
-        gains = fixed.fitted(unpack(p, diam))[1]
-        rms = near_residual(fixed, p, fixed.residual(p, diam), gains)
-        amp = float(np.mean(np.abs(gains))) or 1.0
-        level = MISFIT_TIMES * max(float(np.median(rms[:n_held])), 3 * self.noise / amp)
-        moved = 0
-        angles = np.linspace(0.0, 2 * np.pi, RING_POINTS, endpoint=False)
-        for k in range(n_held, len(diam)):
-            if not rms[k] > level:
-                continue
-            axis = p.reshape(-1, N_PARAMS)[k, :2]
-            ring = [axis + d * np.array([np.cos(a), np.sin(a)]) for d in RING_MM for a in angles]
-            q, changed = hop_to(model, p, diam, self.noise, k, ring)
-            p[:], moved = q, moved + changed
-        return moved
 
     def _adopt(self, p: np.ndarray, diam: list, events: list) -> None:
         """The contacts ``p``, ``diam``: the present ones first, then new ones, which get

@@ -345,9 +345,7 @@ def check_out(path) -> Path:
 def _rotation(fit: KnownFit, geo) -> tuple[float, float]:
     """The rotation (deg) and its 1-sigma: of the positions (two or more known), of the
     tangential loads, or inverse-variance weighted when both have one."""
-    vals = [(geo.rotation_deg, geo.sd["rotation_deg"])] if geo.n_known >= 2 else []
-    if math.isfinite(fit.sd["rotation_deg"]):
-        vals.append((fit.rotation_deg, fit.sd["rotation_deg"]))
+    vals = [v for v in _rotation_estimates(fit, geo).values() if v is not None]
     if not vals:
         return 0.0, math.nan
     if len(vals) == 1 or not all(sd > 0 for _, sd in vals):
@@ -357,10 +355,11 @@ def _rotation(fit: KnownFit, geo) -> tuple[float, float]:
 
 
 def _rotation_estimates(fit: KnownFit, geo) -> dict:
-    """The two estimates :func:`_rotation` combines, each (deg, 1-sigma) or None: of the
-    known positions and of the tangential loads' directions."""
-    pos = [geo.rotation_deg, _finite(geo.sd["rotation_deg"])] if geo.n_known >= 2 else None
-    tan = [fit.rotation_deg, fit.sd["rotation_deg"]]
+    """The two estimates :func:`_rotation` combines (and the report gives), each (deg,
+    1-sigma) or None: of the known positions (two or more) and of the tangential loads'
+    directions (when a known frame has one)."""
+    pos = (geo.rotation_deg, geo.sd["rotation_deg"]) if geo.n_known >= 2 else None
+    tan = (fit.rotation_deg, fit.sd["rotation_deg"])
     return {"positions": pos, "tangential_loads": tan if math.isfinite(tan[1]) else None}
 
 

@@ -214,7 +214,8 @@ def run_track(
         )
         t.write(work)  # the tables first: whatever befalls the video, they are kept
         if spool is not None:
-            t.summary["video"] = _paint_video(work, spool, pixel_mm, origin_px, t.summary, progress)
+            fps = t.summary["source"]["fps"] or 25.0
+            t.summary["video"] = _paint_video(work, spool, pixel_mm, origin_px, fps, progress)
             if t.summary["video"]["error"] is not None:
                 t.summary["warnings"].append(
                     f"track.mp4 was not written ({t.summary['video']['error']}); the tables "
@@ -282,8 +283,8 @@ def _to_rc(shape, pixel_mm: float, origin_px):
     return lambda x, y: (r0 - y / pixel_mm, c0 + x / pixel_mm)
 
 
-def _paint_video(work: Path, spool: FrameSpool, pixel_mm, origin_px, summary, progress):
-    """Paint the spooled frames into ``work/track.mp4`` (with a progress bar) and remove
+def _paint_video(work: Path, spool: FrameSpool, pixel_mm, origin_px, fps: float, progress):
+    """Paint the spooled frames into ``work/track.mp4`` at ``fps`` (with a progress bar) and remove
     the spool; return ``summary["video"]``: the file (None when not written), the frames
     painted and the error (None, or why the video was given up: the spool's own failure,
     Ctrl-C or an error while painting, after which a partial file is removed)."""
@@ -302,7 +303,7 @@ def _paint_video(work: Path, spool: FrameSpool, pixel_mm, origin_px, summary, pr
                     bar.update(1)
 
             try:
-                write_video(path, frames(), summary["source"]["fps"] or 25.0)
+                write_video(path, frames(), fps)
             finally:
                 bar.close()
     except KeyboardInterrupt:

@@ -167,8 +167,8 @@ def settle_new(model: ImageModel, p: np.ndarray, diam: list, n_held: int, noise:
     if n_held == 0 or len(diam) == n_held:
         return 0
     fixed = replace(model, keep=model.outside_contacts(unpack(p, diam)))
-    gains = fixed.fitted(unpack(p, diam))[1]
-    rms = near_residual(fixed, p, fixed.residual(p, diam), gains)
+    r, gains = ChordFit(noise).residual(fixed, p, diam)  # one synthesis, as quick_start's
+    rms = near_residual(fixed, p, r, gains)
     amp = float(np.mean(np.abs(gains))) or 1.0
     level = MISFIT_TIMES * max(float(np.median(rms[:n_held])), 3 * noise / amp)
     moved = 0

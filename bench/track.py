@@ -3,7 +3,7 @@ identity; the default) or FEM-rendered (accuracy).
 
 Usage: python bench/track.py [--sequence library|fem] [--frames 200] [--pixels 256]
        [--methods mono rgb] [--stride 4] [--noise 0.005] [--invert-every 50]
-       [--library DIR] [--work DIR] [--json FILE]
+       [--library DIR] [--work DIR] [--json FILE] [--show]
        (--work default: bench/out/track, ignored by git)
 
 ``--sequence fem`` (sequence (a) of the tracking issue, on the coarse sensor, whose
@@ -41,7 +41,9 @@ position in mm), identity swaps, and missed and spurious contacts per frame, and
 frames by which the touch and the lift were read late; and, on every INVERT_EVERY-th
 frame (0: none), the offline ``invert``'s errors against the truth beside the tracker's
 on the same frames (the issue's target: tracked within 1.5 times offline) and its time
-per image. ``--json`` writes it all, with the peak memory.
+per image. ``--json`` writes it all, with the peak memory. ``--show`` tracks with the
+live window's drawing (``track --show``) done in full off-screen in its own process, as
+the window does it: its cost to the solver, and the redraws it made.
 """
 
 from __future__ import annotations
@@ -64,11 +66,13 @@ from fringekit.library.build import DEFAULT_RATIOS, build_library
 from fringekit.library.store import load_library
 from fringekit.optics import write_image
 from fringekit.tracking import library_frames, track
+from fringekit.tracking.display import LiveDisplay
 
 ROOT = Path(__file__).resolve().parents[1]
 SENSOR = ROOT / "examples" / "coarse_sensor.toml"
 LOADS = (1.0, 1.4, 2.0, 2.8, 4.0)
 FIELD_MM = 16.0
+OFFSCREEN = "fringekit.tracking.display:OffscreenWindow"  # --show's drawing, no display
 #: The FEM sequence's largest normal load (N): inside the library's range (4 N), where
 #: ``invert`` answers (at 4 N it refuses: held at the library's edge).
 TOP_N = 3.4
@@ -300,9 +304,20 @@ def run(lib, method: str, args, work: Path) -> dict:
     else:
         truths = stream(args.frames)
         folder = _library_frames(lib, truths, method, args, work)
+    view = LiveDisplay(pixel_mm, None, window=OFFSCREEN) if args.show else None
     t0 = time.perf_counter()
-    tr = track(folder, lib, pixel_mm=pixel_mm, method=method, stride=args.stride, progress=True)
+    tr = track(
+        folder,
+        lib,
+        pixel_mm=pixel_mm,
+        method=method,
+        stride=args.stride,
+        progress=True,
+        on_frame=view,
+    )
     wall = time.perf_counter() - t0
+    if view is not None:
+        view.close()
     s = tr.summary
     level = 0.5 * lib.load_N[1]
     warm = [f.times_s["frame_s"] for f in tr.frames[1:] if not f.events]
@@ -328,6 +343,7 @@ def run(lib, method: str, args, work: Path) -> dict:
             [f.index, " ".join(f.events), f.times_s["frame_s"]] for f in tr.frames if f.events
         ],
         "times_s": s["times_s"],
+        "show": None if view is None else {"redraws": view.sent, "error": view.error},
         **score(tr, truths, level),
         "offline_invert": inverted,
     }
@@ -345,6 +361,11 @@ def main(argv=None) -> None:
     ap.add_argument("--library", default=None)
     ap.add_argument("--work", default="bench/out/track")
     ap.add_argument("--json", default=None)
+    ap.add_argument(
+        "--show",
+        action="store_true",
+        help="track with the --show window drawn off-screen (its own process): its cost",
+    )
     args = ap.parse_args(argv)
     work = Path(args.work)
     work.mkdir(parents=True, exist_ok=True)

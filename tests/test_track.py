@@ -496,28 +496,86 @@ def test_a_full_disk_gives_the_video_up_not_the_run(tiny_library, tmp_path, monk
     assert written == {"loads.csv", "loads.png", "summary.json"}
 
 
-def test_the_live_view_shows_the_frame_and_every_contact_s_rolling_loads(tiny_library, tmp_path):
-    """``--show``: the newest frame beside a rolling plot of each contact's Fz and
-    tangential load (here through matplotlib's file backend, as on a machine without a
-    display)."""
-    import matplotlib
-    import matplotlib.pyplot as plt
+#: A stand-in for the ``--show`` window, imported by the display's own process: its
+#: first draw waits for a ``release`` file beside it (or 120 s, then fails); every draw
+#: ends by writing what it was given to ``drawn.json``.
+STUCK_WINDOW = """
+import json, time
+from pathlib import Path
+HERE = Path(__file__).parent
+class Window:
+    def __init__(self):
+        self.draws = 0
+    def is_open(self):
+        return True
+    def wait(self, seconds):
+        time.sleep(seconds)
+    def draw(self, rgb, loads):
+        if self.draws == 0:
+            (HERE / "started").touch()
+            t0 = time.monotonic()
+            while not (HERE / "release").exists():
+                if time.monotonic() - t0 > 120:
+                    raise RuntimeError("never released")
+                time.sleep(0.01)
+        self.draws += 1
+        rows = {str(i): [t.tolist(), fz.tolist()] for i, (t, fz, ft) in loads.items()}
+        (HERE / "drawn.json").write_text(json.dumps({"shape": rgb.shape, "loads": rows}))
+"""
 
-    matplotlib.use("Agg")  # no window, whatever display the machine has
+
+def test_the_live_window_never_holds_the_solver_and_plots_every_frame(
+    tiny_library, tmp_path, monkeypatch
+):
+    """``--show``: the window draws in a process of its own. With its first draw stuck,
+    the stream is still solved to its end (the window has finished no draw when it
+    is); released, the window's rolling plot holds every frame's Fz, though it drew at
+    most a few of the frames. The window used to draw between two frames, in the
+    solver's loop."""
+    from fringekit.tracking.display import LiveDisplay
+
+    helpers = tmp_path / "helpers"
+    helpers.mkdir()
+    (helpers / "stuck_window.py").write_text(STUCK_WINDOW)
+    monkeypatch.syspath_prepend(str(helpers))  # the display's process imports it
     folder = tmp_path / "frames"
     library_frames(
-        tiny_library, [_moving(k) for k in range(3)], folder, pixels=PX, pixel_mm=PIXEL_MM
+        tiny_library, [_moving(k) for k in range(4)], folder, pixels=PX, pixel_mm=PIXEL_MM
     )
-    plt.close("all")
+    with LiveDisplay(PIXEL_MM, None, window="stuck_window:Window") as view:
+        t = track(folder, tiny_library, pixel_mm=PIXEL_MM, on_frame=view, progress=False)
+        assert [f.index for f in t.frames] == [0, 1, 2, 3]
+        assert not (helpers / "drawn.json").exists()  # solved while no draw had ended
+        (helpers / "release").touch()
+    assert view.error is None and view.sent + view.skipped == 4
+    drawn = json.loads((helpers / "drawn.json").read_text())
+    assert drawn["shape"] == [PX, PX, 3]
+    want: dict = {}
+    for f in t.frames:
+        for i, row in zip(f.ids, f.params, strict=True):
+            want.setdefault(str(int(i)), []).append([f.time_s, row[2]])
+    assert sorted(drawn["loads"]) == sorted(want) and len(want) == 2
+    for i, rows in want.items():
+        np.testing.assert_array_equal(np.array(drawn["loads"][i]).T, rows)
+
+
+def test_a_show_without_a_display_warns_and_tracks_the_stream(tiny_library, tmp_path, monkeypatch):
+    """``--show`` where matplotlib opens no window (here its file backend, as on a
+    machine without a display): the stream is tracked as without it, and the summary
+    says why there was no window."""
+    monkeypatch.setenv("MPLBACKEND", "Agg")  # the display's process inherits it
+    folder = tmp_path / "frames"
+    library_frames(
+        tiny_library, [_moving(k) for k in range(2)], folder, pixels=PX, pixel_mm=PIXEL_MM
+    )
+    out = tmp_path / "out"
     lib = str(tiny_library.folder)
-    argv = ["track", str(folder), "--library", lib, "--pixel-mm", "0.25"]
-    assert main([*argv, "--out", str(tmp_path / "out"), "--show", "--quiet"]) == 0
-    image_ax, load_ax = plt.gcf().axes
-    assert image_ax.images[0].get_array().shape[:2] == (PX, PX)
-    fz = [line.get_ydata() for line in load_ax.lines[::2]]  # Fz solid, tangential dashed
-    assert len(fz) == 2 and all(len(y) >= 1 for y in fz)
-    np.testing.assert_allclose(sorted(y[0] for y in fz), [2.5, 3.0], atol=0.05)
-    plt.close("all")
+    argv = ["track", str(folder), "--library", lib, "--pixel-mm", "0.25", "--out", str(out)]
+    assert main([*argv, "--show", "--quiet"]) == 0
+    assert sorted({r["frame"] for r in _rows(out / "loads.csv")}) == ["0", "1"]
+    summary = json.loads((out / "summary.json").read_text())
+    assert "backend is Agg, which opens no window" in summary["show"]["error"]
+    assert any(w.startswith("--show: the window failed") for w in summary["warnings"])
 
 
 def test_a_residual_bump_is_not_a_contact_nor_searched_every_frame(

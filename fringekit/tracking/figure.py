@@ -8,7 +8,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-__all__ = ["OverlayPainter", "loads_figure"]
+__all__ = ["OverlayPainter", "loads_figure", "sheet_to_pixel"]
 
 
 def loads_figure(path, table: dict) -> None:
@@ -92,3 +92,19 @@ class OverlayPainter:
         self.canvas.draw()
         rgba = np.asarray(self.canvas.buffer_rgba())
         return np.ascontiguousarray(rgba[: self.shape[0], : self.shape[1], :3])
+
+
+def sheet_to_pixel(shape, pixel_mm: float, origin_px):
+    """(x_mm, y_mm) -> (row, col) on a frame of ``shape`` (rows, cols) px, whose pixel
+    pitch on the sheet is ``pixel_mm`` (mm) and whose sensor origin is at the pixel
+    ``origin_px`` (row, col; None: the image centre); x runs right, y up.
+
+    Examples
+    --------
+    >>> to_rc = sheet_to_pixel((5, 7), 0.5, None)
+    >>> to_rc(1.0, 0.5)
+    (1.0, 5.0)
+    """
+    rows, cols = shape
+    r0, c0 = origin_px if origin_px is not None else ((rows - 1) / 2, (cols - 1) / 2)
+    return lambda x, y: (r0 - y / pixel_mm, c0 + x / pixel_mm)

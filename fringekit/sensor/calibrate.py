@@ -52,15 +52,9 @@ from fringekit.sensor.render import image_model
 __all__ = ["SensorCalibration", "calibrate_sensor", "check_out"]
 
 #: Refit on the calibrated grid when the pitch moves by more than this fraction, or the
-#: origin by more than this many pixels, and by more than REFIT_SD of its 1-sigma ...
+#: origin by more than this many pixels.
 REFIT_PITCH = 2e-5
 REFIT_ORIGIN_PX = 0.02
-REFIT_SD = 0.1
-#: ... and stop once a refit moved none of the scales (modulus, fringe value, gamma) by
-#: REFIT_SD of its 1-sigma: on bench/sensor.py the geometry kept moving by 0.02-0.1 of
-#: its 1-sigma (pitch +- 1.5 %, origin +- 0.22 px) and three refits of 40 s each gave the
-#: first one's scales to four digits.
-SCALES = ("modulus_scale", "fringe_scale", "gamma")
 #: Fits at most (the first on the nominal grid): the modulus scale follows the pitch at
 #: about four times its relative change (a pattern seen larger looks like a softer sheet).
 MAX_ROUNDS = 4
@@ -138,40 +132,10 @@ def _fit(lib, cfg, method, shape, pixel_mm, origin_px, frames, rest, black, star
 
 
 def _moved(geo, fit_pitch: float, fit_origin) -> bool:
-    """Whether the geometry ``geo`` moved from the grid the scales were fitted on by more
-    than REFIT_PITCH / REFIT_ORIGIN_PX and REFIT_SD of its 1-sigma.
-
-    Examples
-    --------
-    >>> from fringekit.sensor.geometry import Geometry
-    >>> geo = Geometry(0.0626, (100.0, 100.0), 0.0, {"pixel_mm": 1e-3, "origin_px": 0.2}, 3)
-    >>> _moved(geo, 0.0626, (100.0, 100.01)), _moved(geo, 0.0626, (100.0, 100.1))
-    (False, True)
-    >>> _moved(geo, 0.0624, (100.0, 100.0))  # 0.0002 mm: 0.2 of the pitch's 1-sigma
-    True
-    """
-    sd_pitch = np.nan_to_num(geo.sd["pixel_mm"]) / geo.pixel_mm
-    sd_origin = np.nan_to_num(geo.sd["origin_px"])
-    return bool(
-        abs(geo.pixel_mm / fit_pitch - 1) > max(REFIT_PITCH, REFIT_SD * sd_pitch)
-        or math.dist(geo.origin_px, fit_origin) > max(REFIT_ORIGIN_PX, REFIT_SD * sd_origin)
+    return (
+        abs(geo.pixel_mm / fit_pitch - 1) > REFIT_PITCH
+        or math.dist(geo.origin_px, fit_origin) > REFIT_ORIGIN_PX
     )
-
-
-def _settled(before: KnownFit, after: KnownFit) -> bool:
-    """Whether a refit moved every scale by less than REFIT_SD of its 1-sigma.
-
-    Examples
-    --------
-    >>> from types import SimpleNamespace as F
-    >>> sd = {"modulus_scale": 0.05, "fringe_scale": 0.004, "gamma": 0.07}
-    >>> a = F(modulus_scale=1.1, fringe_scale=0.92, gamma=2.2, sd=sd)
-    >>> _settled(a, F(modulus_scale=1.102, fringe_scale=0.9202, gamma=2.2, sd=sd))
-    True
-    >>> _settled(a, F(modulus_scale=1.1, fringe_scale=0.921, gamma=2.2, sd=sd))
-    False
-    """
-    return all(abs(getattr(after, k) - getattr(before, k)) < REFIT_SD * after.sd[k] for k in SCALES)
 
 
 def _reexpress(fit: KnownFit, old_pitch, old_origin, geo) -> list[np.ndarray]:
@@ -313,11 +277,8 @@ def calibrate_sensor(
             break
         starts = _reexpress(fit, *grid, geo)
         grid = (geo.pixel_mm, geo.origin_px)
-        before = fit
         fit, geo = _fit(lib, cfg, method, shape, *grid, frames, rest, black, starts, fit)
         say(_line(fit, geo, time.perf_counter() - t0) + " (on the calibrated grid)")
-        if _settled(before, fit):
-            break
     return _assemble(
         lib, cfg, method, shape, fit, geo, rest, black, black_sd, black_from, frames, t0
     )

@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import json
 import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -603,6 +604,32 @@ def test_the_live_window_never_holds_the_solver_and_plots_every_frame(
     assert sorted(drawn["loads"]) == sorted(want) and len(want) == 2
     for i, rows in want.items():
         np.testing.assert_array_equal(np.array(drawn["loads"][i]).T, rows)
+
+
+def test_a_stuck_window_is_ended_and_the_run_told(tmp_path, monkeypatch):
+    """A window that never finishes its draw holds up the end of a run by the close's
+    waits only (here shortened), and is ended; the run is told why."""
+    from fringekit.tracking import display
+    from fringekit.tracking.frame import TrackedFrame
+
+    monkeypatch.setattr(display, "CLOSE_S", 0.5)
+    helpers = tmp_path / "helpers"
+    helpers.mkdir()
+    (helpers / "stuck_window.py").write_text(STUCK_WINDOW)
+    monkeypatch.syspath_prepend(str(helpers))
+    params = np.array([[0.0, 0.0, 2.0, 0.0, 0.0]])
+    frame = TrackedFrame(0, 0.0, np.array([1]), params, params, np.zeros(1), np.ones(1, bool))
+    view = display.LiveDisplay(PIXEL_MM, None, window="stuck_window:Window", interval_s=0.0)
+    view(frame, np.zeros((8, 8), np.uint8))
+    for _ in range(6000):  # the process starts (a second or two) and its draw sticks
+        if (helpers / "started").exists():
+            break
+        time.sleep(0.01)
+    view(frame, np.zeros((8, 8), np.uint8))  # the slot: full from here on
+    view(frame, np.zeros((8, 8), np.uint8))
+    assert view.sent == 2 and view.skipped == 1
+    assert view.close() == "it did not close within 0.5 s and was ended"
+    assert not view.process.is_alive()
 
 
 def test_a_show_without_a_display_warns_and_tracks_the_stream(tiny_library, tmp_path, monkeypatch):

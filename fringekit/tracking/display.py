@@ -197,14 +197,18 @@ class LiveDisplay:
             except queue.Full:
                 pass  # the window is stuck: ended below
         self.process.join(CLOSE_S)
-        if self.process.is_alive():
+        stuck = self.process.is_alive()
+        if stuck:
             self.process.terminate()
             self.process.join()
         try:
             self.error = self.outbox.get(timeout=1.0)
         except queue.Empty:
             self.error = (
-                f"its process ended with exit code {self.process.exitcode}, its error printed above"
+                f"it did not close within {CLOSE_S:g} s and was ended"
+                if stuck
+                else f"its process ended with exit code {self.process.exitcode}, its error "
+                "printed above"
             )
         self.inbox.close()
         self.outbox.close()

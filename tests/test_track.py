@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import csv
 import json
+import os
+import signal
 import threading
 import time
 from pathlib import Path
@@ -630,6 +632,47 @@ def test_a_stuck_window_is_ended_and_the_run_told(tmp_path, monkeypatch):
     assert view.sent == 2 and view.skipped == 1
     assert view.close() == "it did not close within 0.5 s and was ended"
     assert not view.process.is_alive()
+
+
+#: A script that opens the ``--show`` window where matplotlib can open none, after
+#: handing it two 256 x 256 frames (each more than a pipe holds), and closes it; the
+#: window's process records how it found Ctrl-C as it started (it imports the script).
+NO_WINDOW_SCRIPT = """
+import signal, sys
+from pathlib import Path
+import numpy as np
+from fringekit.tracking.display import LiveDisplay
+if __name__ == "__mp_main__":
+    Path(sys.argv[1]).write_text(str(signal.getsignal(signal.SIGINT)))
+if __name__ == "__main__":
+    view = LiveDisplay(0.25, None, interval_s=0.0)
+    for _ in range(2):
+        view(None, np.zeros((256, 256), np.uint8))
+    print(view.close())
+"""
+
+
+def test_a_window_that_never_reads_lets_the_run_exit(tmp_path):
+    """No window could open (matplotlib's file backend): the frames handed to it are
+    dropped and the run's interpreter exits (it used to wait forever on writing them into
+    a pipe nobody read); a Ctrl-C while the window's process starts is not its."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "no_window.py"
+    script.write_text(NO_WINDOW_SCRIPT)
+    env = {**os.environ, "MPLBACKEND": "Agg"}
+    mark = tmp_path / "sigint.txt"
+    done = subprocess.run(
+        [sys.executable, str(script), str(mark)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "which opens no window" in done.stdout
+    assert mark.read_text() == str(signal.SIG_IGN)
 
 
 def test_a_show_without_a_display_warns_and_tracks_the_stream(tiny_library, tmp_path, monkeypatch):

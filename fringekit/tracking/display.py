@@ -17,8 +17,10 @@ import multiprocessing
 import os
 import queue
 import signal
+import threading
 import time
 from collections import deque
+from contextlib import contextmanager
 
 import numpy as np
 from matplotlib.backends import BackendFilter, backend_registry
@@ -142,7 +144,8 @@ class LiveDisplay:
             name="fringekit-show",
             daemon=True,
         )
-        self.process.start()
+        with _sigint_ignored():  # a Ctrl-C while it starts is the solver's, not its
+            self.process.start()
         self.interval, self.clock = float(interval_s), clock
         self.pending: deque = deque(maxlen=int(history))
         self.newest = None
@@ -163,40 +166,54 @@ class LiveDisplay:
             self.pending.append((frame.time_s, tuple(int(i) for i in frame.ids), frame.params))
         self.newest = (marks(frame), image)
         now = self.clock()
-        if now - self.last < self.interval or not self._send(block=False):
+        if now - self.last < self.interval or not self._send():
             self.skipped += 1
             return
         self.last = now
         self.sent += 1
 
-    def _send(self, block: bool) -> bool:
+    def _send(self, deadline: float | None = None) -> bool:
         """Hand the newest frame with the records since the last one sent to the window
-        (False: its slot is still full, or its process has ended)."""
-        if self.newest is None or not self.process.is_alive():
+        (False: its slot is still full, by ``deadline`` (time.monotonic) when given, or
+        its process has ended)."""
+        if self.newest is None:
             return False
         (params, ids), image = self.newest
         item = ((np.asarray(params), tuple(ids)), np.asarray(image), list(self.pending))
-        try:
-            self.inbox.put(item, block=block, timeout=CLOSE_S if block else None)
-        except queue.Full:
+        if not self._put(item, deadline):
             return False
         self.pending.clear()
         return True
 
+    def _put(self, item, deadline: float | None) -> bool:
+        """Put ``item`` in the window's slot, waiting until ``deadline`` at most (None:
+        not at all) and no longer than the window's process lives."""
+        while self.process.is_alive():
+            try:
+                self.inbox.put_nowait(item)
+                return True
+            except queue.Full:
+                if deadline is None or time.monotonic() > deadline:
+                    return False
+                time.sleep(0.01)
+        return False
+
     def close(self) -> str | None:
         """Send the last records, end the window's process, and return why the window
-        failed (None when it did not: it drew, or was closed by its user)."""
+        failed (None when it did not: it drew, or was closed by its user). It waits
+        CLOSE_S at most, and a Ctrl-C while it waits ends the window at once."""
         if self.closed:
             return self.error
         self.closed = True
-        if self.process.is_alive():
-            if self.pending:
-                self._send(block=True)
-            try:
-                self.inbox.put(None, timeout=CLOSE_S)
-            except queue.Full:
-                pass  # the window is stuck: ended below
-        self.process.join(CLOSE_S)
+        deadline = time.monotonic() + CLOSE_S
+        unsent = 0
+        try:
+            if self.pending and not self._send(deadline):
+                unsent = len(self.pending)
+            if self._put(None, deadline):
+                self.process.join(max(0.0, deadline - time.monotonic()))
+        except KeyboardInterrupt:
+            pass  # the run's own Ctrl-C handling goes on: the window is ended below
         stuck = self.process.is_alive()
         if stuck:
             self.process.terminate()
@@ -210,9 +227,27 @@ class LiveDisplay:
                 else f"its process ended with exit code {self.process.exitcode}, its error "
                 "printed above"
             )
+        if self.error is None and unsent:
+            self.error = f"it did not take the last {unsent} frame(s)' loads"
+        # what the process did not read is dropped: exit must not wait on writing it
+        self.inbox.cancel_join_thread()
         self.inbox.close()
         self.outbox.close()
         return self.error
+
+
+@contextmanager
+def _sigint_ignored():
+    """SIGINT ignored inside the block (in the main thread; elsewhere as it is): a process
+    started in it inherits the disposition, and Python keeps it ignored as it starts."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    before = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, before)
 
 
 def _serve(inbox, outbox, window: str, pixel_mm: float, origin_px, history: int) -> None:

@@ -50,10 +50,10 @@ IDLE_S = 0.02
 
 #: The display process's niceness (POSIX): where the cores are busy solving, it gets
 #: little more than their idle time. On the track bench (mono, 2-thread solver, 2 cores)
-#: with the window drawn off-screen: 4.9-5.0 frames a second without it, 2.2 with the
-#: drawing in the solver's loop (about 250 ms a redraw), 3.4 with an un-niced process
-#: (warm median 168 ms against 88 ms), 4.1-4.7 at niceness 10 (21-24 redraws in 43-49 s)
-#: and 4.7 at 19 (12 redraws).
+#: with the window drawn off-screen: 5.1-5.2 frames a second without it, 2.2 with the
+#: drawing in the solver's loop (about 250 ms a redraw); in its process, 3.4 un-niced,
+#: 4.1-4.7 at niceness 10 (21-28 redraws in 43-49 s) and 4.7 at 19 (12 redraws) while
+#: BLAS ran 2 threads in the solver; 5.07 at niceness 10 (84 redraws in 39 s) with one.
 NICE = 10
 
 #: How long the end of a run waits for the window to draw the last records and close (s).

@@ -41,6 +41,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from fringekit._threads import single_blas_thread
 from fringekit.inversion.detect import detect, noise_sd
 from fringekit.inversion.fit import (
     EXACT_MM,
@@ -134,7 +135,12 @@ class Tracker:
 
     def step(self, measured, usable, nodata, index: int, time_s: float) -> TrackedFrame:
         """The contacts of one frame: linear intensities ``measured`` (P, C), ``usable``
-        and ``nodata`` (P,) bool, as :class:`ImageModel` holds them."""
+        and ``nodata`` (P,) bool, as :class:`ImageModel` holds them. BLAS runs on one
+        thread: the frame's products are small and the rays use the cores already."""
+        with single_blas_thread():
+            return self._step(measured, usable, nodata, index, time_s)
+
+    def _step(self, measured, usable, nodata, index: int, time_s: float) -> TrackedFrame:
         t0 = time.perf_counter()
         full = replace(self.blank, measured=measured, usable=usable, nodata=nodata)
         sub = replace(subsample(full, self.stride), exact=EXACT_MM * 1e-3)

@@ -222,20 +222,20 @@ def test_a_touch_a_release_and_a_crossing_keep_their_ids(tiny_library, tmp_path)
 
 
 def test_a_frame_is_solved_on_one_blas_thread(tiny_library, tmp_path, monkeypatch):
-    """The warm fit's products run on one BLAS thread: OpenBLAS's threads, spinning while
+    """The warm fit runs on one BLAS thread: OpenBLAS's threads, spinning while
     they wait, took the cores from the ``--show`` window (the track bench: 4.42 frames a
     second with 28 redraws, 5.07 with 84 on one thread)."""
     from threadpoolctl import threadpool_info
 
     from fringekit.tracking import warm
 
-    seen, keep = [], warm.ChordFit._solve
+    seen, keep = [], warm.ChordFit.run
 
-    def solve(self, *args):
+    def run(self, *args):
         seen.append({p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"})
         return keep(self, *args)
 
-    monkeypatch.setattr(warm.ChordFit, "_solve", solve)
+    monkeypatch.setattr(warm.ChordFit, "run", run)
     library_frames(
         tiny_library, [_moving(k) for k in range(3)], tmp_path, pixels=PX, pixel_mm=PIXEL_MM
     )

@@ -12,9 +12,9 @@ every frame solved.
 
 from __future__ import annotations
 
-import importlib
 import multiprocessing
 import os
+import pkgutil
 import queue
 import signal
 import threading
@@ -257,8 +257,7 @@ def _serve(inbox, outbox, window: str, pixel_mm: float, origin_px, history: int)
     if hasattr(os, "nice"):  # the solver's cores first: the window draws in their idle time
         os.nice(NICE)
     try:
-        module, name = window.split(":")
-        win = getattr(importlib.import_module(module), name)()
+        win = pkgutil.resolve_name(window)()
         kept: deque = deque(maxlen=history)
         painter = None
         while True:

@@ -23,7 +23,7 @@ from tqdm.auto import tqdm
 
 from fringekit.library.calibrated import as_calibrated
 from fringekit.output.folders import claim_output
-from fringekit.tracking.display import DEFAULT_WINDOW, LiveDisplay, marks
+from fringekit.tracking.display import LiveDisplay, marks
 from fringekit.tracking.figure import OverlayPainter, sheet_to_pixel
 from fringekit.tracking.stream import track
 from fringekit.tracking.tracker import TRACK_STRIDE
@@ -46,11 +46,10 @@ def run_track(
     max_frames=None,
     video: bool = False,
     show: bool = False,
-    window: str = DEFAULT_WINDOW,
     progress: bool = True,
 ) -> dict:
-    """Track ``source``; write ``out``; return the summary. ``show`` opens ``window``
-    (:class:`~fringekit.tracking.display.LiveDisplay`)."""
+    """Track ``source``; write ``out``; return the summary. ``show`` opens the live
+    window (:class:`~fringekit.tracking.display.LiveDisplay`)."""
     cal = as_calibrated(sensor)
     if cal is not None:  # the overlay's pixels are the calibration's
         pixel_mm, origin_px = cal.grid_options(pixel_mm, origin_px)
@@ -61,7 +60,7 @@ def run_track(
     ]
     with claim_output(out, command="track", inputs=inputs) as work:
         spool = FrameSpool(work / ".frames") if video else None
-        view = LiveDisplay(pixel_mm, origin_px, window=window) if show else None
+        view = LiveDisplay(pixel_mm, origin_px) if show else None
 
         def on_frame(f, img):
             for cb in (spool, view):

@@ -49,6 +49,14 @@ def add_parser(sub) -> None:
         "init, a config with nothing fitted); default: the library's config",
     )
     tr.add_argument(
+        "--reference",
+        nargs="+",
+        default=None,
+        metavar="FRAME",
+        help="frame(s) of the sensor at rest in the stream's light: their light (residual "
+        "birefringence, glare) is taken off every frame, in place of a sensor file's rest map",
+    )
+    tr.add_argument(
         "--stride",
         type=at_least_one,
         default=TRACK_STRIDE,
@@ -73,6 +81,7 @@ def run(args: argparse.Namespace) -> int:
         origin_px=args.origin_px,
         method=args.method,
         sensor=args.sensor,
+        reference=args.reference,
         stride=args.stride,
         fps=args.fps,
         max_frames=args.max_frames,

@@ -41,6 +41,7 @@ def run_track(
     origin_px=None,
     method=None,
     sensor=None,
+    reference=None,
     stride: int = TRACK_STRIDE,
     fps=None,
     max_frames=None,
@@ -49,7 +50,8 @@ def run_track(
     progress: bool = True,
 ) -> dict:
     """Track ``source``; write ``out``; return the summary. ``show`` opens the live
-    window (:class:`~fringekit.tracking.display.LiveDisplay`)."""
+    window (:class:`~fringekit.tracking.display.LiveDisplay`); the other arguments are
+    :func:`~fringekit.tracking.stream.track`'s."""
     cal = as_calibrated(sensor)
     if cal is not None:  # the overlay's pixels are the calibration's
         pixel_mm, origin_px = cal.grid_options(pixel_mm, origin_px)
@@ -57,6 +59,7 @@ def run_track(
         source if os.path.exists(str(source)) else None,
         getattr(library, "folder", library),
         sensor,
+        *([reference] if isinstance(reference, (str, os.PathLike)) else reference or []),
     ]
     with claim_output(out, command="track", inputs=inputs) as work:
         spool = FrameSpool(work / ".frames") if video else None
@@ -75,6 +78,7 @@ def run_track(
                 origin_px=origin_px,
                 method=method,
                 sensor=sensor,
+                reference=reference,
                 stride=stride,
                 fps=fps,
                 max_frames=max_frames,

@@ -44,6 +44,7 @@ __all__ = [
     "FrameSource",
     "RawFrame",
     "VideoSource",
+    "checked_pixels",
     "open_source",
 ]
 
@@ -204,9 +205,17 @@ def _describe(image: np.ndarray) -> str:
     return f"{rows} x {cols} pixels (rows x cols) {colour} {image.dtype.itemsize * 8}-bit"
 
 
-def _checked_pixels(img: np.ndarray, where: str) -> np.ndarray:
+def checked_pixels(img: np.ndarray, where: str) -> np.ndarray:
     """A decoded image as a frame's image: alpha dropped, (rows, cols) or (rows, cols, 3),
-    uint8 or uint16."""
+    uint8 or uint16; another shape or type is refused in one line that begins with
+    ``where`` (:class:`~fringekit.errors.SourceError`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> checked_pixels(np.zeros((2, 3, 4), np.uint8), "frame 0").shape
+    (2, 3, 3)
+    """
     if img.ndim == 3 and img.shape[2] in (1, 2):  # grey, grey + alpha
         img = img[..., 0]
     elif img.ndim == 3 and img.shape[2] == 4:  # RGBA
@@ -310,7 +319,7 @@ class FolderSource(FrameSource):
             except (OSError, ValueError) as exc:  # one line that names the file
                 raise SourceError(f"SOURCE {self.spec}: frame {index}: {exc}") from None
             t = index / self.fps if self.fps else math.nan
-            yield RawFrame(index, t, _checked_pixels(img, where), path.name)
+            yield RawFrame(index, t, checked_pixels(img, where), path.name)
 
 
 class VideoSource(FrameSource):

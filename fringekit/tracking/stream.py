@@ -27,18 +27,16 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
-from fringekit.analysis import normalise
 from fringekit.config.files import load_config
 from fringekit.config.inputs import optics_setup
 from fringekit.errors import ConfigError, SourceError
-from fringekit.inversion.read import frame_measurement
 from fringekit.inversion.verdict import InvertError
 from fringekit.library.calibrated import CalibratedSensor, as_calibrated
 from fringekit.library.store import Library, check_sensor, load_library
-from fringekit.measurement.regions import no_data_regions
 from fringekit.output.folders import atomic_write
 from fringekit.tracking.figure import loads_figure
 from fringekit.tracking.frame import TrackedFrame
+from fringekit.tracking.rest import RestFrames, frame_linear, grey
 from fringekit.tracking.source import FrameSource, open_source
 from fringekit.tracking.synthetic import blank_model
 from fringekit.tracking.tracker import TRACK_STRIDE, Tracker
@@ -145,24 +143,6 @@ def _cell(x) -> str:
     return f"{float(x):.6g}"
 
 
-def _grey(raw: np.ndarray) -> np.ndarray:
-    """The frame, (rows, cols) when it is grey: a colour frame whose three channels are
-    equal (a grey camera's video) is one."""
-    same = raw.ndim == 3 and all(np.array_equal(raw[..., 0], raw[..., c]) for c in (1, 2))
-    return raw[..., 0] if same else raw
-
-
-def _measurement(raw: np.ndarray, method: str, camera: str, name: str, cal=None):
-    """(measured (P, C), usable (P,), nodata (P,), note) of one decoded frame; a colour
-    frame whose three channels are equal is a grey one; ``cal``: a calibrated sensor whose
-    response, rest frame and illumination are applied."""
-    frame = normalise(_grey(raw), source=name)
-    lin, data, sat, note = frame_measurement(frame, method, camera, cal)
-    nodata = no_data_regions(data)
-    usable = (~sat & ~nodata).ravel()
-    return lin.reshape(usable.size, -1), usable, nodata.ravel(), note
-
-
 def _method(method: str | None, raw: np.ndarray) -> str:
     """``--method``: rgb or mono (phase needs six images per state, which a stream of
     single frames does not give); default rgb for colour frames, mono for grey ones."""
@@ -175,7 +155,7 @@ def _method(method: str | None, raw: np.ndarray) -> str:
         raise ConfigError(f"--method {method!r} is not allowed; give rgb or mono")
     if method is not None:
         return method
-    return "mono" if _grey(raw).ndim == 2 else "rgb"
+    return "mono" if grey(raw).ndim == 2 else "rgb"
 
 
 def _sensor(lib: Library, cal: CalibratedSensor | None) -> tuple[dict, str]:
@@ -185,6 +165,18 @@ def _sensor(lib: Library, cal: CalibratedSensor | None) -> tuple[dict, str]:
         check_sensor(lib, cal.config, "--sensor")
         return cal.config, "the sensor file"
     return load_config(lib.folder / "config.toml"), str(lib.folder / "config.toml")
+
+
+def _rest_summary(rest: RestFrames | None, light: np.ndarray | None) -> dict | None:
+    """``summary["reference"]``: the rest frames and the light taken off every frame (its
+    mean and largest value per channel, linear 0-1); None without ``--reference``."""
+    if rest is None:
+        return None
+    out: dict = {"frames": list(rest.names)}
+    if light is not None:
+        out["light_mean"] = [float(v) for v in light.mean(0)]
+        out["light_max"] = [float(v) for v in light.max(0)]
+    return out
 
 
 def _times(frames: list[TrackedFrame]) -> dict:
@@ -209,6 +201,7 @@ def track(
     origin_px: tuple[float, float] | None = None,
     method: str | None = None,
     sensor: str | os.PathLike | CalibratedSensor | None = None,
+    reference=None,
     stride: int = TRACK_STRIDE,
     fps: float | None = None,
     max_frames: int | None = None,
@@ -239,6 +232,11 @@ def track(
     sensor : path or CalibratedSensor, optional
         A sensor file (``.json`` of ``fringekit sensor calibrate`` or ``sensor init``),
         applied as ``invert`` applies it; default the library's own config.
+    reference : path or sequence of paths, optional
+        Frames of the sensor at rest in the stream's light (``--reference``): their light,
+        averaged and smoothed, is taken off every frame
+        (:class:`~fringekit.tracking.rest.RestFrames`; with a calibrated ``sensor``, in
+        place of its rest map).
     stride : int
         Every ``stride``-th pixel in both directions is fitted per frame (default 4).
     fps : float, optional
@@ -299,8 +297,9 @@ def track(
         raise ConfigError(f"--stride {stride} is not allowed; give a whole number 1-16")
     cfg, where = _sensor(lib, cal)
     optics = optics_setup(cfg)
+    rest = None if reference is None else RestFrames.read(reference)
     src = source if isinstance(source, FrameSource) else open_source(str(source), fps=fps)
-    run = _Run(lib, cfg, optics, src, pixel_mm, origin_px, method, int(stride), on_frame, cal)
+    run = _Run(lib, cfg, optics, src, pixel_mm, origin_px, method, int(stride), on_frame, cal, rest)
     with src:
         run.loop(max_frames, progress)
     summary = run.summary(where)
@@ -313,8 +312,11 @@ class _Run:
     """One pass over a source: the tracker made at the first frame, the frames solved,
     the notes, and why it stopped."""
 
-    def __init__(self, lib, cfg, optics, src, pixel_mm, origin_px, method, stride, on_frame, cal):
+    def __init__(
+        self, lib, cfg, optics, src, pixel_mm, origin_px, method, stride, on_frame, cal, rest
+    ):
         self.lib, self.cfg, self.optics, self.src, self.cal = lib, cfg, optics, src, cal
+        self.rest = rest  # its light is made at the first frame, when the method is known
         self.pixel_mm, self.origin_px, self.method = pixel_mm, origin_px, method
         self.stride, self.on_frame = stride, on_frame
         self.tracker: Tracker | None = None
@@ -324,12 +326,19 @@ class _Run:
         self.stopped: dict | None = None
         self.refused: list[dict] = []
         self.t_loop = 0.0
+        self.rest_light: np.ndarray | None = None
 
     def loop(self, max_frames, progress: bool) -> None:
-        bar = tqdm(total=self.src.n_frames, unit="frame", desc="track", disable=not progress)
+        bar = None
         t0 = time.perf_counter()
         try:
             for raw in self.src:
+                if self.tracker is None:  # a bad option is refused before the bar starts
+                    self._setup(raw.image)
+                if bar is None:
+                    bar = tqdm(
+                        total=self.src.n_frames, unit="frame", desc="track", disable=not progress
+                    )
                 self.read += 1
                 solved = None
                 try:
@@ -348,22 +357,31 @@ class _Run:
         except KeyboardInterrupt:
             self.stopped = {"after_frames": len(self.frames), "reason": "interrupted (Ctrl-C)"}
         finally:
-            bar.close()
+            if bar is not None:
+                bar.close()
             self.t_loop = time.perf_counter() - t0
+
+    def _setup(self, img: np.ndarray) -> None:
+        """The tracker of frames like ``img`` (the first): the method, the sensor's model
+        and the rest light; a bad option is refused in one line."""
+        self.method = _method(self.method, img)
+        lib, optics, shape = self.lib, self.optics, img.shape[:2]
+        if self.cal is not None:
+            lib, optics = self.cal.model_inputs(lib, optics, shape, self.method)
+        if self.rest is not None:
+            cam = self.optics.camera.sensitivities
+            self.rest_light = self.rest.light(shape, self.method, cam, self.cal)
+        blank = blank_model(
+            lib, self.cfg, shape, self.pixel_mm, self.method, self.origin_px, optics
+        )
+        self.tracker = Tracker(blank, self.stride)
 
     def _solve(self, raw) -> TrackedFrame:
         img = raw.image
-        if self.tracker is None:
-            self.method = _method(self.method, img)
-            lib, optics, shape = self.lib, self.optics, img.shape[:2]
-            if self.cal is not None:
-                lib, optics = self.cal.model_inputs(lib, optics, shape, self.method)
-            blank = blank_model(
-                lib, self.cfg, shape, self.pixel_mm, self.method, self.origin_px, optics
-            )
-            self.tracker = Tracker(blank, self.stride)
         camera = self.optics.camera.sensitivities
-        measured, usable, nodata, note = _measurement(img, self.method, camera, raw.name, self.cal)
+        measured, usable, nodata, note = frame_linear(img, self.method, camera, raw.name, self.cal)
+        if self.rest_light is not None:
+            measured = measured - self.rest_light
         if note and note not in self.notes:
             self.notes.append(note)
         return self.tracker.step(measured, usable, nodata, raw.index, raw.time_s)
@@ -396,6 +414,7 @@ class _Run:
             "pixel_mm": self.pixel_mm,
             "origin_px": list(self.origin_px) if self.origin_px is not None else None,
             "stride": self.stride,
+            "reference": _rest_summary(self.rest, self.rest_light),
             "frames_read": self.read,
             "frames_solved": solved,
             "frames_dropped": int(self.src.dropped),

@@ -788,7 +788,7 @@ def test_frames_replace_their_own_earlier_stream_and_refuse_a_user_s_folder(tiny
         (["camera:abc"], ["camera:abc"]),
         (["nowhere"], ["nowhere"]),
         (["FRAMES", "--pixel-mm", "0"], ["--pixel-mm", "0"]),
-        (["FRAMES", "--method", "phase"], ["--method", "phase"]),
+        (["FRAMES", "--method", "dark"], ["--method", "dark"]),
     ],
 )
 def test_bad_streams_are_one_line_and_write_nothing(tiny_library, tmp_path, capsys, args, words):
@@ -922,5 +922,58 @@ def test_a_rest_frame_of_another_size_or_unreadable_is_one_line(tiny_library, tm
         code = main(["track", str(folder), *lib, "--reference", str(rest), "--out", str(out)])
         err = capsys.readouterr().err.strip().splitlines()
         assert code == 2
+        assert len(err) == 1 and all(w in err[0] for w in words), err
+        assert not out.exists()
+
+
+@pytest.mark.slow
+def test_a_phase_stream_is_tracked_six_steps_a_state(tiny_library, tmp_path):
+    """Six phase-stepped 16-bit frames per load state, in a folder: each state is solved
+    as one (positions to 2e-3 mm, loads to 2e-3 of Fz, the ids kept); three steps left at
+    the end make no state and are reported, not solved."""
+    folder = tmp_path / "frames"
+    truth = [_moving(k) for k in range(3)]
+    n = library_frames(
+        tiny_library, truth, folder, pixels=PX, pixel_mm=PIXEL_MM, method="phase", bit_depth=16
+    )
+    assert n == 3 and len(list(folder.glob("*.png"))) == 18
+    for k in (1, 2, 3):  # a fourth state cut short
+        (folder / f"frame_0003_step{k}.png").write_bytes(
+            (folder / f"frame_0002_step{k}.png").read_bytes()
+        )
+    out = tmp_path / "out"
+    lib = ["--library", str(tiny_library.folder), "--pixel-mm", str(PIXEL_MM), "--quiet"]
+    assert main(["track", str(folder), *lib, "--method", "phase", "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert (summary["frames_read"], summary["frames_solved"]) == (21, 3)
+    assert summary["method"] == "phase" and summary["frames_per_state"] == 6
+    assert any("last 3 frame(s)" in w for w in summary["warnings"])
+    rows = list(csv.DictReader((out / "loads.csv").open()))
+    assert [int(r["frame"]) for r in rows] == [0, 0, 1, 1, 2, 2]
+    ids = {}  # each contact (its truth row's place in the list) keeps one id
+    for row in rows:
+        got = np.array([float(row[k]) for k in ("x_mm", "y_mm", "Fz_N", "Fx_N", "Fy_N")])
+        t = np.asarray(truth[int(row["frame"])], float)
+        j = int(np.argmin(np.hypot(*(t[:, :2] - got[:2]).T)))
+        assert np.all(np.abs(got[:2] - t[j, :2]) <= 2e-3), (row, t[j])
+        assert np.all(np.abs(got[2:] - t[j, 2:]) <= 2e-3 * t[j, 2]), (row, t[j])
+        assert ids.setdefault(j, row["id"]) == row["id"], (row, ids)
+    assert len(set(ids.values())) == 2
+
+
+def test_a_phase_stream_from_a_camera_or_with_a_rest_frame_is_one_line(
+    tiny_library, tmp_path, capsys
+):
+    folder = tmp_path / "frames"
+    library_frames(tiny_library, [_moving(0)], folder, pixels=PX, pixel_mm=PIXEL_MM)
+    lib = ["--library", str(tiny_library.folder), "--pixel-mm", "0.25", "--method", "phase"]
+    rest = folder / "frame_0000.png"
+    for args, words in (
+        (["camera:0"], ["--method phase", "camera:0", "folder or a video"]),
+        ([str(folder), "--reference", str(rest)], ["--reference", "--method phase"]),
+    ):
+        out = tmp_path / "out"
+        assert main(["track", *args, *lib, "--out", str(out)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and all(w in err[0] for w in words), err
         assert not out.exists()

@@ -37,9 +37,10 @@ def add_parser(sub) -> None:
     )
     tr.add_argument(
         "--method",
-        choices=("rgb", "mono"),
+        choices=("rgb", "mono", "phase"),
         default=None,
-        help="default: rgb for colour frames, mono for grey ones",
+        help="default: rgb for colour frames, mono for grey ones; phase: every six frames in "
+        "a row are one load state's six phase steps",
     )
     origin_px_option(tr)
     tr.add_argument(

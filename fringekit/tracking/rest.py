@@ -33,7 +33,11 @@ from fringekit.library.calibrated import coarse_map, fine_map
 from fringekit.measurement.regions import no_data_regions
 from fringekit.tracking.source import checked_pixels
 
-__all__ = ["RestFrames", "frame_linear", "grey"]
+__all__ = ["PHASE_STEPS", "RestFrames", "frame_linear", "grey", "steps_linear"]
+
+#: Frames a load state takes with the phase method (the six phase steps, in
+#: :data:`fringekit.analysis.SIX_STEP_ORDER`).
+PHASE_STEPS = 6
 
 
 def grey(raw: np.ndarray) -> np.ndarray:
@@ -88,6 +92,43 @@ def frame_linear(raw: np.ndarray, method: str, camera: str, name: str, cal=None)
     nodata = no_data_regions(data)
     usable = (~sat & ~nodata).ravel()
     return lin.reshape(usable.size, -1), usable, nodata.ravel(), note
+
+
+def steps_linear(images, names):
+    """The six phase-stepped frames of one load state as the model sees them (as
+    ``invert --method phase`` reads six images: each step grey, a colour one as the mean of
+    its channels).
+
+    Parameters
+    ----------
+    images : sequence of six (rows, cols) or (rows, cols, 3) arrays
+        The steps' pixels as stored, in :data:`~fringekit.analysis.SIX_STEP_ORDER`.
+    names : sequence of six str
+        Their names, for messages.
+
+    Returns
+    -------
+    measured : (P, 6) array
+        The steps' intensities in [0, 1], P = rows * cols.
+    usable : (P,) bool array
+        Saturated in no step, and not no-data.
+    nodata : (P,) bool array
+    note : str
+        Always "" (kept for :func:`frame_linear`'s shape).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> steps = [np.full((4, 5), k * 40, np.uint8) for k in range(6)]
+    >>> m, usable, nodata, note = steps_linear(steps, [f"s{k}" for k in range(6)])
+    >>> m.shape, round(float(m[0, 5]), 3)
+    ((20, 6), 0.784)
+    """
+    frames = [normalise(grey(im), source=n) for im, n in zip(images, names, strict=True)]
+    raw = np.stack([f.data if f.data.ndim == 2 else f.data.mean(-1) for f in frames], -1)
+    nodata = no_data_regions(raw)
+    usable = (~np.any([f.saturated for f in frames], axis=0) & ~nodata).ravel()
+    return raw.reshape(usable.size, -1), usable, nodata.ravel(), ""
 
 
 @dataclass(frozen=True)

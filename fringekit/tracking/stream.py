@@ -36,8 +36,8 @@ from fringekit.library.store import Library, check_sensor, load_library
 from fringekit.output.folders import atomic_write
 from fringekit.tracking.figure import loads_figure
 from fringekit.tracking.frame import TrackedFrame
-from fringekit.tracking.rest import RestFrames, frame_linear, grey
-from fringekit.tracking.source import FrameSource, open_source
+from fringekit.tracking.rest import PHASE_STEPS, RestFrames, frame_linear, grey, steps_linear
+from fringekit.tracking.source import FrameSource, RawFrame, open_source
 from fringekit.tracking.synthetic import blank_model
 from fringekit.tracking.tracker import TRACK_STRIDE, Tracker
 
@@ -144,15 +144,10 @@ def _cell(x) -> str:
 
 
 def _method(method: str | None, raw: np.ndarray) -> str:
-    """``--method``: rgb or mono (phase needs six images per state, which a stream of
-    single frames does not give); default rgb for colour frames, mono for grey ones."""
-    if method == "phase":
-        raise ConfigError(
-            "--method phase: a stream gives one image per frame, and the phase method "
-            "needs six phase-stepped images per load state; use rgb or mono"
-        )
-    if method not in (None, "rgb", "mono"):
-        raise ConfigError(f"--method {method!r} is not allowed; give rgb or mono")
+    """``--method``: rgb, mono or phase (given, never the default); default rgb for colour
+    frames, mono for grey ones."""
+    if method not in (None, "rgb", "mono", "phase"):
+        raise ConfigError(f"--method {method!r} is not allowed; give rgb, mono or phase")
     if method is not None:
         return method
     return "mono" if grey(raw).ndim == 2 else "rgb"
@@ -227,8 +222,11 @@ def track(
     origin_px : (row, col), optional
         The pixel of the sensor origin; default the image centre (or the calibrated
         sensor's).
-    method : {"rgb", "mono"}, optional
-        Default rgb for colour frames, mono for grey ones.
+    method : {"rgb", "mono", "phase"}, optional
+        Default rgb for colour frames, mono for grey ones. ``phase``: every six frames in a
+        row are one load state's phase steps (in
+        :data:`~fringekit.analysis.SIX_STEP_ORDER`), solved as one; not from a camera
+        (a dropped frame would mix two states), nor with ``reference``.
     sensor : path or CalibratedSensor, optional
         A sensor file (``.json`` of ``fringekit sensor calibrate`` or ``sensor init``),
         applied as ``invert`` applies it; default the library's own config.
@@ -298,6 +296,18 @@ def track(
     cfg, where = _sensor(lib, cal)
     optics = optics_setup(cfg)
     rest = None if reference is None else RestFrames.read(reference)
+    if method == "phase" and rest is not None:
+        raise ConfigError(
+            "--reference with --method phase: the six steps' residual retarder is not "
+            "taken off yet; leave --reference out, or track rgb or mono frames"
+        )
+    live = source.live if isinstance(source, FrameSource) else str(source).startswith("camera:")
+    if method == "phase" and live:
+        raise ConfigError(
+            f"--method phase with SOURCE {getattr(source, 'spec', source)}: a camera drops "
+            "frames, which would mix the six steps of two load states; record the steps to "
+            "a folder or a video"
+        )
     src = source if isinstance(source, FrameSource) else open_source(str(source), fps=fps)
     run = _Run(lib, cfg, optics, src, pixel_mm, origin_px, method, int(stride), on_frame, cal, rest)
     with src:
@@ -327,22 +337,42 @@ class _Run:
         self.refused: list[dict] = []
         self.t_loop = 0.0
         self.rest_light: np.ndarray | None = None
+        self.partial = 0  # phase steps at the end that made no whole state
+
+    def _states(self):
+        """Every load state of the source: a frame, or (phase) six frames in a row, as
+        one RawFrame (the state's number, the first step's time and name, the last
+        step's image) and its images; counts the frames read."""
+        steps: list[RawFrame] = []
+        for raw in self.src:
+            self.read += 1
+            if self.method != "phase":
+                yield raw, (raw,)
+                continue
+            steps.append(raw)
+            self.partial = len(steps)
+            if len(steps) == PHASE_STEPS:
+                k = (self.read - 1) // PHASE_STEPS
+                yield RawFrame(k, steps[0].time_s, raw.image, steps[0].name), tuple(steps)
+                steps, self.partial = [], 0
 
     def loop(self, max_frames, progress: bool) -> None:
         bar = None
         t0 = time.perf_counter()
         try:
-            for raw in self.src:
+            for raw, steps in self._states():
                 if self.tracker is None:  # a bad option is refused before the bar starts
                     self._setup(raw.image)
                 if bar is None:
                     bar = tqdm(
-                        total=self.src.n_frames, unit="frame", desc="track", disable=not progress
+                        total=self._total(),
+                        unit="state" if len(steps) > 1 else "frame",
+                        desc="track",
+                        disable=not progress,
                     )
-                self.read += 1
                 solved = None
                 try:
-                    solved = self._solve(raw)
+                    solved = self._solve(raw, steps)
                     self.frames.append(solved)
                 except InvertError as exc:  # this frame only: the next one starts afresh
                     self.refused.append({"frame": raw.index, "reason": str(exc)})
@@ -376,10 +406,21 @@ class _Run:
         )
         self.tracker = Tracker(blank, self.stride)
 
-    def _solve(self, raw) -> TrackedFrame:
-        img = raw.image
-        camera = self.optics.camera.sensitivities
-        measured, usable, nodata, note = frame_linear(img, self.method, camera, raw.name, self.cal)
+    def _total(self) -> int | None:
+        """The progress bar's length: the source's frames, or its whole phase states."""
+        n = self.src.n_frames
+        return n // PHASE_STEPS if n is not None and self.method == "phase" else n
+
+    def _solve(self, raw, steps) -> TrackedFrame:
+        if self.method == "phase":
+            measured, usable, nodata, note = steps_linear(
+                [s.image for s in steps], [s.name for s in steps]
+            )
+        else:
+            camera = self.optics.camera.sensitivities
+            measured, usable, nodata, note = frame_linear(
+                raw.image, self.method, camera, raw.name, self.cal
+            )
         if self.rest_light is not None:
             measured = measured - self.rest_light
         if note and note not in self.notes:
@@ -401,6 +442,11 @@ class _Run:
                 f"{int(self.src.dropped)} camera frame(s) were dropped while earlier ones were "
                 "solved (the newest frame is always the one solved): see frames_dropped"
             )
+        if self.partial:
+            warnings.append(
+                f"the last {self.partial} frame(s) of the source made no whole six-step "
+                "state and were not solved"
+            )
         if unreliable:
             warnings.append(
                 f"{unreliable} contact-frame(s) are flagged not reliable (their residual "
@@ -414,6 +460,7 @@ class _Run:
             "pixel_mm": self.pixel_mm,
             "origin_px": list(self.origin_px) if self.origin_px is not None else None,
             "stride": self.stride,
+            "frames_per_state": PHASE_STEPS if self.method == "phase" else 1,
             "reference": _rest_summary(self.rest, self.rest_light),
             "frames_read": self.read,
             "frames_solved": solved,

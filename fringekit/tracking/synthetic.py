@@ -37,7 +37,7 @@ def synthesise_frame(
     bit_depth: int = 8,
 ):
     """One frame (rows, cols) or (rows, cols, 3) uint8 (uint16 at ``bit_depth`` 16) of
-    ``contacts``: rows of
+    ``contacts`` (phase: the six steps, (rows, cols, 6)): rows of
     (x_mm, y_mm, Fz_N, Fx_N, Fy_N) on spheres of the library's first diameter; ``model``
     gives the library, grid, method and optics, ``camera`` the camera's sensitivities
     (CIE1931 frames are sRGB-encoded)."""
@@ -53,6 +53,8 @@ def synthesise_frame(
         img = img.reshape(rows, cols, 3)
         if camera == "CIE1931":
             img = np.clip(cs.cctf_encoding(img, function="sRGB"), 0.0, 1.0)
+    elif model.method == "phase":
+        img = img.reshape(rows, cols, -1)
     else:
         img = img[:, 0].reshape(rows, cols)
     top = 65535 if bit_depth == 16 else 255
@@ -71,8 +73,9 @@ def library_frames(
     seed: int = 0,
     bit_depth: int = 8,
 ) -> int:
-    """Write one image per frame (``frame_0000.png``, ...; TIFF for 16-bit colour) into
-    ``folder``; return how many.
+    """Write one image per frame (``frame_0000.png``, ...; TIFF for 16-bit colour; six
+    for phase, ``frame_0000_step1.png`` to ``step6``) into ``folder``; return how many
+    frames (load states).
 
     Parameters
     ----------
@@ -87,8 +90,8 @@ def library_frames(
         Frames of pixels x pixels, centred on the sensor origin.
     pixel_mm : float
         Pixel pitch on the sheet (mm).
-    method : {"mono", "rgb"}
-        A grey dark-field frame or a white-light colour one.
+    method : {"mono", "rgb", "phase"}
+        A grey dark-field frame, a white-light colour one, or the six phase steps.
     noise : float
         Camera noise sd (of full scale) before 8-bit quantisation.
     seed : int
@@ -115,6 +118,10 @@ def library_frames(
             img = synthesise_frame(
                 model, contacts, camera=camera, noise=noise, rng=rng, bit_depth=bit_depth
             )
+            if method == "phase":
+                for k in range(img.shape[2]):
+                    write_image(out / f"frame_{i:04d}_step{k + 1}.png", img[..., k])
+                continue
             suffix = "tif" if bit_depth == 16 and img.ndim == 3 else "png"
             write_image(out / f"frame_{i:04d}.{suffix}", img)
     return len(frames)

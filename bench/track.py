@@ -2,7 +2,7 @@
 identity; the default) or FEM-rendered (accuracy).
 
 Usage: python bench/track.py [--sequence library|fem] [--frames 200] [--pixels 256]
-       [--methods mono rgb] [--stride 4] [--noise 0.005] [--invert-every 50]
+       [--methods mono rgb phase] [--stride 4] [--noise 0.005] [--invert-every 50]
        [--library DIR] [--work DIR] [--json FILE] [--show]
        (--work default: bench/out/track, ignored by git)
 
@@ -206,9 +206,12 @@ def offline(lib, folder: Path, tracked, truths, every: int, pixel_mm: float, met
     for k in range(0, len(truths), every):
         t0 = time.perf_counter()
         try:
-            res = fringekit.invert(
-                folder / f"frame_{k:04d}.png", lib, pixel_mm=pixel_mm, method=method
+            images = (
+                [folder / f"frame_{k:04d}_step{j}.png" for j in range(1, 7)]
+                if method == "phase"
+                else folder / f"frame_{k:04d}.png"
             )
+            res = fringekit.invert(images, lib, pixel_mm=pixel_mm, method=method)
         except RefusedError as exc:
             refused.append({"frame": k, "reason": str(exc)})
             print(f"{method} frame {k}: offline invert refused: {exc}", flush=True)

@@ -357,7 +357,9 @@ def main(argv=None) -> None:
     ap.add_argument("--sequence", choices=("library", "fem"), default="library")
     ap.add_argument("--frames", type=int, default=200)
     ap.add_argument("--pixels", type=int, default=256)
-    ap.add_argument("--methods", nargs="+", default=["mono", "rgb"])
+    ap.add_argument(
+        "--methods", nargs="+", choices=("mono", "rgb", "phase"), default=["mono", "rgb"]
+    )
     ap.add_argument("--stride", type=int, default=4)
     ap.add_argument("--noise", type=float, default=0.005)
     ap.add_argument("--invert-every", type=int, default=50)
@@ -370,6 +372,8 @@ def main(argv=None) -> None:
         help="track with the --show window drawn off-screen (its own process): its cost",
     )
     args = ap.parse_args(argv)
+    if args.sequence == "fem" and "phase" in args.methods:
+        ap.error("--sequence fem --methods phase: the FEM frames are one image per state")
     work = Path(args.work)
     work.mkdir(parents=True, exist_ok=True)
     print(

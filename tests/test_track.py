@@ -959,6 +959,9 @@ def test_a_phase_stream_is_tracked_six_steps_a_state(tiny_library, tmp_path):
         assert np.all(np.abs(got[2:] - t[j, 2:]) <= 2e-3 * t[j, 2]), (row, t[j])
         assert ids.setdefault(j, row["id"]) == row["id"], (row, ids)
     assert len(set(ids.values())) == 2
+    two = track(folder, tiny_library, pixel_mm=PIXEL_MM, method="phase", max_frames=2)
+    assert [f.index for f in two.frames] == [0, 1] and two.summary["frames_read"] == 12
+    assert not any("no whole six-step" in w for w in two.summary["warnings"])
 
 
 def test_a_phase_stream_from_a_camera_or_with_a_rest_frame_is_one_line(
@@ -970,6 +973,7 @@ def test_a_phase_stream_from_a_camera_or_with_a_rest_frame_is_one_line(
     rest = folder / "frame_0000.png"
     for args, words in (
         (["camera:0"], ["--method phase", "camera:0", "folder or a video"]),
+        (["CAMERA:1"], ["--method phase", "CAMERA:1", "folder or a video"]),
         ([str(folder), "--reference", str(rest)], ["--reference", "--method phase"]),
     ):
         out = tmp_path / "out"
@@ -977,3 +981,7 @@ def test_a_phase_stream_from_a_camera_or_with_a_rest_frame_is_one_line(
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and all(w in err[0] for w in words), err
         assert not out.exists()
+    with pytest.raises(
+        ConfigError, match="--method 'dark' is not allowed; give rgb, mono or phase"
+    ):
+        track(folder, tiny_library, pixel_mm=PIXEL_MM, method="dark")

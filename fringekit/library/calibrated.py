@@ -13,11 +13,13 @@ applies it:
   linear intensity = ((v - b) / (1 - b)) ** gamma of the stored value v in [0, 1];
 - **the light and the sheet at rest**: the relative illumination L(x) (mean 1) and the
   rest frame's intensity R(x) (linear, black removed): a frame is read as
-  (linear - R) / L, the standard flat-field and reference-frame correction. For the
-  dark-field methods (grey and colour) the rest frame's light is the residual
-  birefringence's intensity signature: subtracting it is exact where either the
-  residual or the load's retardation is small, and correct on average over their
-  relative direction otherwise (to second order in the residual retardation);
+  (linear - R) / L, the standard flat-field and reference-frame correction. It is exact
+  for light that adds to the fringes' (glare, ghosts, stray light). For the dark-field
+  methods (grey and colour) a residual birefringence's light is not additive: it
+  scales the load's light by cos d_r and leaves a cross term up to (sin d_r) / 2 of
+  the full-scale light (d_r the residual retardation;
+  :mod:`fringekit.tracking.rest` gives the formula), so the subtraction holds only
+  where the residual is small;
 - **the geometry**: the pixel pitch on the sheet, the pixel of the sheet's origin and the
   rotation of the sheet's axes in the image (positive: the sheet's x axis turned
   counter-clockwise from the image's rows). The image is fitted in its own axes and the

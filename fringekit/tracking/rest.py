@@ -9,14 +9,19 @@ mirror) is not in the library's model. :class:`RestFrames` reads frames of the s
 rest, taken in the stream's light, and gives the smooth map of that light, which the
 tracker takes off every frame.
 
-Taking the rest light off as an intensity is exact for glare and stray light, which add
-to the fringes' light. For a residual retardation it is the calibrated sensor's model
-(:mod:`fringekit.library.calibrated`): exact where either the residual or the load's
-retardation is small, and right on average over their relative direction otherwise (the
-cross term of two retardations changes sign with the angle between their principal
-directions). With a calibrated sensor the reference replaces the
-sensor file's rest map: both frames go through the sensor's correction, and their
-difference is the frame's light less the reference's, over the illumination.
+Taking the rest light off as an intensity is exact for light that adds to the fringes'
+(glare, ghosts of the partial mirror, stray and ambient light). For a residual
+retardation it is an approximation that holds only where the residual is small. In a
+circular dark field, a residual retarder (retardation d_r) in series with the load's
+(d_l, principal directions dt apart) gives I = I0 (1 - cos d_r cos d_l - sin d_r sin
+d_l cos 2dt) / 2 (the Poincare sphere's two rotations: Theocaris and Gdoutos, *Matrix
+Theory of Photoelasticity*). Less the rest light I0 (1 - cos d_r) / 2, that is the
+load's light times cos d_r, minus a cross term (I0 / 2) sin d_r sin d_l cos 2dt. At a
+residual of 0.05 fringe (rest light 2.4 % of I0), the load's light is 5 % low, and the
+cross term reaches 0.15 I0 where sin d_l = 1. A residual retarder has to be fitted as a
+retarder (not yet done). With a calibrated sensor the reference replaces the sensor
+file's rest map: both frames go through the sensor's correction, and their difference
+is the frame's light less the reference's, over the illumination.
 """
 
 from __future__ import annotations

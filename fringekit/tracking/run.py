@@ -96,7 +96,8 @@ def run_track(
                 )
         t.write(work)  # the tables first: whatever befalls the video, they are kept
         if spool is not None:
-            fps = t.summary["source"]["fps"] or 25.0
+            # a frame of the video per state: phase states are six of the source's frames
+            fps = (t.summary["source"]["fps"] or 25.0) / t.summary["frames_per_state"]
             t.summary["video"] = _paint_video(work, spool, pixel_mm, origin_px, fps, progress)
             if t.summary["video"]["error"] is not None:
                 t.summary["warnings"].append(

@@ -241,7 +241,7 @@ def track(
         The frame rate of a folder of frames (their ``time_s``), or one that replaces a
         video's.
     max_frames : int, optional
-        Stop after this many frames.
+        Stop after this many frames (phase: load states, of six frames each).
     progress : bool
         A progress bar (frames of a file source; the rate of a camera's).
     on_frame : callable, optional
@@ -281,7 +281,7 @@ def track(
     lib = library if isinstance(library, Library) else load_library(library)
     cal = as_calibrated(sensor)
     if cal is not None:
-        cal.check(lib)
+        cal.check(lib, method=method)
         pixel_mm, origin_px = cal.grid_options(pixel_mm, origin_px)
     if pixel_mm is None:
         raise ConfigError(
@@ -301,7 +301,11 @@ def track(
             "--reference with --method phase: the six steps' residual retarder is not "
             "taken off yet; leave --reference out, or track rgb or mono frames"
         )
-    live = source.live if isinstance(source, FrameSource) else str(source).startswith("camera:")
+    live = (
+        source.live
+        if isinstance(source, FrameSource)
+        else str(source).lower().startswith("camera:")
+    )
     if method == "phase" and live:
         raise ConfigError(
             f"--method phase with SOURCE {getattr(source, 'spec', source)}: a camera drops "
@@ -353,8 +357,8 @@ class _Run:
             self.partial = len(steps)
             if len(steps) == PHASE_STEPS:
                 k = (self.read - 1) // PHASE_STEPS
-                yield RawFrame(k, steps[0].time_s, raw.image, steps[0].name), tuple(steps)
-                steps, self.partial = [], 0
+                state, steps, self.partial = tuple(steps), [], 0
+                yield RawFrame(k, state[0].time_s, raw.image, state[0].name), state
 
     def loop(self, max_frames, progress: bool) -> None:
         bar = None
@@ -380,7 +384,7 @@ class _Run:
                 bar.update(1)
                 if self.on_frame is not None:  # a refused frame: its image, no contacts
                     self.on_frame(solved, raw.image)
-                if max_frames is not None and self.read >= max_frames:
+                if max_frames is not None and len(self.frames) + len(self.refused) >= max_frames:
                     break
         except SourceError as exc:
             self.stopped = {"after_frames": len(self.frames), "reason": str(exc)}

@@ -15,7 +15,13 @@ from fringekit.measurement.mono import colour_as_grey
 from fringekit.measurement.regions import no_data_regions
 from fringekit.optics import PixelGrid
 
-__all__ = ["frame_measurement", "pixel_grid", "read_measurement", "sensor_config"]
+__all__ = [
+    "frame_measurement",
+    "pixel_grid",
+    "read_measurement",
+    "sensor_config",
+    "steps_measurement",
+]
 
 
 def _decode(frame, camera_name: str, colour: bool) -> np.ndarray:
@@ -46,6 +52,24 @@ def frame_measurement(frame, method: str, camera_name: str, sensor=None):
     return lin, raw, frame.saturated, note
 
 
+def steps_measurement(frames) -> tuple[np.ndarray, np.ndarray]:
+    """(raw (rows, cols, n), saturated (rows, cols)) of n phase-stepped
+    :class:`~fringekit.analysis.Frame` objects: each step grey (a colour one as the mean
+    of its channels), saturated where any step is.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.analysis import normalise
+    >>> steps = [normalise(np.full((2, 3), 51 * k, np.uint8)) for k in range(6)]  # 255: saturated
+    >>> raw, sat = steps_measurement(steps)
+    >>> raw.shape, bool(sat[0, 0])
+    ((2, 3, 6), True)
+    """
+    raw = np.stack([f.data if f.data.ndim == 2 else f.data.mean(-1) for f in frames], -1)
+    return raw, np.any([f.saturated for f in frames], axis=0)
+
+
 def read_measurement(paths, method: str | None, camera_name: str, sensor=None):
     """(method, measured (P, C) linear, usable (P,), no-data (P,), shape, note) from the
     image files: usable pixels are neither saturated nor at the no-data fill level; the note
@@ -62,11 +86,8 @@ def read_measurement(paths, method: str | None, camera_name: str, sensor=None):
     if len(paths) != want:
         raise ConfigError(f"--method {method} takes {want} image(s); got {len(paths)}")
     if method == "phase":
-        frames = load_six_step(paths)
-        raw = np.stack([f.data if f.data.ndim == 2 else f.data.mean(-1) for f in frames], -1)
-        lin = raw
-        sat = np.any([f.saturated for f in frames], axis=0)
-        note = ""
+        raw, sat = steps_measurement(load_six_step(paths))
+        lin, note = raw, ""
     else:
         frame = load_image(paths[0])
         lin, raw, sat, note = frame_measurement(frame, method, camera_name, sensor)

@@ -33,7 +33,7 @@ import numpy as np
 
 from fringekit.analysis import normalise, read_pixels
 from fringekit.errors import ConfigError, InputError, SourceError
-from fringekit.inversion.read import frame_measurement
+from fringekit.inversion.read import frame_measurement, steps_measurement
 from fringekit.library.calibrated import coarse_map, fine_map
 from fringekit.measurement.regions import no_data_regions
 from fringekit.tracking.source import checked_pixels
@@ -94,7 +94,13 @@ def frame_linear(raw: np.ndarray, method: str, camera: str, name: str, cal=None)
     """
     frame = normalise(grey(raw), source=name)
     lin, data, sat, note = frame_measurement(frame, method, camera, cal)
-    nodata = no_data_regions(data)
+    return _pixels(lin, data, sat, note)
+
+
+def _pixels(lin, raw, sat, note: str):
+    """(measured (P, C), usable (P,), nodata (P,), note) of a frame's linear intensities,
+    stored values and saturated pixels: usable pixels are neither saturated nor no-data."""
+    nodata = no_data_regions(raw)
     usable = (~sat & ~nodata).ravel()
     return lin.reshape(usable.size, -1), usable, nodata.ravel(), note
 
@@ -130,10 +136,8 @@ def steps_linear(images, names):
     ((20, 6), 0.784)
     """
     frames = [normalise(grey(im), source=n) for im, n in zip(images, names, strict=True)]
-    raw = np.stack([f.data if f.data.ndim == 2 else f.data.mean(-1) for f in frames], -1)
-    nodata = no_data_regions(raw)
-    usable = (~np.any([f.saturated for f in frames], axis=0) & ~nodata).ravel()
-    return raw.reshape(usable.size, -1), usable, nodata.ravel(), ""
+    raw, sat = steps_measurement(frames)
+    return _pixels(raw, raw, sat, "")
 
 
 @dataclass(frozen=True)

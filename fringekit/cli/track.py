@@ -54,8 +54,8 @@ def add_parser(sub) -> None:
         nargs="+",
         default=None,
         metavar="FRAME",
-        help="frame(s) of the sensor at rest in the stream's light: their light (residual "
-        "birefringence, glare) is taken off every frame, in place of a sensor file's rest map",
+        help="frame(s) of the sensor at rest in the stream's light: their light (glare, "
+        "stray light) is taken off every frame, in place of a sensor file's rest map",
     )
     tr.add_argument(
         "--stride",

@@ -8,7 +8,15 @@ functions of load-to-fringe calibration.
 """
 
 from .calibrate import calibrate_from_maps, estimate_load, load_calibration, save_calibration
-from .channels import AGREE_MIN, channel_agreement, grey_channel, strongest_channel
+from .channels import (
+    AGREE_MIN,
+    FLAT_NOISE,
+    brightest_channel,
+    channel_agreement,
+    featureless,
+    grey_channel,
+    strongest_channel,
+)
 from .circles import Circle, disc_by_symmetry, find_disc, find_discs
 from .compare import Comparison, Profile, circle_profile, compare_maps, line_profile
 from .features import RADII_MM, fringe_features, radial_profile
@@ -62,7 +70,10 @@ __all__ = [
     "grey_channel",
     "channel_agreement",
     "strongest_channel",
+    "brightest_channel",
+    "featureless",
     "AGREE_MIN",
+    "FLAT_NOISE",
     "mono_order",
     "calibrate_from_maps",
     "estimate_load",

@@ -12,13 +12,27 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["AGREE_MIN", "channel_agreement", "grey_channel", "strongest_channel"]
+from .images import image_noise_sd
+
+__all__ = [
+    "AGREE_MIN",
+    "FLAT_NOISE",
+    "brightest_channel",
+    "channel_agreement",
+    "featureless",
+    "grey_channel",
+    "strongest_channel",
+]
 
 #: A colour photograph is one of monochromatic light when its channels agree to this
 #: correlation (channels with at least AGREE_SPREAD of the widest one's 1-99 % range); white
 #: light's isochromatics decorrelate the channels beyond about half an order.
 AGREE_MIN = 0.9
 AGREE_SPREAD = 0.2
+#: A colour photograph shows no light pattern when every channel's 1-99 % range is within
+#: this many times that channel's noise sd (Gaussian noise alone spans 4.65 sd): its
+#: channels are each their own noise, and their disagreement says nothing of the light.
+FLAT_NOISE = 8.0
 
 
 def channel_agreement(image: np.ndarray, mask: np.ndarray | None = None) -> tuple[float, str]:
@@ -130,3 +144,64 @@ def strongest_channel(image: np.ndarray, mask: np.ndarray | None = None) -> int:
     m = np.ones(img.shape[:2], bool) if mask is None else mask
     spread = [np.subtract(*np.percentile(img[..., k][m], [99, 1])) for k in range(3)]
     return int(np.argmax(spread))
+
+
+def featureless(image: np.ndarray, mask: np.ndarray | None = None) -> bool:
+    """Whether a colour photograph shows no light pattern: every channel's 1-99 % range
+    within :data:`FLAT_NOISE` times its own noise sd (:func:`image_noise_sd`). A dark-field
+    sensor at rest in even light is such a frame: :func:`channel_agreement` would find its
+    channels uncorrelated, as white light's, though they only hold noise.
+
+    Parameters
+    ----------
+    image : (rows, cols, 3) float array
+    mask : (rows, cols) bool array, optional
+        Pixels that decide (default all).
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> noise = np.random.default_rng(0).normal(0.02, 0.002, (64, 64, 3))
+    >>> featureless(noise)
+    True
+    >>> glare = np.linspace(0.0, 0.1, 64)[None, :, None] * np.ones((64, 1, 3))
+    >>> featureless(noise + glare)
+    False
+    """
+    img = np.asarray(image, float)
+    m = np.ones(img.shape[:2], bool) if mask is None else mask
+    for k in range(img.shape[-1]):
+        low, high = np.percentile(img[..., k][m], [1, 99])
+        if high - low > FLAT_NOISE * image_noise_sd(img[..., k], m):
+            return False
+    return True
+
+
+def brightest_channel(image: np.ndarray, mask: np.ndarray | None = None) -> int:
+    """The channel of a colour photograph with the highest mean: the colour of the light
+    where it shows no pattern (:func:`featureless`), whose channels have no range to tell.
+
+    Parameters
+    ----------
+    image : (rows, cols, 3) float array
+    mask : (rows, cols) bool array, optional
+        Pixels that decide (default all).
+
+    Returns
+    -------
+    int
+        0, 1 or 2 (red, green, blue).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> brightest_channel(np.ones((4, 4, 3)) * np.array([0.003, 0.02, 0.006]))
+    1
+    """
+    img = np.asarray(image, float)
+    m = np.ones(img.shape[:2], bool) if mask is None else mask
+    return int(np.argmax(img[m].mean(axis=0)))

@@ -22,7 +22,7 @@ from fringekit.cli.main import main
 from fringekit.config.files import to_toml
 from fringekit.errors import ConfigError, InputError, LibraryError
 from fringekit.inversion.verdict import InvertError
-from fringekit.library.calibrated import CalibratedSensor
+from fringekit.library.calibrated import CalibratedSensor, coarse_map, fine_map
 from fringekit.optics import write_image
 from fringekit.tracking import TRACK_COLUMNS, library_frames, open_source, track, write_video
 from fringekit.tracking.figure import OverlayPainter
@@ -985,3 +985,78 @@ def test_a_phase_stream_from_a_camera_or_with_a_rest_frame_is_one_line(
         ConfigError, match="--method 'dark' is not allowed; give rgb, mono or phase"
     ):
         track(folder, tiny_library, pixel_mm=PIXEL_MM, method="dark")
+
+
+#: A green LED seen by a colour camera: each channel's share of the light (a Bayer
+#: sensor's green filter passes it, its red and blue ones a little).
+GREEN_LED = np.array([0.15, 1.0, 0.3])
+
+
+def _colour_camera(grey: np.ndarray, rng) -> np.ndarray:
+    """A grey frame (linear 0-1) as a colour camera under green light records it: each
+    channel its share of it plus its own noise (sd 2e-3), 16-bit."""
+    rgb = grey[..., None] * GREEN_LED + rng.normal(0.0, 2e-3, (*grey.shape, 3))
+    return np.round(np.clip(rgb, 0.0, 1.0) * 65535).astype(np.uint16)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("rest_light", ["flat", "glare"])
+def test_a_colour_camera_s_mono_stream_reads_one_channel_at_rest_and_loaded(
+    tiny_library, tmp_path, rest_light
+):
+    """A mono stream from a colour camera in green light that starts at rest: the rest
+    frame and the stream's first frame carry only the rest light (an even 2 %, whose
+    channels are each their own noise; or the glare) and the noise. Both are read in the
+    channel that carries the light (green), said once and held for the whole stream; the
+    contacts of the later frames come back within three stated sd, 5 um and 0.5 % of Fz
+    (the noise's share: up to 2.3 um)."""
+    truth = [[], _moving(0), _moving(1)]
+    clean = tmp_path / "clean"
+    library_frames(tiny_library, truth, clean, pixels=PX, pixel_mm=PIXEL_MM, bit_depth=16)
+    glare = _glare((PX, PX)) if rest_light == "glare" else np.full((PX, PX), 0.02)
+    rng = np.random.default_rng(7)
+    lit = tmp_path / "lit"
+    lit.mkdir()
+    for k in range(len(truth)):
+        img = read_pixels(clean / f"frame_{k:04d}.png") / 65535.0
+        write_image(lit / f"frame_{k:04d}.tif", _colour_camera(img + glare, rng))
+    rest = tmp_path / "rest.tif"
+    write_image(rest, _colour_camera(glare, rng))
+    out = tmp_path / "out"
+    lib = ["--library", str(tiny_library.folder), "--pixel-mm", str(PIXEL_MM), "--quiet"]
+    args = ["track", str(lit), *lib, "--method", "mono", "--reference", str(rest)]
+    assert main([*args, "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["frames_solved"] == 3
+    assert sum("green channel" in w for w in summary["warnings"]) == 1, summary["warnings"]
+    rows = list(csv.DictReader((out / "loads.csv").open()))
+    assert sorted({int(r["frame"]) for r in rows}) == [1, 2]
+    for row in rows:
+        got = np.array([float(row[k]) for k in ("x_mm", "y_mm", "Fz_N", "Fx_N", "Fy_N")])
+        sd = np.array([float(row[k]) for k in ("sx_mm", "sy_mm", "sFz_N", "sFx_N", "sFy_N")])
+        want = _nearest(truth[int(row["frame"])], got)
+        assert np.all(np.abs(got - want) <= 3 * sd), (row, want)
+        assert np.all(np.abs(got[:2] - want[:2]) <= 5e-3), (row, want)
+        assert np.all(np.abs(got[2:] - want[2:]) <= 5e-3 * want[2]), (row, want)
+        assert row["reliable"] == "true"
+
+
+def test_a_rest_frame_s_saturated_pixels_are_left_out_where_its_light_is_not_known(tmp_path):
+    """A rest frame with a glare spot past full scale: the light about the spot is not
+    known (clipped, then smoothed into its neighbours), so the pixels within two map
+    cells of a saturated one are marked unknown; beyond them the light is the one an
+    unclipped frame gives (the same smoothing) to 2e-3 of full scale."""
+    shape = (96, 128)
+    r, c = np.mgrid[: shape[0], : shape[1]]
+    spot = 3.0 * np.exp(-((r - 30.0) ** 2 + (c - 90.0) ** 2) / (2 * 3.0**2))
+    true = _glare(shape) + spot
+    path = tmp_path / "rest.png"
+    write_image(path, np.round(np.clip(true, 0.0, 1.0) * 65535).astype(np.uint16))
+    light, unknown = fringekit.tracking.RestFrames.read([path]).light(shape, "mono", "CIE1931")
+    sat = (true >= 1.0).ravel()
+    assert sat.sum() > 10 and np.all(unknown[sat])
+    reach = 2 * 2 + 1  # two 2-px map cells and the saturated pixel's own ring
+    assert reach**2 < unknown.sum() < (2 * reach + 1) ** 2 + sat.sum() * 4
+    err = np.abs(light[:, 0] - fine_map(coarse_map(true), shape).ravel())
+    assert np.max(err[~unknown]) < 2e-3, np.max(err[~unknown])
+    assert np.max(err[unknown]) > 0.1  # the clipped light, where it is left out

@@ -31,19 +31,24 @@ def _decode(frame, camera_name: str, colour: bool) -> np.ndarray:
     return frame.data
 
 
-def frame_measurement(frame, method: str, camera_name: str, sensor=None):
+def frame_measurement(frame, method: str, camera_name: str, sensor=None, channel=None):
     """(linear (rows, cols, C), raw (rows, cols, C), saturated (rows, cols), note) of one
     :class:`~fringekit.analysis.Frame` read by ``method`` ``"rgb"`` or ``"mono"``: the
     colour image sRGB-decoded for the CIE observer, or its grey channel (the note says
     which channel of a colour photograph of monochromatic light is read; one whose channels
     disagree is refused, naming ``--method mono``). ``sensor``: a
     :class:`~fringekit.library.calibrated.CalibratedSensor`; when it is calibrated, its
-    response, rest frame and illumination give the linear intensities instead."""
+    response, rest frame and illumination give the linear intensities instead.
+    ``channel``: for mono, the colour channel (0-2) a colour frame is read in, chosen by
+    the caller (a stream's, held from frame to frame); no note, no check."""
     name = frame.source
     if method == "rgb" and frame.data.ndim != 3:
         raise ConfigError(f"--method rgb needs a colour image; {name} is grey")
-    note = "" if method == "rgb" else colour_as_grey(frame.data, None, name, "--method mono")
-    data = frame.data if method == "rgb" or frame.data.ndim == 2 else grey_channel(frame.data)
+    if method == "mono" and frame.data.ndim == 3 and channel is not None:
+        data, note = frame.data[..., int(channel)], ""
+    else:
+        note = "" if method == "rgb" else colour_as_grey(frame.data, None, name, "--method mono")
+        data = frame.data if method == "rgb" or frame.data.ndim == 2 else grey_channel(frame.data)
     raw = data.reshape(*data.shape[:2], -1)
     if sensor is not None and sensor.calibrated:
         lin = sensor.correct(sensor.linear(raw))

@@ -30,15 +30,24 @@ import os
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import ndimage
 
-from fringekit.analysis import normalise, read_pixels
+from fringekit.analysis import (
+    brightest_channel,
+    channel_agreement,
+    featureless,
+    normalise,
+    read_pixels,
+    strongest_channel,
+)
 from fringekit.errors import ConfigError, InputError, SourceError
 from fringekit.inversion.read import frame_measurement, steps_measurement
-from fringekit.library.calibrated import coarse_map, fine_map
+from fringekit.library.calibrated import MAP_CELLS, coarse_map, fine_map
+from fringekit.measurement.mono import colour_as_grey
 from fringekit.measurement.regions import no_data_regions
 from fringekit.tracking.source import checked_pixels
 
-__all__ = ["PHASE_STEPS", "RestFrames", "frame_linear", "grey", "steps_linear"]
+__all__ = ["PHASE_STEPS", "MonoChannel", "RestFrames", "frame_linear", "grey", "steps_linear"]
 
 #: Frames a load state takes with the phase method (the six phase steps, in
 #: :data:`fringekit.analysis.SIX_STEP_ORDER`).
@@ -59,7 +68,7 @@ def grey(raw: np.ndarray) -> np.ndarray:
     return raw[..., 0] if same else raw
 
 
-def frame_linear(raw: np.ndarray, method: str, camera: str, name: str, cal=None):
+def frame_linear(raw: np.ndarray, method: str, camera: str, name: str, cal=None, channel=None):
     """One decoded frame as the model sees it.
 
     Parameters
@@ -74,6 +83,10 @@ def frame_linear(raw: np.ndarray, method: str, camera: str, name: str, cal=None)
         The frame's name, for messages.
     cal : CalibratedSensor, optional
         A sensor whose response, rest frame and illumination are applied.
+    channel : int or MonoChannel, optional
+        For mono: the channel (0-2) a colour frame is read in, or the stream's
+        :class:`MonoChannel`, which picks it; default the frame's own strongest, its
+        channels checked to agree.
 
     Returns
     -------
@@ -93,8 +106,70 @@ def frame_linear(raw: np.ndarray, method: str, camera: str, name: str, cal=None)
     ((20, 1), True, 0.25)
     """
     frame = normalise(grey(raw), source=name)
-    lin, data, sat, note = frame_measurement(frame, method, camera, cal)
+    if isinstance(channel, MonoChannel):
+        channel = channel(frame.data, name) if method == "mono" else None
+    lin, data, sat, note = frame_measurement(frame, method, camera, cal, channel)
     return _pixels(lin, data, sat, note)
+
+
+class MonoChannel:
+    """The one colour channel a mono stream of colour frames is read in.
+
+    Every frame of a stream has to be read in one channel: the noise level, the gain and
+    the rest light are the stream's, not the frame's. The channel is the light's: the
+    strongest (:func:`~fringekit.analysis.strongest_channel`) of the first frame that
+    shows a light pattern, whose channels must agree (monochromatic light; white light is
+    refused, naming ``--method mono``). A frame without a pattern (the sensor at rest in
+    even light: each channel its own noise, so uncorrelated) is read in the channel held,
+    or, before any frame has shown a pattern, in its brightest.
+
+    Examples
+    --------
+    A sensor at rest under a green LED, then loaded:
+
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> led = np.array([0.15, 1.0, 0.3])
+    >>> rest = 0.02 * led + rng.normal(0, 0.002, (32, 32, 3))
+    >>> fringes = np.sin(np.linspace(0, 9, 32))[None, :, None] ** 2 * led * np.ones((32, 1, 1))
+    >>> pick = MonoChannel()
+    >>> pick(rest, "rest.png"), pick(fringes, "loaded.png")
+    (1, 1)
+    >>> print(pick.note)
+    colour frames of monochromatic light (loaded.png's channels agree, correlation 1.00): read
+    in their green channel
+    """
+
+    def __init__(self):
+        self.index: int | None = None
+        self.note = ""
+        self.decided = False
+
+    def __call__(self, data: np.ndarray, name: str) -> int | None:
+        """The channel frame ``data`` (normalised, (rows, cols[, 3])) named ``name`` is
+        read in; None for a grey frame."""
+        if np.ndim(data) != 3:
+            return None
+        if featureless(data):
+            if self.index is None:
+                self.index = brightest_channel(data)
+                self.note = (
+                    "colour frames without a light pattern: read in their brightest channel, "
+                    f"{_CHANNELS[self.index]}"
+                )
+            return self.index
+        if not self.decided:
+            colour_as_grey(data, None, name, "--method mono")  # white light is refused
+            self.index, self.decided = strongest_channel(data), True
+            self.note = (
+                f"colour frames of monochromatic light ({name}'s channels agree, correlation "
+                f"{channel_agreement(data)[0]:.2f}): read in their {_CHANNELS[self.index]} "
+                "channel"
+            )
+        return self.index
+
+
+_CHANNELS = ("red", "green", "blue")
 
 
 def _pixels(lin, raw, sat, note: str):
@@ -162,10 +237,10 @@ class RestFrames:
     >>> glare = np.linspace(0.1, 0.2, 48)[None, :].repeat(32, 0)
     >>> write_image(path, np.round(glare * 65535).astype(np.uint16))
     >>> rest = RestFrames.read([path])
-    >>> light = rest.light((32, 48), "mono", "CIE1931")
+    >>> light, unknown = rest.light((32, 48), "mono", "CIE1931")
     >>> frame, *_ = frame_linear(glare + 0.3, "mono", "CIE1931", "frame")
-    >>> bool(np.allclose(frame - light, 0.3, atol=2e-3))
-    True
+    >>> bool(np.allclose(frame - light, 0.3, atol=2e-3)), int(unknown.sum())
+    (True, 0)
     """
 
     images: tuple
@@ -197,20 +272,39 @@ class RestFrames:
         """The frames' size (rows, cols)."""
         return tuple(self.images[0].shape[:2])
 
-    def light(self, shape, method: str, camera: str, cal=None) -> np.ndarray:
-        """The rest light (P, C) to take off every frame of ``shape`` (rows, cols): the
-        frames decoded as the stream's (:func:`frame_linear`), averaged, and smoothed to
-        the calibrated sensor's map grid (:func:`~fringekit.library.calibrated.coarse_map`,
-        at most 64 cells a side), so that the rest frames' noise is not added to every
-        frame. Frames of another size than the stream's are refused in one line."""
+    def light(self, shape, method: str, camera: str, cal=None, channel=None):
+        """The rest light to take off every frame of ``shape`` (rows, cols), and the
+        pixels it is not known at.
+
+        The frames are decoded as the stream's (:func:`frame_linear`, in its ``channel``),
+        averaged, and smoothed to the calibrated sensor's map grid
+        (:func:`~fringekit.library.calibrated.coarse_map`, at most 64 cells a side), so
+        that the rest frames' noise is not added to every frame. Frames of another size
+        than the stream's are refused in one line.
+
+        Returns
+        -------
+        light : (P, C) array
+            Linear intensity, P = rows * cols.
+        unknown : (P,) bool array
+            Pixels saturated in a rest frame, and those within two map cells of one
+            (the smoothing's reach): there the rest light is at least full scale, not
+            known, and the frames' pixels are left out of every fit.
+        """
         if tuple(shape) != self.shape:
             raise ConfigError(
                 f"--reference {self.names[0]} is {self.shape[0]} x {self.shape[1]} px; the "
                 f"stream's frames are {shape[0]} x {shape[1]} px"
             )
-        lins = [
-            frame_linear(im, method, camera, n, cal)[0]
-            for im, n in zip(self.images, self.names, strict=True)
-        ]
+        lins, sat = [], np.zeros(shape, bool)
+        for im, n in zip(self.images, self.names, strict=True):
+            lin, usable, nodata, _ = frame_linear(im, method, camera, n, cal, channel)
+            lins.append(lin)
+            sat |= ~(usable | nodata).reshape(shape)
         mean = np.mean(lins, axis=0).reshape(*shape, -1)
-        return fine_map(coarse_map(mean), shape).reshape(mean.shape[0] * mean.shape[1], -1)
+        light = fine_map(coarse_map(mean), shape).reshape(mean.shape[0] * mean.shape[1], -1)
+        reach = int(np.ceil(2 * max(1.0, max(shape) / MAP_CELLS)))
+        unknown = (
+            ndimage.binary_dilation(sat, np.ones((2 * reach + 1,) * 2, bool)) if sat.any() else sat
+        )
+        return light, unknown.ravel()

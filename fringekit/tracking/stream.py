@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
+from fringekit.analysis import normalise
 from fringekit.config.files import load_config
 from fringekit.config.inputs import optics_setup
 from fringekit.errors import ConfigError, SourceError
@@ -36,7 +37,14 @@ from fringekit.library.store import Library, check_sensor, load_library
 from fringekit.output.folders import atomic_write
 from fringekit.tracking.figure import loads_figure
 from fringekit.tracking.frame import TrackedFrame
-from fringekit.tracking.rest import PHASE_STEPS, RestFrames, frame_linear, grey, steps_linear
+from fringekit.tracking.rest import (
+    PHASE_STEPS,
+    MonoChannel,
+    RestFrames,
+    frame_linear,
+    grey,
+    steps_linear,
+)
 from fringekit.tracking.source import FrameSource, RawFrame, open_source
 from fringekit.tracking.synthetic import blank_model
 from fringekit.tracking.tracker import TRACK_STRIDE, Tracker
@@ -162,15 +170,17 @@ def _sensor(lib: Library, cal: CalibratedSensor | None) -> tuple[dict, str]:
     return load_config(lib.folder / "config.toml"), str(lib.folder / "config.toml")
 
 
-def _rest_summary(rest: RestFrames | None, light: np.ndarray | None) -> dict | None:
-    """``summary["reference"]``: the rest frames and the light taken off every frame (its
-    mean and largest value per channel, linear 0-1); None without ``--reference``."""
+def _rest_summary(rest: RestFrames | None, light, unknown) -> dict | None:
+    """``summary["reference"]``: the rest frames, the light taken off every frame (its
+    mean and largest value per channel, linear 0-1) and the pixels left out where it is
+    not known; None without ``--reference``."""
     if rest is None:
         return None
     out: dict = {"frames": list(rest.names)}
     if light is not None:
         out["light_mean"] = [float(v) for v in light.mean(0)]
         out["light_max"] = [float(v) for v in light.max(0)]
+        out["unknown_px"] = int(np.count_nonzero(unknown))
     return out
 
 
@@ -341,6 +351,9 @@ class _Run:
         self.refused: list[dict] = []
         self.t_loop = 0.0
         self.rest_light: np.ndarray | None = None
+        self.rest_unknown: np.ndarray | None = None  # (P,) pixels it is not known at
+        self.rest_channel: int | None = None  # the colour channel it was read in
+        self.channel = MonoChannel()  # the channel a mono stream's colour frames are read in
         self.partial = 0  # phase steps at the end that made no whole state
 
     def _states(self):
@@ -366,7 +379,7 @@ class _Run:
         try:
             for raw, steps in self._states():
                 if self.tracker is None:  # a bad option is refused before the bar starts
-                    self._setup(raw.image)
+                    self._setup(raw.image, raw.name)
                 if bar is None:
                     bar = tqdm(
                         total=self._total(),
@@ -395,7 +408,7 @@ class _Run:
                 bar.close()
             self.t_loop = time.perf_counter() - t0
 
-    def _setup(self, img: np.ndarray) -> None:
+    def _setup(self, img: np.ndarray, name: str) -> None:
         """The tracker of frames like ``img`` (the first): the method, the sensor's model
         and the rest light; a bad option is refused in one line."""
         self.method = _method(self.method, img)
@@ -403,12 +416,23 @@ class _Run:
         if self.cal is not None:
             lib, optics = self.cal.model_inputs(lib, optics, shape, self.method)
         if self.rest is not None:
-            cam = self.optics.camera.sensitivities
-            self.rest_light = self.rest.light(shape, self.method, cam, self.cal)
+            if self.method == "mono" and grey(img).ndim == 3:
+                self.channel(normalise(grey(img), source=name).data, name)
+            self._rest_in(self.channel.index, shape)
         blank = blank_model(
             lib, self.cfg, shape, self.pixel_mm, self.method, self.origin_px, optics
         )
         self.tracker = Tracker(blank, self.stride)
+
+    def _rest_in(self, channel: int | None, shape) -> None:
+        """The rest light, read in the stream's colour channel (again when a frame with
+        a light pattern chose another than a featureless first frame's)."""
+        if self.rest_light is None or channel != self.rest_channel:
+            cam = self.optics.camera.sensitivities
+            self.rest_light, self.rest_unknown = self.rest.light(
+                shape, self.method, cam, self.cal, channel
+            )
+            self.rest_channel = channel
 
     def _total(self) -> int | None:
         """The progress bar's length: the source's frames, or its whole phase states."""
@@ -423,10 +447,11 @@ class _Run:
         else:
             camera = self.optics.camera.sensitivities
             measured, usable, nodata, note = frame_linear(
-                raw.image, self.method, camera, raw.name, self.cal
+                raw.image, self.method, camera, raw.name, self.cal, self.channel
             )
-        if self.rest_light is not None:
-            measured = measured - self.rest_light
+        if self.rest is not None:
+            self._rest_in(self.channel.index, raw.image.shape[:2])
+            measured, usable = measured - self.rest_light, usable & ~self.rest_unknown
         if note and note not in self.notes:
             self.notes.append(note)
         return self.tracker.step(measured, usable, nodata, raw.index, raw.time_s)
@@ -435,7 +460,13 @@ class _Run:
         solved = len(self.frames)
         events = [{"frame": f.index, "events": list(f.events)} for f in self.frames if f.events]
         unreliable = int(sum(int(np.sum(~f.reliable)) for f in self.frames))
-        warnings = list(self.notes)
+        warnings = [self.channel.note, *self.notes] if self.channel.note else list(self.notes)
+        if self.rest_unknown is not None and self.rest_unknown.any():
+            warnings.append(
+                f"{int(self.rest_unknown.sum())} px saturated in the rest frames (or within "
+                "two map cells of one) were left out of every frame: their rest light is "
+                "not known"
+            )
         if self.refused:
             warnings.append(
                 f"{len(self.refused)} frame(s) the library cannot explain were left out "
@@ -465,7 +496,7 @@ class _Run:
             "origin_px": list(self.origin_px) if self.origin_px is not None else None,
             "stride": self.stride,
             "frames_per_state": PHASE_STEPS if self.method == "phase" else 1,
-            "reference": _rest_summary(self.rest, self.rest_light),
+            "reference": _rest_summary(self.rest, self.rest_light, self.rest_unknown),
             "frames_read": self.read,
             "frames_solved": solved,
             "frames_dropped": int(self.src.dropped),

@@ -964,7 +964,7 @@ def test_a_phase_stream_is_tracked_six_steps_a_state(tiny_library, tmp_path):
     assert not any("no whole six-step" in w for w in two.summary["warnings"])
 
 
-def test_a_phase_stream_from_a_camera_or_with_a_rest_frame_is_one_line(
+def test_a_phase_stream_from_a_camera_or_with_a_rest_but_not_six_steps_is_one_line(
     tiny_library, tmp_path, capsys
 ):
     folder = tmp_path / "frames"
@@ -974,7 +974,7 @@ def test_a_phase_stream_from_a_camera_or_with_a_rest_frame_is_one_line(
     for args, words in (
         (["camera:0"], ["--method phase", "camera:0", "folder or a video"]),
         (["CAMERA:1"], ["--method phase", "CAMERA:1", "folder or a video"]),
-        ([str(folder), "--reference", str(rest)], ["--reference", "--method phase"]),
+        ([str(folder), "--reference", str(rest)], ["--reference", "--method phase", "got 1"]),
     ):
         out = tmp_path / "out"
         assert main(["track", *args, *lib, "--out", str(out)]) == 2

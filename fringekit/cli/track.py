@@ -55,7 +55,8 @@ def add_parser(sub) -> None:
         default=None,
         metavar="FRAME",
         help="frame(s) of the sensor at rest in the stream's light: their light (glare, "
-        "stray light) is taken off every frame, in place of a sensor file's rest map",
+        "stray light) is taken off every frame, in place of a sensor file's rest map; "
+        "for phase, the rest's six steps: the sheet's residual retarder goes into the model",
     )
     tr.add_argument(
         "--stride",

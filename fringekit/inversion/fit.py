@@ -137,6 +137,7 @@ def subsample(model: ImageModel, k: int) -> ImageModel:
     pick = (rr * cols + cc).ravel()
     nodata = None if model.nodata is None else model.nodata[pick]
     corr = None if model.correction is None else model.correction[pick]
+    resid = None if model.residual_ab is None else model.residual_ab[pick]
     return replace(
         model,
         grid=grid,
@@ -144,6 +145,7 @@ def subsample(model: ImageModel, k: int) -> ImageModel:
         usable=model.usable[pick],
         nodata=nodata,
         correction=corr,
+        residual_ab=resid,
     )
 
 

@@ -90,13 +90,15 @@ def _window(model: ImageModel, q: np.ndarray, k: int, exclude) -> np.ndarray:
     return win
 
 
-def _others(lib, inds, k: int, xy: np.ndarray) -> np.ndarray:
-    """Summed slab pairs (P, S, 2) of every indenter but k at ``xy``."""
+def _others(model: ImageModel, inds, k: int) -> np.ndarray:
+    """Summed slab pairs (P, S, 2) of every indenter but k at the model's pixels, and of
+    its residual (:meth:`ImageModel.background`)."""
+    lib, xy = model.lib, model.xy
     out = np.zeros((len(xy), lib.lattice.n_slabs, 2), np.float32)
     for j, ind in enumerate(inds):  # a handful of indenters
         if j != k:
             out += lib.slabs(ind, xy)[0]
-    return out
+    return model.with_background(out)
 
 
 @dataclass(frozen=True)
@@ -205,7 +207,7 @@ def _scan(model: ImageModel, p, diam, k: int, gains, offs, f_scale, centres, tab
     stride = max(1, int(np.ceil(len(win) / SCAN_PIXELS)))
     sub = model.restrict(win[::stride])
     xy = sub.xy
-    others = _others(lib, inds, k, xy).sum(axis=1)  # (P, 2): one retarder per ray
+    others = _others(sub, inds, k).sum(axis=1)  # (P, 2): one retarder per ray
     d = lib.nearest_diameter(diam[k] * 1e3)
     psi = np.linspace(0.0, 2 * np.pi, SCAN_DIRECTIONS, endpoint=False)
     ratios = np.arange(0.0, lib.max_ratio + 1e-9, SCAN_RATIO_STEP)
@@ -262,7 +264,7 @@ def _refine(fine: ImageModel, p, diam, k, starts, gains, offs, f_scale):
     sub = fine.restrict(_window(fine, q, k, exclude))
     inds = unpack(p, diam)
     xy = sub.xy
-    others = _others(lib, inds, k, xy)
+    others = _others(sub, inds, k)
 
     def residual(v: np.ndarray) -> np.ndarray:
         ind = unpack(v, diam[k : k + 1])[0]

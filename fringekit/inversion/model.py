@@ -128,6 +128,12 @@ class ImageModel:
     correction : (P, C) float array or None — added to the library's intensities before
         gain and offset: a full-FEM image less the library's at one answer (``invert
         --refine fem``, :mod:`fringekit.inversion.refine`); None: the library alone
+    residual_ab : (P, 2) float array or None — a residual birefringence of the sheet as the
+        summed slab pair it would have (Pa m; ((sigma_xx - sigma_yy) dz, 2 sigma_xy dz)
+        summed through the thickness), taken as a stress frozen evenly through the sheet:
+        added to every ray's slabs in equal parts before the Jones integration, so that it
+        composes with the loads' retardation as a retarder in the sheet does
+        (:meth:`background`; ``track --method phase --reference``); None: no residual
     """
 
     lib: Library
@@ -144,6 +150,7 @@ class ImageModel:
     nodata: np.ndarray | None = None
     points: np.ndarray | None = None
     correction: np.ndarray | None = None
+    residual_ab: np.ndarray | None = None
 
     @classmethod
     def build(
@@ -198,13 +205,28 @@ class ImageModel:
             nodata=pick(self.nodata),
             points=self.xy[pixels],
             correction=pick(self.correction),
+            residual_ab=pick(self.residual_ab),
         )
+
+    def background(self) -> np.ndarray | None:
+        """The residual's slab pairs (P, S, 2) float32, its sum in S equal parts (None
+        without a residual): what every ray holds before an indenter's field is added."""
+        if self.residual_ab is None:
+            return None
+        S = self.lib.lattice.n_slabs
+        part = (np.asarray(self.residual_ab, float) / S).astype(np.float32)
+        return np.repeat(part[:, None, :], S, axis=1)
+
+    def with_background(self, ab: np.ndarray) -> np.ndarray:
+        """Summed slab pairs (P, S, 2) with the residual's added (as they are without)."""
+        bg = self.background()
+        return ab if bg is None else ab + bg
 
     def linear(self, indenters) -> tuple[np.ndarray, np.ndarray]:
         """Model intensities (P, C) before gain and offset, and the pixels outside every
         (widened) contact circle."""
         ab, _ = superpose(self.lib, indenters, self.xy)
-        lin = self.intensities(ab, indenters)
+        lin = self.intensities(self.with_background(ab), indenters)
         if self.correction is not None:
             lin = lin + self.correction
         return lin, self.outside_contacts(indenters)
@@ -261,6 +283,7 @@ class ImageModel:
         if own is None:
             own = [self.lib.slabs(ind, xy)[0] for ind in inds]
         total = np.sum(own, axis=0) if own else np.zeros((P, 1, 2), np.float32)
+        total = self.with_background(total)
         use = self.usable & self.keep
         which = range(len(inds)) if which is None else [int(i) for i in which]
         J = np.empty((int(use.size * self.measured.shape[1]), N_PARAMS * len(which)))
@@ -337,4 +360,4 @@ class ImageModel:
         inds = unpack(p, diameters)
         ab, _ = superpose(self.lib, inds, self.xy)
         keep = self.outside_contacts(inds) if self.keep is None else self.keep
-        return self._residual_of(ab, inds, self.usable & keep)
+        return self._residual_of(self.with_background(ab), inds, self.usable & keep)

@@ -66,6 +66,9 @@ def scan_start(model: ImageModel, x_mm: float, y_mm: float, pixels: np.ndarray, 
                 ft = ratio * fz
                 rows += [[x_mm, y_mm, fz, ft * np.cos(a), ft * np.sin(a)] for a in dirs]
                 diams += [d * 1e-3] * len(dirs)
-    lin, table = retarder_lookup(sub, np.concatenate(tots), table)
+    tots = np.concatenate(tots)
+    if sub.residual_ab is not None:  # the candidate alone, in the sheet's residual
+        tots = tots + sub.residual_ab[None]
+    lin, table = retarder_lookup(sub, tots, table)
     best = int(np.argmin(projected_cost(lin, sub.measured, sub.groups)))
     return np.array(rows[best]), diams[best], table

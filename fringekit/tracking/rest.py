@@ -18,10 +18,13 @@ d_l cos 2dt) / 2 (the Poincare sphere's two rotations: Theocaris and Gdoutos, *M
 Theory of Photoelasticity*). Less the rest light I0 (1 - cos d_r) / 2, that is the
 load's light times cos d_r, minus a cross term (I0 / 2) sin d_r sin d_l cos 2dt. At a
 residual of 0.05 fringe (rest light 2.4 % of I0), the load's light is 5 % low, and the
-cross term reaches 0.15 I0 where sin d_l = 1. A residual retarder has to be fitted as a
-retarder (not yet done). With a calibrated sensor the reference replaces the sensor
-file's rest map: both frames go through the sensor's correction, and their difference
-is the frame's light less the reference's, over the illumination.
+cross term reaches 0.15 I0 where sin d_l = 1. A grey or colour frame cannot give the
+residual's axis; the six phase steps can: for a phase stream the rest is read as a
+retarder (:meth:`RestFrames.retarder`) and put into the model, in series with the loads'
+retardation, as a stress frozen evenly through the sheet. With a calibrated sensor the
+reference replaces the sensor file's rest map: both frames go through the sensor's
+correction, and their difference is the frame's light less the reference's, over the
+illumination.
 """
 
 from __future__ import annotations
@@ -33,11 +36,13 @@ import numpy as np
 from scipy import ndimage
 
 from fringekit.analysis import (
+    Frame,
     brightest_channel,
     channel_agreement,
     featureless,
     normalise,
     read_pixels,
+    six_step,
     strongest_channel,
 )
 from fringekit.errors import ConfigError, InputError, SourceError
@@ -303,8 +308,69 @@ class RestFrames:
             sat |= ~(usable | nodata).reshape(shape)
         mean = np.mean(lins, axis=0).reshape(*shape, -1)
         light = fine_map(coarse_map(mean), shape).reshape(mean.shape[0] * mean.shape[1], -1)
-        reach = int(np.ceil(2 * max(1.0, max(shape) / MAP_CELLS)))
-        unknown = (
-            ndimage.binary_dilation(sat, np.ones((2 * reach + 1,) * 2, bool)) if sat.any() else sat
-        )
-        return light, unknown.ravel()
+        return light, _reach(sat)
+
+    def retarder(self, shape, law) -> tuple[np.ndarray, np.ndarray]:
+        """The residual retarder of the sheet from six-step rest frames, as the summed
+        slab pair :class:`~fringekit.inversion.model.ImageModel` takes (``residual_ab``).
+
+        The frames are one or more rests' six steps (in
+        :data:`~fringekit.analysis.SIX_STEP_ORDER`), each step averaged over the rests.
+        The six-step formulas (:func:`~fringekit.analysis.six_step`: Patterson and Wang,
+        "Simultaneous observation of phase-stepped images for automated photoelasticity",
+        J. Strain Anal. 33, 1998) give the rest's retardation d in [0, pi] and its axis t,
+        exact where sin d > 0: for a residual under half a fringe, its Poincare rotation
+        d (cos 2t, sin 2t). The model's rays turn a summed slab pair (a, b) through the
+        double pass into a retarder of 2 k |(a, b)| at half the angle of (a, b)
+        (:func:`~fringekit.optics.jones.retarder_spectrum`, k = 2 pi C / lambda at the
+        reference wavelength), so (a, b) = d (cos 2t, sin 2t) / (2 k). It is smoothed as
+        the rest light is (:meth:`light`). The formulas take the plates as ideal and the
+        light as the polariscope's own: glare that adds to the steps biases them.
+
+        Returns
+        -------
+        residual_ab : (P, 2) array
+            Pa m, P = rows * cols.
+        unknown : (P,) bool array
+            Pixels saturated in a step or without modulation, and those within two map
+            cells of them.
+
+        Examples
+        --------
+        See ``tests/test_track.py``, which reads a residual back from the model's own six
+        steps.
+        """
+        if tuple(shape) != self.shape:
+            raise ConfigError(
+                f"--reference {self.names[0]} is {self.shape[0]} x {self.shape[1]} px; the "
+                f"stream's frames are {shape[0]} x {shape[1]} px"
+            )
+        if len(self.images) % PHASE_STEPS:
+            raise ConfigError(
+                "--reference with --method phase takes the six steps of the sensor at rest "
+                f"(or of several rests, six each); got {len(self.images)} frame(s)"
+            )
+        frames = [
+            normalise(grey(im), source=n) for im, n in zip(self.images, self.names, strict=True)
+        ]
+        steps = []
+        for k in range(PHASE_STEPS):  # each step averaged over the rests
+            same = frames[k::PHASE_STEPS]
+            data = np.mean([f.data for f in same], axis=0)
+            sat = np.any([f.saturated for f in same], axis=0)
+            steps.append(Frame(data, sat, same[0].bit_depth, same[0].source))
+        res = six_step(steps)
+        d = np.where(res.valid, res.delta_axis_insensitive, 0.0)
+        v = d[..., None] * np.stack([np.cos(2 * res.isoclinic), np.sin(2 * res.isoclinic)], -1)
+        k = float(law.retardation_per_stress_length(np.array([law.wavelength_ref]))[0])
+        ab = fine_map(coarse_map(v), shape) / (2.0 * k)
+        return ab.reshape(-1, 2), _reach(~res.valid)
+
+
+def _reach(bad: np.ndarray) -> np.ndarray:
+    """(P,) pixels ``bad`` (rows, cols) and those within two map cells of one (the
+    smoothing's reach, :func:`~fringekit.library.calibrated.coarse_map`)."""
+    if not bad.any():
+        return bad.ravel()
+    reach = int(np.ceil(2 * max(1.0, max(bad.shape) / MAP_CELLS)))
+    return ndimage.binary_dilation(bad, np.ones((2 * reach + 1,) * 2, bool)).ravel()

@@ -21,7 +21,7 @@ import csv
 import json
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -170,16 +170,21 @@ def _sensor(lib: Library, cal: CalibratedSensor | None) -> tuple[dict, str]:
     return load_config(lib.folder / "config.toml"), str(lib.folder / "config.toml")
 
 
-def _rest_summary(rest: RestFrames | None, light, unknown) -> dict | None:
+def _rest_summary(rest: RestFrames | None, light, unknown, fringes=None) -> dict | None:
     """``summary["reference"]``: the rest frames, the light taken off every frame (its
-    mean and largest value per channel, linear 0-1) and the pixels left out where it is
-    not known; None without ``--reference``."""
+    mean and largest value per channel, linear 0-1) or (phase) the residual retarder's
+    mean and largest retardation (``fringes`` (P,), in fringes), and the pixels left out
+    where it is not known; None without ``--reference``."""
     if rest is None:
         return None
     out: dict = {"frames": list(rest.names)}
     if light is not None:
         out["light_mean"] = [float(v) for v in light.mean(0)]
         out["light_max"] = [float(v) for v in light.max(0)]
+    if fringes is not None:
+        out["residual_mean_fringe"] = float(fringes.mean())
+        out["residual_max_fringe"] = float(fringes.max())
+    if unknown is not None:
         out["unknown_px"] = int(np.count_nonzero(unknown))
     return out
 
@@ -244,7 +249,8 @@ def track(
         Frames of the sensor at rest in the stream's light (``--reference``): their light,
         averaged and smoothed, is taken off every frame
         (:class:`~fringekit.tracking.rest.RestFrames`; with a calibrated ``sensor``, in
-        place of its rest map).
+        place of its rest map). For ``phase``, the six steps of the rest (or of several,
+        six each): the sheet's residual retarder, read from them, is in the model.
     stride : int
         Every ``stride``-th pixel in both directions is fitted per frame (default 4).
     fps : float, optional
@@ -306,10 +312,10 @@ def track(
     cfg, where = _sensor(lib, cal)
     optics = optics_setup(cfg)
     rest = None if reference is None else RestFrames.read(reference)
-    if method == "phase" and rest is not None:
+    if method == "phase" and rest is not None and len(rest.names) % PHASE_STEPS:
         raise ConfigError(
-            "--reference with --method phase: the six steps' residual retarder is not "
-            "taken off yet; leave --reference out, or track rgb or mono frames"
+            "--reference with --method phase takes the six steps of the sensor at rest "
+            f"(or of several rests, six each); got {len(rest.names)} frame(s)"
         )
     live = (
         source.live
@@ -352,6 +358,7 @@ class _Run:
         self.t_loop = 0.0
         self.rest_light: np.ndarray | None = None
         self.rest_unknown: np.ndarray | None = None  # (P,) pixels it is not known at
+        self.rest_ab: np.ndarray | None = None  # (P, 2) the phase rest's residual retarder
         self.rest_channel: int | None = None  # the colour channel it was read in
         self.channel = MonoChannel()  # the channel a mono stream's colour frames are read in
         self.partial = 0  # phase steps at the end that made no whole state
@@ -415,14 +422,16 @@ class _Run:
         lib, optics, shape = self.lib, self.optics, img.shape[:2]
         if self.cal is not None:
             lib, optics = self.cal.model_inputs(lib, optics, shape, self.method)
-        if self.rest is not None:
+        if self.rest is not None and self.method == "phase":
+            self.rest_ab, self.rest_unknown = self.rest.retarder(shape, optics.law)
+        elif self.rest is not None:
             if self.method == "mono" and grey(img).ndim == 3:
                 self.channel(normalise(grey(img), source=name).data, name)
             self._rest_in(self.channel.index, shape)
         blank = blank_model(
             lib, self.cfg, shape, self.pixel_mm, self.method, self.origin_px, optics
         )
-        self.tracker = Tracker(blank, self.stride)
+        self.tracker = Tracker(replace(blank, residual_ab=self.rest_ab), self.stride)
 
     def _rest_in(self, channel: int | None, shape) -> None:
         """The rest light, read in the stream's colour channel (again when a frame with
@@ -433,6 +442,14 @@ class _Run:
                 shape, self.method, cam, self.cal, channel
             )
             self.rest_channel = channel
+
+    def _residual_fringes(self) -> np.ndarray | None:
+        """(P,) the phase rest's residual retardation (fringes, the double pass), or None."""
+        if self.rest_ab is None:
+            return None
+        law = self.tracker.blank.law
+        k = float(law.retardation_per_stress_length(np.array([law.wavelength_ref]))[0])
+        return 2.0 * k * np.hypot(*self.rest_ab.T) / (2.0 * np.pi)
 
     def _total(self) -> int | None:
         """The progress bar's length: the source's frames, or its whole phase states."""
@@ -449,7 +466,9 @@ class _Run:
             measured, usable, nodata, note = frame_linear(
                 raw.image, self.method, camera, raw.name, self.cal, self.channel
             )
-        if self.rest is not None:
+        if self.rest_ab is not None:  # phase: the residual is in the model
+            usable = usable & ~self.rest_unknown
+        elif self.rest is not None:
             self._rest_in(self.channel.index, raw.image.shape[:2])
             measured, usable = measured - self.rest_light, usable & ~self.rest_unknown
         if note and note not in self.notes:
@@ -496,7 +515,9 @@ class _Run:
             "origin_px": list(self.origin_px) if self.origin_px is not None else None,
             "stride": self.stride,
             "frames_per_state": PHASE_STEPS if self.method == "phase" else 1,
-            "reference": _rest_summary(self.rest, self.rest_light, self.rest_unknown),
+            "reference": _rest_summary(
+                self.rest, self.rest_light, self.rest_unknown, self._residual_fringes()
+            ),
             "frames_read": self.read,
             "frames_solved": solved,
             "frames_dropped": int(self.src.dropped),

@@ -10,6 +10,7 @@ sRGB-encoded for the CIE observer (the decoding ``invert`` applies).
 from __future__ import annotations
 
 import os
+from dataclasses import replace
 
 import colour as cs
 import numpy as np
@@ -72,6 +73,7 @@ def library_frames(
     noise: float = 0.0,
     seed: int = 0,
     bit_depth: int = 8,
+    residual_ab=None,
 ) -> int:
     """Write one image per frame (``frame_0000.png``, ...; TIFF for 16-bit colour; six
     for phase, ``frame_0000_step1.png`` to ``step6``) into ``folder``; return how many
@@ -98,6 +100,9 @@ def library_frames(
         Seed of the noise (the same frames on every run).
     bit_depth : {8, 16}
         Quantisation of the frames.
+    residual_ab : (pixels * pixels, 2) array, optional
+        A residual birefringence of the sheet (Pa m, summed slab pairs: the
+        :class:`~fringekit.inversion.model.ImageModel`'s ``residual_ab``) in every frame.
 
     Returns
     -------
@@ -108,7 +113,9 @@ def library_frames(
     See :func:`fringekit.tracking.track`.
     """
     cfg = load_config(lib.folder / "config.toml")
-    model = blank_model(lib, cfg, (pixels, pixels), pixel_mm, method)
+    model = replace(
+        blank_model(lib, cfg, (pixels, pixels), pixel_mm, method), residual_ab=residual_ab
+    )
     camera = optics_setup(cfg).camera.sensitivities
     if bit_depth not in (8, 16):
         raise ValueError(f"bit_depth {bit_depth} is not allowed; give 8 or 16")

@@ -163,6 +163,7 @@ class ChordFit:
         ab = np.zeros((len(fixed.xy), fixed.lib.lattice.n_slabs, 2), np.float32)
         for one in own:  # summed as superpose sums them
             ab += one
+        ab = fixed.with_background(ab)
         use = fixed.usable & fixed.keep
         fitted, gains, _ = fixed.project(fixed.intensities(ab, inds), use)
         res = fixed.measured - fitted

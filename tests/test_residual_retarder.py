@@ -112,3 +112,22 @@ def test_a_phase_stream_with_a_residual_is_tracked_with_its_rest_steps(tiny_libr
         assert np.all(np.abs(got[:2] - want[:2]) <= 5e-3), (row, want)
         assert np.all(np.abs(got[2:] - want[2:]) <= 2e-3 * want[2]), (row, want)
         assert float(row["residual_rms"]) < 0.05 and row["reliable"] == "true", row
+
+
+def test_a_residual_near_half_a_fringe_is_left_out_not_folded(tiny_library, tmp_path):
+    """A residual up to 0.52 fringe: from 0.45 fringe on, the six-step formulas read it
+    near or past their fold (2 pi - d beyond half a fringe, the axis turned), so those
+    pixels and their neighbours are unknown; elsewhere it is read to 1e-3 of 0.45
+    fringe's slab pair. (Past 0.55 fringe the folded value falls below the band again
+    and is misread: the docs say so.)"""
+    blank, _ = _model(tiny_library)
+    d, _, ab = _residual(blank, top_fringe=0.52)
+    lin, _ = replace(blank, residual_ab=ab).linear([])
+    got, unknown = RestFrames.read(_write_steps(tmp_path, "rest", lin)).retarder(
+        (PX, PX), blank.law
+    )
+    folded = d >= 0.9 * np.pi
+    assert folded.sum() > 20 and np.all(unknown[folded]) and not unknown.all()
+    k = blank.law.retardation_per_stress_length(np.array([blank.law.wavelength_ref]))[0]
+    err = np.max(np.abs(got - ab)[~unknown])
+    assert err < 1e-3 * 0.9 * np.pi / (2 * k), err

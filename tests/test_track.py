@@ -1060,3 +1060,36 @@ def test_a_rest_frame_s_saturated_pixels_are_left_out_where_its_light_is_not_kno
     err = np.abs(light[:, 0] - fine_map(coarse_map(true), shape).ravel())
     assert np.max(err[~unknown]) < 2e-3, np.max(err[~unknown])
     assert np.max(err[unknown]) > 0.1  # the clipped light, where it is left out
+
+
+def test_a_stream_s_channel_is_decided_by_its_first_strong_frame_and_said_once():
+    """At rest with the red channel's black level highest, the brightest channel is red;
+    a light touch (its pattern 0.1 of full scale, the faint channels mostly noise, which
+    the channels' agreement used to refuse as white light) is read there too; the first
+    strong frame decides green once and for all, says the earlier frames were read in
+    red, and marks the switch (the stream's noise is then measured again). White light
+    is refused at its first strong frame."""
+    from fringekit.errors import InputError
+    from fringekit.tracking.rest import MonoChannel
+
+    rng = np.random.default_rng(3)
+    shape = (48, 48)
+    black = np.array([0.03, 0.01, 0.01])
+    r, c = np.mgrid[: shape[0], : shape[1]]
+    bump = np.exp(-((r - 24.0) ** 2 + (c - 20.0) ** 2) / (2 * 4.0**2))
+    fringes = np.sin(np.linspace(0, 9, shape[1]))[None, :] ** 2 * np.ones((shape[0], 1))
+
+    def frame(grey):
+        return black + grey[..., None] * GREEN_LED + rng.normal(0, 2e-3, (*shape, 3))
+
+    pick = MonoChannel()
+    assert pick(frame(np.zeros(shape)), "rest") == 0
+    assert pick(frame(0.1 * bump), "touch") == 0 and not pick.decided
+    assert pick(frame(fringes), "loaded") == 1 and pick.decided and pick.switched
+    assert "green channel; the frames before it in their brightest, red" in pick.note
+    assert pick(frame(0.1 * bump), "touch again") == 1
+    lam = np.array([620.0, 550.0, 460.0])
+    order = np.linspace(0, 4, shape[1])[None, :, None] * np.ones((shape[0], 1, 1))
+    white = np.sin(np.pi * order * 550 / lam) ** 2
+    with pytest.raises(InputError, match="--method mono: white is a colour image whose"):
+        MonoChannel()(white, "white")

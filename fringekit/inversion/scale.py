@@ -86,7 +86,9 @@ def _library_frequency(model: ImageModel, load_N: float) -> float | None:
     lib = model.lib
     n = int(2 * lib.lattice.r_max * 1e3 / LIBRARY_PITCH_MM)
     grid = PixelGrid((n, n), LIBRARY_PITCH_MM * 1e-3, (0.0, 0.0))
-    blank = replace(model, grid=grid, points=None, keep=None, inner=0.0, exact=False)
+    blank = replace(
+        model, grid=grid, points=None, keep=None, inner=0.0, exact=False, residual_ab=None
+    )
     d = lib.diameters_mm[0] * 1e-3
     img, outside = blank.linear([LoadedIndenter(0.0, 0.0, d, 0.0, 0.0, float(load_N))])
     k = fringe_frequency(img.reshape(n, n, -1), outside.reshape(n, n))

@@ -52,8 +52,19 @@ from fringekit.measurement.mono import colour_as_grey
 from fringekit.measurement.regions import no_data_regions
 from fringekit.tracking.source import checked_pixels
 
-__all__ = ["PHASE_STEPS", "MonoChannel", "RestFrames", "frame_linear", "grey", "steps_linear"]
+__all__ = [
+    "DECIDE_RANGE",
+    "FOLD_NEAR",
+    "PHASE_STEPS",
+    "MonoChannel",
+    "RestFrames",
+    "frame_linear",
+    "grey",
+    "steps_linear",
+]
 
+#: A six-step rest's residual is read where it is below this share of half a fringe.
+FOLD_NEAR = 0.9
 #: Frames a load state takes with the phase method (the six phase steps, in
 #: :data:`fringekit.analysis.SIX_STEP_ORDER`).
 PHASE_STEPS = 6
@@ -122,11 +133,15 @@ class MonoChannel:
 
     Every frame of a stream has to be read in one channel: the noise level, the gain and
     the rest light are the stream's, not the frame's. The channel is the light's: the
-    strongest (:func:`~fringekit.analysis.strongest_channel`) of the first frame that
-    shows a light pattern, whose channels must agree (monochromatic light; white light is
-    refused, naming ``--method mono``). A frame without a pattern (the sensor at rest in
-    even light: each channel its own noise, so uncorrelated) is read in the channel held,
-    or, before any frame has shown a pattern, in its brightest.
+    strongest (:func:`~fringekit.analysis.strongest_channel`) of the first frame whose
+    pattern spans DECIDE_RANGE of full scale in that channel, whose channels must agree
+    (monochromatic light; white light is refused, naming ``--method mono``). A frame
+    without such a pattern (the sensor at rest in even light, each channel its own noise;
+    a light touch, whose weak channels are mostly noise) is read in the channel held, or,
+    before any frame has decided it, in its brightest; the decision is never made again,
+    so a stream is refused at its first strong frame or not at all. ``switched`` is set
+    when the decision changes the channel the frames before it were read in (their noise
+    level is then not the stream's).
 
     Examples
     --------
@@ -149,13 +164,17 @@ class MonoChannel:
         self.index: int | None = None
         self.note = ""
         self.decided = False
+        self.switched = False
 
     def __call__(self, data: np.ndarray, name: str) -> int | None:
         """The channel frame ``data`` (normalised, (rows, cols[, 3])) named ``name`` is
         read in; None for a grey frame."""
         if np.ndim(data) != 3:
             return None
-        if featureless(data):
+        if self.decided:
+            return self.index
+        span = float(np.ptp(np.percentile(data, [1, 99], axis=(0, 1)), axis=0).max())
+        if span < DECIDE_RANGE or featureless(data):
             if self.index is None:
                 self.index = brightest_channel(data)
                 self.note = (
@@ -163,18 +182,30 @@ class MonoChannel:
                     f"{_CHANNELS[self.index]}"
                 )
             return self.index
-        if not self.decided:
-            colour_as_grey(data, None, name, "--method mono")  # white light is refused
-            self.index, self.decided = strongest_channel(data), True
-            self.note = (
-                f"colour frames of monochromatic light ({name}'s channels agree, correlation "
-                f"{channel_agreement(data)[0]:.2f}): read in their {_CHANNELS[self.index]} "
-                "channel"
-            )
+        colour_as_grey(data, None, name, "--method mono")  # white light is refused
+        before, self.decided = self.index, True
+        self.index = strongest_channel(data)
+        self.switched = before is not None and before != self.index
+        earlier = (
+            f"; the frames before it in their brightest, {_CHANNELS[before]}"
+            if self.switched
+            else ""
+        )
+        self.note = (
+            f"colour frames of monochromatic light ({name}'s channels agree, correlation "
+            f"{channel_agreement(data)[0]:.2f}): read in their {_CHANNELS[self.index]} "
+            f"channel{earlier}"
+        )
         return self.index
 
 
 _CHANNELS = ("red", "green", "blue")
+#: A stream's channel is decided by the first frame whose strongest channel's 1-99 %
+#: range reaches this share of full scale: in a weaker pattern the faint channels are
+#: mostly noise and disagree though the light is one colour (a touch peaking at 0.1 of
+#: full scale under a green LED was refused as white light), and white light's channels
+#: only part beyond about half an order, whose dark-field light is brighter than this.
+DECIDE_RANGE = 0.2
 
 
 def _pixels(lin, raw, sat, note: str):
@@ -324,16 +355,18 @@ class RestFrames:
         double pass into a retarder of 2 k |(a, b)| at half the angle of (a, b)
         (:func:`~fringekit.optics.jones.retarder_spectrum`, k = 2 pi C / lambda at the
         reference wavelength), so (a, b) = d (cos 2t, sin 2t) / (2 k). It is smoothed as
-        the rest light is (:meth:`light`). The formulas take the plates as ideal and the
-        light as the polariscope's own: glare that adds to the steps biases them.
+        the rest light is (:meth:`light`). The formulas take the plates as ideal; light
+        added evenly to the six steps cancels in their differences, light that differs
+        from step to step biases them.
 
         Returns
         -------
         residual_ab : (P, 2) array
             Pa m, P = rows * cols.
         unknown : (P,) bool array
-            Pixels saturated in a step or without modulation, and those within two map
-            cells of them.
+            Pixels saturated in a step, without modulation, or whose residual reaches
+            FOLD_NEAR of half a fringe (beyond it the formulas fold it), and those within
+            two map cells of them.
 
         Examples
         --------
@@ -360,11 +393,13 @@ class RestFrames:
             sat = np.any([f.saturated for f in same], axis=0)
             steps.append(Frame(data, sat, same[0].bit_depth, same[0].source))
         res = six_step(steps)
-        d = np.where(res.valid, res.delta_axis_insensitive, 0.0)
+        # near half a fringe the formulas fold the retardation and lose the axis
+        ok = res.valid & (res.delta_axis_insensitive < FOLD_NEAR * np.pi)
+        d = np.where(ok, res.delta_axis_insensitive, 0.0)
         v = d[..., None] * np.stack([np.cos(2 * res.isoclinic), np.sin(2 * res.isoclinic)], -1)
         k = float(law.retardation_per_stress_length(np.array([law.wavelength_ref]))[0])
         ab = fine_map(coarse_map(v), shape) / (2.0 * k)
-        return ab.reshape(-1, 2), _reach(~res.valid)
+        return ab.reshape(-1, 2), _reach(~ok)
 
 
 def _reach(bad: np.ndarray) -> np.ndarray:

@@ -466,6 +466,8 @@ class _Run:
             measured, usable, nodata, note = frame_linear(
                 raw.image, self.method, camera, raw.name, self.cal, self.channel
             )
+            if self.channel.switched:  # the noise was measured in another channel
+                self.tracker.noise, self.channel.switched = None, False
         if self.rest_ab is not None:  # phase: the residual is in the model
             usable = usable & ~self.rest_unknown
         elif self.rest is not None:
@@ -481,11 +483,15 @@ class _Run:
         unreliable = int(sum(int(np.sum(~f.reliable)) for f in self.frames))
         warnings = [self.channel.note, *self.notes] if self.channel.note else list(self.notes)
         if self.rest_unknown is not None and self.rest_unknown.any():
-            warnings.append(
-                f"{int(self.rest_unknown.sum())} px saturated in the rest frames (or within "
-                "two map cells of one) were left out of every frame: their rest light is "
-                "not known"
+            what = (
+                "saturated or without modulation in the rest steps, or whose residual "
+                "reaches half a fringe (or within two map cells of one), were left out of "
+                "every state: their residual retarder is not known"
+                if self.rest_ab is not None
+                else "saturated in the rest frames (or within two map cells of one) were "
+                "left out of every frame: their rest light is not known"
             )
+            warnings.append(f"{int(self.rest_unknown.sum())} px {what}")
         if self.refused:
             warnings.append(
                 f"{len(self.refused)} frame(s) the library cannot explain were left out "

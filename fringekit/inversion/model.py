@@ -208,9 +208,11 @@ class ImageModel:
             residual_ab=pick(self.residual_ab),
         )
 
+    @cached_property
     def background(self) -> np.ndarray | None:
         """The residual's slab pairs (P, S, 2) float32, its sum in S equal parts (None
-        without a residual): what every ray holds before an indenter's field is added."""
+        without a residual): what every ray holds before an indenter's field is added;
+        made once per model (every evaluation of the fit adds it)."""
         if self.residual_ab is None:
             return None
         S = self.lib.lattice.n_slabs
@@ -219,7 +221,7 @@ class ImageModel:
 
     def with_background(self, ab: np.ndarray) -> np.ndarray:
         """Summed slab pairs (P, S, 2) with the residual's added (as they are without)."""
-        bg = self.background()
+        bg = self.background
         return ab if bg is None else ab + bg
 
     def linear(self, indenters) -> tuple[np.ndarray, np.ndarray]:

@@ -308,6 +308,23 @@ class RestFrames:
         """The frames' size (rows, cols)."""
         return tuple(self.images[0].shape[:2])
 
+    def _check_size(self, shape) -> None:
+        """Frames of another size than the stream's ``shape`` are refused in one line."""
+        if tuple(shape) != self.shape:
+            raise ConfigError(
+                f"--reference {self.names[0]} is {self.shape[0]} x {self.shape[1]} px; the "
+                f"stream's frames are {shape[0]} x {shape[1]} px"
+            )
+
+    def check_steps(self) -> None:
+        """A phase stream's rest is whole six-step states: another count of frames is
+        refused in one line."""
+        if len(self.images) % PHASE_STEPS:
+            raise ConfigError(
+                "--reference with --method phase takes the six steps of the sensor at rest "
+                f"(or of several rests, six each); got {len(self.images)} frame(s)"
+            )
+
     def light(self, shape, method: str, camera: str, cal=None, channel=None):
         """The rest light to take off every frame of ``shape`` (rows, cols), and the
         pixels it is not known at.
@@ -327,11 +344,7 @@ class RestFrames:
             (the smoothing's reach): there the rest light is at least full scale, not
             known, and the frames' pixels are left out of every fit.
         """
-        if tuple(shape) != self.shape:
-            raise ConfigError(
-                f"--reference {self.names[0]} is {self.shape[0]} x {self.shape[1]} px; the "
-                f"stream's frames are {shape[0]} x {shape[1]} px"
-            )
+        self._check_size(shape)
         lins, sat = [], np.zeros(shape, bool)
         for im, n in zip(self.images, self.names, strict=True):
             lin, usable, nodata, _ = frame_linear(im, method, camera, n, cal, channel)
@@ -373,16 +386,8 @@ class RestFrames:
         See ``tests/test_track.py``, which reads a residual back from the model's own six
         steps.
         """
-        if tuple(shape) != self.shape:
-            raise ConfigError(
-                f"--reference {self.names[0]} is {self.shape[0]} x {self.shape[1]} px; the "
-                f"stream's frames are {shape[0]} x {shape[1]} px"
-            )
-        if len(self.images) % PHASE_STEPS:
-            raise ConfigError(
-                "--reference with --method phase takes the six steps of the sensor at rest "
-                f"(or of several rests, six each); got {len(self.images)} frame(s)"
-            )
+        self._check_size(shape)
+        self.check_steps()
         frames = [
             normalise(grey(im), source=n) for im, n in zip(self.images, self.names, strict=True)
         ]

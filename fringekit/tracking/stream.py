@@ -312,11 +312,8 @@ def track(
     cfg, where = _sensor(lib, cal)
     optics = optics_setup(cfg)
     rest = None if reference is None else RestFrames.read(reference)
-    if method == "phase" and rest is not None and len(rest.names) % PHASE_STEPS:
-        raise ConfigError(
-            "--reference with --method phase takes the six steps of the sensor at rest "
-            f"(or of several rests, six each); got {len(rest.names)} frame(s)"
-        )
+    if method == "phase" and rest is not None:
+        rest.check_steps()  # before the first frame is read
     live = (
         source.live
         if isinstance(source, FrameSource)

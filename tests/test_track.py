@@ -1070,7 +1070,7 @@ def test_a_stream_s_channel_is_decided_by_its_first_strong_frame_and_said_once()
     red, and marks the switch (the stream's noise is then measured again). White light
     is refused at its first strong frame."""
     from fringekit.errors import InputError
-    from fringekit.tracking.rest import MonoChannel
+    from fringekit.tracking.channel import MonoChannel
 
     rng = np.random.default_rng(3)
     shape = (48, 48)

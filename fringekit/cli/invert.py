@@ -46,6 +46,15 @@ def add_parser(sub) -> None:
         "folder holding the image, else the library's",
     )
     iv.add_argument(
+        "--reference",
+        nargs="+",
+        default=None,
+        metavar="FRAME",
+        help="frames of the sensor at rest in the image's light: rgb/mono, their light "
+        "(glare, ghosts, stray light) is taken off the image; phase, the six steps of the "
+        "rest (or 6n) give the sheet's residual retarder, put into the model",
+    )
+    iv.add_argument(
         "--refine",
         choices=("fem",),
         default=None,
@@ -73,6 +82,7 @@ def run(args: argparse.Namespace) -> int:
         pixel_mm=args.pixel_mm,
         origin_px=args.origin_px,
         sensor=args.sensor,
+        reference=args.reference,
         refine=args.refine,
         max_seconds=args.max_seconds,
         progress=not args.quiet,

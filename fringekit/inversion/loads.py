@@ -27,12 +27,13 @@ import json
 import os
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from fringekit._memory import check_memory
+from fringekit.analysis import load_image, strongest_channel
 from fringekit.config.files import load_config
 from fringekit.config.inputs import optics_setup
 from fringekit.errors import ConfigError
@@ -43,6 +44,7 @@ from fringekit.inversion.fit import WINDOW_MM, InvertResult, invert_image
 from fringekit.inversion.model import ImageModel
 from fringekit.inversion.read import pixel_grid, read_measurement, sensor_config
 from fringekit.inversion.refine import refine_fem
+from fringekit.inversion.rest import RestFrames, take_rest
 from fringekit.inversion.scale import check_scale
 from fringekit.inversion.verdict import WARN_RESIDUAL, residual_warnings
 from fringekit.library.calibrated import CalibratedSensor, as_calibrated
@@ -216,6 +218,7 @@ def invert(
     origin_px: tuple[float, float] | None = None,
     method: str | None = None,
     sensor: str | os.PathLike | CalibratedSensor | None = None,
+    reference: str | os.PathLike | Sequence[str | os.PathLike] | None = None,
     refine: str | None = None,
     max_seconds: float = DEFAULT_MAX_SECONDS,
     progress: bool = False,
@@ -244,6 +247,15 @@ def invert(
         ``fringekit sensor init`` (a config, image size and pitch, nothing fitted); its
         library, image size and method must be these. Default: the config of a
         ``predict`` folder the image lies in, else the library's own.
+    reference : path or sequence of paths, optional
+        Frames of the sensor at rest, in the image's light (``--reference``;
+        :mod:`fringekit.inversion.rest`). rgb and mono: their light (glare, ghosts, stray
+        light), averaged and smoothed, is taken off the image (with a calibrated
+        ``sensor``, in place of its rest map). phase: the six steps of the rest (or of
+        several rests, six each), read as the sheet's residual retarder and put into the
+        model in series with the loads' retardation. Pixels where the rest is not known
+        (saturated; phase: no modulation, or a residual from 0.45 fringe on) are left
+        out, with a warning; ``summary["reference"]`` reports it.
     refine : {None, "fem"}
         ``"fem"``: after the library fit, rounds of full-FEM defect correction until no
         position or load moves by more than its 1-sigma (one FEM solve each, minutes:
@@ -302,6 +314,7 @@ def invert(
     budget = Budget(max_seconds, say=say, clock=clock)  # the whole run's
     paths = [images] if isinstance(images, (str, os.PathLike)) else list(images)
     lib = _library(library)
+    rest = None if reference is None else RestFrames.read(reference)
     if cal is not None:
         cal.check(lib)
     cfg, where, warnings = _sensor(lib, cal, paths)
@@ -313,6 +326,11 @@ def invert(
         lib, optics = cal.model_inputs(lib, optics, shape, method)
     if note:
         warnings.append(note)
+    measured, usable, residual_ab, rest_info, more = take_rest(
+        rest, method, measured, usable, shape, optics, cal, _channel(method, paths, rest)
+    )
+    _check_refine(refine, residual_ab)
+    warnings += more
     check_memory(
         detection_bytes(shape, pixel_mm),
         f"detection's smoothing over {SMOOTH_MM} mm ({SMOOTH_MM / (2 * pixel_mm):.3g} px)",
@@ -324,6 +342,7 @@ def invert(
     grid = pixel_grid(shape, pixel_mm, origin_px)
     wl = {k: cfg["optics"][k] for k in ("light", "white_light_wavelengths")}
     model = ImageModel.build(lib, grid, method, measured, usable, optics, nodata=nodata, **wl)
+    model = replace(model, residual_ab=residual_ab)
     say(
         f"invert: {method}, {shape[0]} x {shape[1]} px, library {lib.folder} "
         f"({len(lib.load_N) - 1} loads x {len(lib.shear_ratio)} ratios)"
@@ -340,23 +359,14 @@ def invert(
     warnings += more
     more, off = _verdicts(res, cal, sheet_mm, max_seconds)
     warnings += more
-    rms = ", ".join(f"{r:.3f}" for r in res.residual_rms)
-    cut = f"cut short after the {res.stopped}" if res.stopped else None
-    say(
-        f"invert: {len(res.params)} indenter(s), "
-        + (
-            cut
-            or f"residual_rms {rms or '-'} (within {WINDOW_MM:g} mm of each, of the fringe "
-            "amplitude)"
-        )
-        + f", {time.perf_counter() - t0:.1f} s"
-    )
+    say(_result_line(res, time.perf_counter() - t0))
     summary = {
         "method": method,
         "images": [str(p) for p in paths],
         "library": str(lib.folder),
         "sensor_config": where,
         "calibrated_sensor": None if cal is None else cal.summary(_source(sensor)),
+        "reference": rest_info,
         "pixel_mm": pixel_mm,
         "origin_px": list(origin_px) if origin_px is not None else None,
         "n_indenters": int(len(res.params)),
@@ -391,6 +401,35 @@ def _time_split(read_s: float, fit: dict, refined: dict | None, total_s: float) 
         "refine_s": refined.get("time_s", 0.0) if refined else 0.0,
         "total_s": total_s,
     }
+
+
+def _result_line(res: InvertResult, seconds: float) -> str:
+    """The stage line of the answer: indenters, residuals (or where the budget cut the
+    fit short) and the time."""
+    rms = ", ".join(f"{r:.3f}" for r in res.residual_rms)
+    cut = f"cut short after the {res.stopped}" if res.stopped else None
+    what = cut or (
+        f"residual_rms {rms or '-'} (within {WINDOW_MM:g} mm of each, of the fringe amplitude)"
+    )
+    return f"invert: {len(res.params)} indenter(s), {what}, {seconds:.1f} s"
+
+
+def _channel(method: str, paths, rest) -> int | None:
+    """The colour channel a mono colour photograph is read in (its strongest, as
+    :func:`~fringekit.inversion.read.read_measurement` reads it), for its rest frames."""
+    if rest is None or method != "mono":
+        return None
+    data = load_image(paths[0]).data
+    return strongest_channel(data) if data.ndim == 3 else None
+
+
+def _check_refine(refine, residual_ab) -> None:
+    """``--refine fem`` renders the FEM without the rest's residual retarder: refused."""
+    if refine == "fem" and residual_ab is not None:
+        raise ConfigError(
+            "--refine fem with a phase --reference is not allowed: the full-FEM image it "
+            "renders holds no residual retarder; leave out one or the other"
+        )
 
 
 def _source(sensor) -> str | None:

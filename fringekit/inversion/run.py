@@ -25,6 +25,7 @@ def run_invert(
     pixel_mm=None,
     origin_px=None,
     sensor=None,
+    reference=None,
     refine=None,
     max_seconds=DEFAULT_MAX_SECONDS,
     progress=True,
@@ -34,7 +35,8 @@ def run_invert(
     (``stopped_after`` set when the time budget cut the fit short: the folder holds that
     answer, flagged)."""
     paths = [images] if isinstance(images, (str, os.PathLike)) else list(images)
-    inputs = [*paths, getattr(library, "folder", library), sensor]
+    rest = [reference] if isinstance(reference, (str, os.PathLike)) else list(reference or [])
+    inputs = [*paths, *rest, getattr(library, "folder", library), sensor]
     with claim_output(out, command="invert", inputs=inputs) as work:
         inv = invert(
             images,
@@ -43,6 +45,7 @@ def run_invert(
             origin_px=origin_px,
             method=method,
             sensor=sensor,
+            reference=reference,
             refine=refine,
             max_seconds=max_seconds,
             progress=progress,

@@ -18,7 +18,7 @@ applies it:
   methods (grey and colour) a residual birefringence's light is not additive: it
   scales the load's light by cos d_r and leaves a cross term up to (sin d_r) / 2 of
   the full-scale light (d_r the residual retardation;
-  :mod:`fringekit.tracking.rest` gives the formula), so the subtraction holds only
+  :mod:`fringekit.inversion.rest` gives the formula), so the subtraction holds only
   where the residual is small;
 - **the geometry**: the pixel pitch on the sheet, the pixel of the sheet's origin and the
   rotation of the sheet's axes in the image (positive: the sheet's x axis turned

@@ -7,12 +7,12 @@ synthesised from a library. The frame sources (:mod:`fringekit.tracking.source`)
 :func:`open_source` opens a folder of images, a video file or a camera as a
 :class:`FrameSource` of :class:`RawFrame` objects; :func:`write_video`
 (:mod:`fringekit.tracking.write`) writes frames to a video file; :class:`RestFrames`
-(:mod:`fringekit.tracking.rest`) takes the light of the sensor at rest off every frame
+(:mod:`fringekit.inversion.rest`) takes the light of the sensor at rest off every frame
 (``--reference``).
 """
 
+from fringekit.inversion.rest import RestFrames
 from fringekit.tracking.frame import TrackedFrame
-from fringekit.tracking.rest import RestFrames
 from fringekit.tracking.source import (
     IMAGE_SUFFIXES,
     VIDEO_SUFFIXES,

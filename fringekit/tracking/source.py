@@ -35,6 +35,7 @@ import numpy as np
 
 from fringekit.analysis import read_pixels
 from fringekit.errors import SourceError
+from fringekit.inversion.rest import checked_pixels
 
 __all__ = [
     "IMAGE_SUFFIXES",
@@ -44,7 +45,6 @@ __all__ = [
     "FrameSource",
     "RawFrame",
     "VideoSource",
-    "checked_pixels",
     "open_source",
 ]
 
@@ -203,33 +203,6 @@ def _describe(image: np.ndarray) -> str:
     rows, cols = image.shape[:2]
     colour = "RGB" if image.ndim == 3 else "grey"
     return f"{rows} x {cols} pixels (rows x cols) {colour} {image.dtype.itemsize * 8}-bit"
-
-
-def checked_pixels(img: np.ndarray, where: str) -> np.ndarray:
-    """A decoded image as a frame's image: alpha dropped, (rows, cols) or (rows, cols, 3),
-    uint8 or uint16; another shape or type is refused in one line that begins with
-    ``where`` (:class:`~fringekit.errors.SourceError`).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> checked_pixels(np.zeros((2, 3, 4), np.uint8), "frame 0").shape
-    (2, 3, 3)
-    """
-    if img.ndim == 3 and img.shape[2] in (1, 2):  # grey, grey + alpha
-        img = img[..., 0]
-    elif img.ndim == 3 and img.shape[2] == 4:  # RGBA
-        img = img[..., :3]
-    if img.ndim not in (2, 3) or (img.ndim == 3 and img.shape[2] != 3):
-        raise SourceError(
-            f"{where}: image shape {img.shape} is not allowed (a stack of pages?); allowed: "
-            "one (rows, cols) grey or (rows, cols, 3) colour image per file"
-        )
-    if img.dtype not in (np.uint8, np.uint16):
-        raise SourceError(
-            f"{where}: pixel type {img.dtype} is not allowed; allowed: 8- or 16-bit integer images"
-        )
-    return np.ascontiguousarray(img)
 
 
 def _rgb_from_bgr(image) -> np.ndarray:

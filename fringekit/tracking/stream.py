@@ -31,20 +31,23 @@ from fringekit.analysis import normalise
 from fringekit.config.files import load_config
 from fringekit.config.inputs import optics_setup
 from fringekit.errors import ConfigError, SourceError
+from fringekit.inversion.rest import (
+    PHASE_STEPS,
+    RestFrames,
+    frame_linear,
+    grey,
+    residual_fringes,
+    rest_summary,
+    steps_linear,
+    unknown_warning,
+)
 from fringekit.inversion.verdict import InvertError
 from fringekit.library.calibrated import CalibratedSensor, as_calibrated
 from fringekit.library.store import Library, check_sensor, load_library
 from fringekit.output.folders import atomic_write
+from fringekit.tracking.channel import MonoChannel
 from fringekit.tracking.figure import loads_figure
 from fringekit.tracking.frame import TrackedFrame
-from fringekit.tracking.rest import (
-    PHASE_STEPS,
-    MonoChannel,
-    RestFrames,
-    frame_linear,
-    grey,
-    steps_linear,
-)
 from fringekit.tracking.source import FrameSource, RawFrame, open_source
 from fringekit.tracking.synthetic import blank_model
 from fringekit.tracking.tracker import TRACK_STRIDE, Tracker
@@ -170,25 +173,6 @@ def _sensor(lib: Library, cal: CalibratedSensor | None) -> tuple[dict, str]:
     return load_config(lib.folder / "config.toml"), str(lib.folder / "config.toml")
 
 
-def _rest_summary(rest: RestFrames | None, light, unknown, fringes=None) -> dict | None:
-    """``summary["reference"]``: the rest frames, the light taken off every frame (its
-    mean and largest value per channel, linear 0-1) or (phase) the residual retarder's
-    mean and largest retardation (``fringes`` (P,), in fringes), and the pixels left out
-    where it is not known; None without ``--reference``."""
-    if rest is None:
-        return None
-    out: dict = {"frames": list(rest.names)}
-    if light is not None:
-        out["light_mean"] = [float(v) for v in light.mean(0)]
-        out["light_max"] = [float(v) for v in light.max(0)]
-    if fringes is not None:
-        out["residual_mean_fringe"] = float(fringes.mean())
-        out["residual_max_fringe"] = float(fringes.max())
-    if unknown is not None:
-        out["unknown_px"] = int(np.count_nonzero(unknown))
-    return out
-
-
 def _times(frames: list[TrackedFrame]) -> dict:
     """Per-stage seconds summed over the frames, and the warm frames' median and 95th
     percentile."""
@@ -248,7 +232,7 @@ def track(
     reference : path or sequence of paths, optional
         Frames of the sensor at rest in the stream's light (``--reference``): their light,
         averaged and smoothed, is taken off every frame
-        (:class:`~fringekit.tracking.rest.RestFrames`; with a calibrated ``sensor``, in
+        (:class:`~fringekit.inversion.rest.RestFrames`; with a calibrated ``sensor``, in
         place of its rest map). For ``phase``, the six steps of the rest (or of several,
         six each): the sheet's residual retarder, read from them, is in the model.
     stride : int
@@ -444,9 +428,7 @@ class _Run:
         """(P,) the phase rest's residual retardation (fringes, the double pass), or None."""
         if self.rest_ab is None:
             return None
-        law = self.tracker.blank.law
-        k = float(law.retardation_per_stress_length(np.array([law.wavelength_ref]))[0])
-        return 2.0 * k * np.hypot(*self.rest_ab.T) / (2.0 * np.pi)
+        return residual_fringes(self.rest_ab, self.tracker.blank.law)
 
     def _total(self) -> int | None:
         """The progress bar's length: the source's frames, or its whole phase states."""
@@ -479,16 +461,9 @@ class _Run:
         events = [{"frame": f.index, "events": list(f.events)} for f in self.frames if f.events]
         unreliable = int(sum(int(np.sum(~f.reliable)) for f in self.frames))
         warnings = [self.channel.note, *self.notes] if self.channel.note else list(self.notes)
-        if self.rest_unknown is not None and self.rest_unknown.any():
-            what = (
-                "saturated or without modulation in the rest steps, or whose residual "
-                "reaches half a fringe (or within two map cells of one), were left out of "
-                "every state: their residual retarder is not known"
-                if self.rest_ab is not None
-                else "saturated in the rest frames (or within two map cells of one) were "
-                "left out of every frame: their rest light is not known"
-            )
-            warnings.append(f"{int(self.rest_unknown.sum())} px {what}")
+        phase = self.rest_ab is not None
+        where = "every state" if phase else "every frame"
+        warnings += unknown_warning(self.rest_unknown, phase, where)
         if self.refused:
             warnings.append(
                 f"{len(self.refused)} frame(s) the library cannot explain were left out "
@@ -518,7 +493,7 @@ class _Run:
             "origin_px": list(self.origin_px) if self.origin_px is not None else None,
             "stride": self.stride,
             "frames_per_state": PHASE_STEPS if self.method == "phase" else 1,
-            "reference": _rest_summary(
+            "reference": rest_summary(
                 self.rest, self.rest_light, self.rest_unknown, self._residual_fringes()
             ),
             "frames_read": self.read,

@@ -1,13 +1,13 @@
-"""A stream's frames as the model sees them, and the sensor at rest (``track
---reference``).
+"""Frames as the model sees them, and the sensor at rest (``invert --reference``,
+``track --reference``).
 
 A frame is decoded as ``invert`` decodes an image (:func:`frame_linear`): a colour frame
 whose three channels are equal is a grey one; a calibrated sensor's response, rest frame
 and illumination are applied. The light of a dark-field sensor at rest (the residual
 birefringence of the sheet, the adhesive and the window, glare and ghosts of the partial
 mirror) is not in the library's model. :class:`RestFrames` reads frames of the sensor at
-rest, taken in the stream's light, and gives the smooth map of that light, which the
-tracker takes off every frame.
+rest, taken in the measurement's light, and gives the smooth map of that light, which is
+taken off the image (or every frame of a stream).
 
 Taking the rest light off as an intensity is exact for light that adds to the fringes'
 (glare, ghosts of the partial mirror, stray and ambient light). For a residual
@@ -19,7 +19,7 @@ Theory of Photoelasticity*). Less the rest light I0 (1 - cos d_r) / 2, that is t
 load's light times cos d_r, minus a cross term (I0 / 2) sin d_r sin d_l cos 2dt. At a
 residual of 0.05 fringe (rest light 2.4 % of I0), the load's light is 5 % low, and the
 cross term reaches 0.15 I0 where sin d_l = 1. A grey or colour frame cannot give the
-residual's axis; the six phase steps can: for a phase stream the rest is read as a
+residual's axis; the six phase steps can: for the phase method the rest is read as a
 retarder (:meth:`RestFrames.retarder`) and put into the model, in series with the loads'
 retardation, as a stress frozen evenly through the sheet. With a calibrated sensor the
 reference replaces the sensor file's rest map: both frames go through the sensor's
@@ -35,32 +35,24 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from fringekit.analysis import (
-    Frame,
-    brightest_channel,
-    channel_agreement,
-    featureless,
-    normalise,
-    read_pixels,
-    six_step,
-    strongest_channel,
-)
+from fringekit.analysis import Frame, normalise, read_pixels, six_step
 from fringekit.errors import ConfigError, InputError, SourceError
 from fringekit.inversion.read import frame_measurement, steps_measurement
 from fringekit.library.calibrated import MAP_CELLS, coarse_map, fine_map
-from fringekit.measurement.mono import colour_as_grey
 from fringekit.measurement.regions import no_data_regions
-from fringekit.tracking.source import checked_pixels
 
 __all__ = [
-    "DECIDE_RANGE",
     "FOLD_NEAR",
     "PHASE_STEPS",
-    "MonoChannel",
     "RestFrames",
+    "checked_pixels",
     "frame_linear",
     "grey",
+    "residual_fringes",
+    "rest_summary",
     "steps_linear",
+    "take_rest",
+    "unknown_warning",
 ]
 
 #: A six-step rest's residual is read where it is below this share of half a fringe.
@@ -84,6 +76,33 @@ def grey(raw: np.ndarray) -> np.ndarray:
     return raw[..., 0] if same else raw
 
 
+def checked_pixels(img: np.ndarray, where: str) -> np.ndarray:
+    """A decoded image as a frame's image: alpha dropped, (rows, cols) or (rows, cols, 3),
+    uint8 or uint16; another shape or type is refused in one line that begins with
+    ``where`` (:class:`~fringekit.errors.SourceError`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> checked_pixels(np.zeros((2, 3, 4), np.uint8), "frame 0").shape
+    (2, 3, 3)
+    """
+    if img.ndim == 3 and img.shape[2] in (1, 2):  # grey, grey + alpha
+        img = img[..., 0]
+    elif img.ndim == 3 and img.shape[2] == 4:  # RGBA
+        img = img[..., :3]
+    if img.ndim not in (2, 3) or (img.ndim == 3 and img.shape[2] != 3):
+        raise SourceError(
+            f"{where}: image shape {img.shape} is not allowed (a stack of pages?); allowed: "
+            "one (rows, cols) grey or (rows, cols, 3) colour image per file"
+        )
+    if img.dtype not in (np.uint8, np.uint16):
+        raise SourceError(
+            f"{where}: pixel type {img.dtype} is not allowed; allowed: 8- or 16-bit integer images"
+        )
+    return np.ascontiguousarray(img)
+
+
 def frame_linear(raw: np.ndarray, method: str, camera: str, name: str, cal=None, channel=None):
     """One decoded frame as the model sees it.
 
@@ -99,10 +118,11 @@ def frame_linear(raw: np.ndarray, method: str, camera: str, name: str, cal=None,
         The frame's name, for messages.
     cal : CalibratedSensor, optional
         A sensor whose response, rest frame and illumination are applied.
-    channel : int or MonoChannel, optional
-        For mono: the channel (0-2) a colour frame is read in, or the stream's
-        :class:`MonoChannel`, which picks it; default the frame's own strongest, its
-        channels checked to agree.
+    channel : int or callable, optional
+        For mono: the channel (0-2) a colour frame is read in, or a callable that picks it
+        from the normalised frame and its name (a stream's
+        :class:`~fringekit.tracking.channel.MonoChannel`); default the frame's own
+        strongest, its channels checked to agree.
 
     Returns
     -------
@@ -122,90 +142,10 @@ def frame_linear(raw: np.ndarray, method: str, camera: str, name: str, cal=None,
     ((20, 1), True, 0.25)
     """
     frame = normalise(grey(raw), source=name)
-    if isinstance(channel, MonoChannel):
+    if callable(channel):
         channel = channel(frame.data, name) if method == "mono" else None
     lin, data, sat, note = frame_measurement(frame, method, camera, cal, channel)
     return _pixels(lin, data, sat, note)
-
-
-class MonoChannel:
-    """The one colour channel a mono stream of colour frames is read in.
-
-    Every frame of a stream has to be read in one channel: the noise level, the gain and
-    the rest light are the stream's, not the frame's. The channel is the light's: the
-    strongest (:func:`~fringekit.analysis.strongest_channel`) of the first frame whose
-    pattern spans DECIDE_RANGE of full scale in that channel, whose channels must agree
-    (monochromatic light; white light is refused, naming ``--method mono``). A frame
-    without such a pattern (the sensor at rest in even light, each channel its own noise;
-    a light touch, whose weak channels are mostly noise) is read in the channel held, or,
-    before any frame has decided it, in its brightest; the decision is never made again,
-    so a stream is refused at its first strong frame or not at all. ``switched`` is set
-    when the decision changes the channel the frames before it were read in (their noise
-    level is then not the stream's).
-
-    Examples
-    --------
-    A sensor at rest under a green LED, then loaded:
-
-    >>> import numpy as np
-    >>> rng = np.random.default_rng(0)
-    >>> led = np.array([0.15, 1.0, 0.3])
-    >>> rest = 0.02 * led + rng.normal(0, 0.002, (32, 32, 3))
-    >>> fringes = np.sin(np.linspace(0, 9, 32))[None, :, None] ** 2 * led * np.ones((32, 1, 1))
-    >>> pick = MonoChannel()
-    >>> pick(rest, "rest.png"), pick(fringes, "loaded.png")
-    (1, 1)
-    >>> print(pick.note)
-    colour frames of monochromatic light (loaded.png's channels agree, correlation 1.00): read
-    in their green channel
-    """
-
-    def __init__(self):
-        self.index: int | None = None
-        self.note = ""
-        self.decided = False
-        self.switched = False
-
-    def __call__(self, data: np.ndarray, name: str) -> int | None:
-        """The channel frame ``data`` (normalised, (rows, cols[, 3])) named ``name`` is
-        read in; None for a grey frame."""
-        if np.ndim(data) != 3:
-            return None
-        if self.decided:
-            return self.index
-        span = float(np.ptp(np.percentile(data, [1, 99], axis=(0, 1)), axis=0).max())
-        if span < DECIDE_RANGE or featureless(data):
-            if self.index is None:
-                self.index = brightest_channel(data)
-                self.note = (
-                    "colour frames without a light pattern: read in their brightest channel, "
-                    f"{_CHANNELS[self.index]}"
-                )
-            return self.index
-        colour_as_grey(data, None, name, "--method mono")  # white light is refused
-        before, self.decided = self.index, True
-        self.index = strongest_channel(data)
-        self.switched = before is not None and before != self.index
-        earlier = (
-            f"; the frames before it in their brightest, {_CHANNELS[before]}"
-            if self.switched
-            else ""
-        )
-        self.note = (
-            f"colour frames of monochromatic light ({name}'s channels agree, correlation "
-            f"{channel_agreement(data)[0]:.2f}): read in their {_CHANNELS[self.index]} "
-            f"channel{earlier}"
-        )
-        return self.index
-
-
-_CHANNELS = ("red", "green", "blue")
-#: A stream's channel is decided by the first frame whose strongest channel's 1-99 %
-#: range reaches this share of full scale: in a weaker pattern the faint channels are
-#: mostly noise and disagree though the light is one colour (a touch peaking at 0.1 of
-#: full scale under a green LED was refused as white light), and white light's channels
-#: only part beyond about half an order, whose dark-field light is brighter than this.
-DECIDE_RANGE = 0.2
 
 
 def _pixels(lin, raw, sat, note: str):
@@ -313,7 +253,7 @@ class RestFrames:
         if tuple(shape) != self.shape:
             raise ConfigError(
                 f"--reference {self.names[0]} is {self.shape[0]} x {self.shape[1]} px; the "
-                f"stream's frames are {shape[0]} x {shape[1]} px"
+                f"measured frames are {shape[0]} x {shape[1]} px"
             )
 
     def check_steps(self) -> None:
@@ -414,3 +354,119 @@ def _reach(bad: np.ndarray) -> np.ndarray:
         return bad.ravel()
     reach = int(np.ceil(2 * max(1.0, max(bad.shape) / MAP_CELLS)))
     return ndimage.binary_dilation(bad, np.ones((2 * reach + 1,) * 2, bool)).ravel()
+
+
+def residual_fringes(residual_ab: np.ndarray, law) -> np.ndarray:
+    """(P,) the retardation (fringes, the double pass) of a residual's summed slab pairs
+    ``residual_ab`` (P, 2) (Pa m) at the reference wavelength: 2 k |(a, b)| / 2 pi
+    (:meth:`RestFrames.retarder`)."""
+    k = float(law.retardation_per_stress_length(np.array([law.wavelength_ref]))[0])
+    return 2.0 * k * np.hypot(*np.asarray(residual_ab, float).T) / (2.0 * np.pi)
+
+
+def rest_summary(rest: RestFrames | None, light=None, unknown=None, fringes=None):
+    """``summary["reference"]``: the rest frames, the light taken off (its mean and
+    largest value per channel, linear 0-1, from ``light`` (P, C)) or (phase) the residual
+    retarder's mean and largest retardation (``fringes`` (P,), in fringes), and the count
+    of pixels left out where it is not known (``unknown`` (P,) bool); None without a
+    reference.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rest = RestFrames((np.zeros((2, 2), np.uint8),), ("rest.png",))
+    >>> rest_summary(rest, light=np.full((4, 1), 0.1), unknown=np.zeros(4, bool))
+    {'frames': ['rest.png'], 'light_mean': [0.1], 'light_max': [0.1], 'unknown_px': 0}
+    """
+    if rest is None:
+        return None
+    out: dict = {"frames": list(rest.names)}
+    if light is not None:
+        out["light_mean"] = [float(v) for v in light.mean(0)]
+        out["light_max"] = [float(v) for v in light.max(0)]
+    if fringes is not None:
+        out["residual_mean_fringe"] = float(fringes.mean())
+        out["residual_max_fringe"] = float(fringes.max())
+    if unknown is not None:
+        out["unknown_px"] = int(np.count_nonzero(unknown))
+    return out
+
+
+def unknown_warning(unknown: np.ndarray | None, phase: bool, where: str) -> list[str]:
+    """The one warning (a list of zero or one line) for pixels whose rest light, or
+    (``phase``) residual retarder, is not known: left out of every fit of ``where``
+    ("the image", "every frame")."""
+    if unknown is None or not unknown.any():
+        return []
+    what = (
+        "saturated or without modulation in the rest steps, or whose residual reaches half "
+        "a fringe (or within two map cells of one), were left out of "
+        f"{where}: their residual retarder is not known"
+        if phase
+        else "saturated in the rest frames (or within two map cells of one) were left out "
+        f"of {where}: their rest light is not known"
+    )
+    return [f"{int(np.count_nonzero(unknown))} px {what}"]
+
+
+def take_rest(rest, method: str, measured, usable, shape, optics, cal=None, channel=None):
+    """One measurement with the sensor's rest taken into account (``invert --reference``).
+
+    Parameters
+    ----------
+    rest : RestFrames or None
+        The frames of the sensor at rest (None: the measurement as it is).
+    method : {"rgb", "mono", "phase"}
+    measured : (P, C) array
+        The measurement's linear intensities, P = rows * cols.
+    usable : (P,) bool array
+    shape : (rows, cols)
+        The measurement's size; rest frames of another are refused in one line.
+    optics : OpticsSetup
+        The sensor's optics (its law and camera).
+    cal : CalibratedSensor, optional
+        Applied to the rest frames as to the measurement.
+    channel : int, optional
+        For mono: the colour channel the measurement was read in.
+
+    Returns
+    -------
+    measured : (P, C) array
+        Less the rest light (rgb, mono); unchanged for phase.
+    usable : (P,) bool array
+        Less the pixels where the rest is not known.
+    residual_ab : (P, 2) array or None
+        Phase: the rest's residual retarder (:meth:`RestFrames.retarder`) for the model's
+        ``residual_ab``; None otherwise.
+    summary : dict or None
+        :func:`rest_summary`.
+    warnings : list of str
+        :func:`unknown_warning`'s.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.config.inputs import optics_setup
+    >>> import fringekit
+    >>> optics = optics_setup(fringekit.Config.builtin("small").data)
+    >>> rest = RestFrames((np.full((4, 4), 0.1),), ("rest.png",))
+    >>> m, ok, ab, summary, warn = take_rest(
+    ...     rest, "mono", np.full((16, 1), 0.3), np.ones(16, bool), (4, 4), optics)
+    >>> round(float(m[0, 0]), 6), ab, summary["light_max"], warn
+    (0.2, None, [0.1], [])
+    """
+    if rest is None:
+        return measured, usable, None, None, []
+    if method == "phase":
+        ab, unknown = rest.retarder(shape, optics.law)
+        summary = rest_summary(rest, unknown=unknown, fringes=residual_fringes(ab, optics.law))
+        return measured, usable & ~unknown, ab, summary, unknown_warning(unknown, True, "the fit")
+    light, unknown = rest.light(shape, method, optics.camera.sensitivities, cal, channel)
+    summary = rest_summary(rest, light=light, unknown=unknown)
+    return (
+        measured - light,
+        usable & ~unknown,
+        None,
+        summary,
+        unknown_warning(unknown, False, "the fit"),
+    )

@@ -1,0 +1,146 @@
+"""``invert --reference``: the sensor at rest taken into account in one image's inverse.
+
+Dark field (rgb, mono): the rest light (glare, stray light) is taken off the image. Phase:
+the six rest steps give the sheet's residual retarder, put into the model in series with
+the loads' retardation."""
+
+from __future__ import annotations
+
+import csv
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from fringekit.analysis import read_pixels
+from fringekit.cli.main import main
+from fringekit.config.files import load_config
+from fringekit.config.inputs import optics_setup
+from fringekit.inversion import invert
+from fringekit.optics import write_image
+from fringekit.tracking import library_frames
+from fringekit.tracking.synthetic import blank_model
+
+PX, PIXEL_MM = 64, 0.25  # 16 x 16 mm images of the tiny library's sensor
+#: Two contacts (x, y mm, Fz, Fx, Fy N), one sheared along x, one along y.
+TRUTH = [(-4.0, 3.5, 2.5, 0.3, 0.0), (3.0, -4.0, 3.0, 0.0, 0.3)]
+
+
+def _errors(table) -> np.ndarray:
+    """(2, 5) |read - true| of each true contact's nearest read one (x, y mm, Fz, Fx, Fy N)."""
+    got = np.stack([table[k] for k in ("x_mm", "y_mm", "Fz_N", "Fx_N", "Fy_N")], 1)
+    out = []
+    for t in np.asarray(TRUTH):
+        near = got[int(np.argmin(np.hypot(*(got[:, :2] - t[:2]).T)))]
+        out.append(np.abs(near - t))
+    return np.array(out)
+
+
+def _glare(shape) -> np.ndarray:
+    """A smooth rest light (linear 0-1): an even glare and a bright patch, up to 0.17."""
+    r, c = np.mgrid[: shape[0], : shape[1]] / shape[0]
+    return 0.05 + 0.12 * np.exp(-((r - 0.4) ** 2 + (c - 0.65) ** 2) / (2 * 0.2**2))
+
+
+@pytest.fixture(scope="module")
+def glare_image(tiny_library, tmp_path_factory):
+    """(image, rest frame) paths: a 16-bit dark-field image of TRUTH with the glare added,
+    and a frame of the glare alone."""
+    d = tmp_path_factory.mktemp("glare")
+    library_frames(tiny_library, [TRUTH], d, pixels=PX, pixel_mm=PIXEL_MM, bit_depth=16)
+    glare = _glare((PX, PX))
+    img = read_pixels(d / "frame_0000.png") / 65535.0
+    assert img.max() + glare.max() < 1.0  # nothing saturates
+    write_image(d / "lit.png", np.round((img + glare) * 65535).astype(np.uint16))
+    write_image(d / "rest.png", np.round(glare * 65535).astype(np.uint16))
+    return d / "lit.png", d / "rest.png"
+
+
+@pytest.mark.slow
+def test_invert_takes_a_rest_frame_s_light_off_the_image(tiny_library, glare_image, tmp_path):
+    """A dark-field image with a rest light up to 0.17 of full scale: with the rest frame
+    as ``--reference`` both contacts come back within 2 um and 2e-3 of their Fz, reliable,
+    and ``summary.json`` reports the light taken off. (Without it the glare is read as
+    load: ``track``'s rest test measures 0.13 N; a second inverse here would double the
+    test's time.)"""
+    lit, rest = glare_image
+    out = tmp_path / "out"
+    args = ["invert", str(lit), "--library", str(tiny_library.folder)]
+    args += ["--pixel-mm", str(PIXEL_MM), "--reference", str(rest), "--out", str(out)]
+    assert main([*args, "--quiet"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["reference"]["frames"] == [str(rest)]
+    assert summary["reference"]["light_max"][0] == pytest.approx(_glare((PX, PX)).max(), abs=2e-3)
+    assert summary["reference"]["unknown_px"] == 0
+    rows = list(csv.DictReader((out / "loads.csv").open()))
+    table = {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+    err = _errors(table)
+    assert len(rows) == 2 and summary["reliable"] == [True, True], rows
+    assert np.all(err[:, :2] <= 2e-3) and np.all(err[:, 2:] <= 2e-3 * 3.0), err
+
+
+def _residual(model, top_fringe: float = 0.3):
+    """A smooth residual across the image as the summed slab pair (P, 2) the model takes:
+    retardation up to ``top_fringe`` fringes, its axis turning across the image."""
+    xy = model.xy / 8e-3  # -1..1 across the image
+    d = 2 * np.pi * top_fringe * (0.3 + 0.7 * np.exp(-((xy[:, 0] - 0.3) ** 2 + xy[:, 1] ** 2)))
+    t = 0.4 + 0.6 * xy[:, 0] - 0.3 * xy[:, 1]
+    k = model.law.retardation_per_stress_length(np.array([model.law.wavelength_ref]))[0]
+    return d[:, None] * np.stack([np.cos(2 * t), np.sin(2 * t)], 1) / (2 * k)
+
+
+@pytest.fixture(scope="module")
+def phase_steps(tiny_library, tmp_path_factory):
+    """(six steps of TRUTH, six rest steps) paths, 16-bit, in a sheet with a residual of up
+    to 0.3 fringe."""
+    cfg = load_config(tiny_library.folder / "config.toml")
+    blank = blank_model(tiny_library, cfg, (PX, PX), PIXEL_MM, "phase", None, optics_setup(cfg))
+    ab = _residual(blank)
+    d = tmp_path_factory.mktemp("phase")
+    kw = {"pixels": PX, "pixel_mm": PIXEL_MM, "method": "phase", "bit_depth": 16}
+    library_frames(tiny_library, [TRUTH], d / "loaded", residual_ab=ab, **kw)
+    library_frames(tiny_library, [[]], d / "rest", residual_ab=ab, **kw)
+    assert replace(blank, residual_ab=ab).background is not None
+    steps = [d / "loaded" / f"frame_0000_step{k}.png" for k in range(1, 7)]
+    rest = [d / "rest" / f"frame_0000_step{k}.png" for k in range(1, 7)]
+    return steps, rest
+
+
+def test_invert_reads_the_six_rest_steps_as_the_sheet_s_residual(tiny_library, phase_steps):
+    """Six steps of two contacts in a sheet with a residual of up to 0.3 fringe: with the
+    six rest steps as ``reference`` the residual is put into the model and both contacts
+    come back within 5 um and 2e-3 of their Fz, reliable; the summary gives the residual's
+    largest retardation (0.3 fringe)."""
+    steps, rest = phase_steps
+    inv = invert(steps, tiny_library, pixel_mm=PIXEL_MM, reference=rest)
+    assert inv.summary["method"] == "phase"
+    assert inv.summary["reference"]["residual_max_fringe"] == pytest.approx(0.3, abs=0.01)
+    assert inv.summary["reference"]["unknown_px"] == 0
+    table = inv.table()
+    err = _errors(table)
+    assert len(table["Fz_N"]) == 2 and table["reliable"].all(), table
+    assert np.all(err[:, :2] <= 5e-3) and np.all(err[:, 2:] <= 2e-3 * 3.0), err
+
+
+def test_a_bad_reference_is_one_line_and_writes_nothing(
+    tiny_library, glare_image, phase_steps, tmp_path, capsys
+):
+    """Rest frames of another size, five phase rest steps, and ``--refine fem`` with a
+    phase rest are each refused in one line naming the option; no output folder is made."""
+    lit, _ = glare_image
+    steps, rest = phase_steps
+    small = tmp_path / "small.png"
+    write_image(small, np.zeros((PX, PX - 2), np.uint8))
+    lib = ["--library", str(tiny_library.folder), "--pixel-mm", str(PIXEL_MM)]
+    for images, extra, words in (
+        ([lit], ["--reference", str(small)], ["--reference", "small.png", f"{PX} x {PX - 2}"]),
+        (steps, ["--reference", *map(str, rest[:5])], ["--reference", "six steps", "got 5"]),
+        (steps, ["--reference", *map(str, rest), "--refine", "fem"], ["--refine fem"]),
+    ):
+        out = tmp_path / "out"
+        code = main(["invert", *map(str, images), *lib, *extra, "--out", str(out), "--quiet"])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert code == 2 and len(err) == 1, err
+        assert all(w in err[0] for w in words), err
+        assert not out.exists()

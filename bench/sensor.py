@@ -1,8 +1,8 @@
 """Benchmark ``fringekit sensor calibrate`` on a "real" sensor rendered by full FEM.
 
 Usage: python bench/sensor.py [--pixels 128] [--noise 0.003] [--seed 0] [--library DIR]
-       [--residual-fringe 0.3] [--refine] [--refine-frames N] [--reuse] [--work DIR]
-       [--json FILE]
+       [--residual-fringe 0.3] [--refine] [--refine-frames N] [--reuse] [--phase]
+       [--max-seconds S] [--work DIR] [--json FILE]
        (--work default: bench/out/sensor, ignored by git; --reuse: the frames of an earlier
        run in the work folder, not rendered again)
 
@@ -30,6 +30,13 @@ read (a) without calibration (the nominal pitch) and (b) with the sensor file: p
 tangential load is at least 0.1 N), against the invert issue's targets (Fz 3 %,
 tangential 10 % and 5 deg, position 0.05 mm), and with ``--refine`` (c) with the sensor
 file and ``--refine fem`` (one to four FEM solves per frame: about half an hour).
+
+``--phase`` runs instead the residual's test for the six-step method, which ``sensor
+calibrate`` does not calibrate: the six phase steps of the rest and of the test frames
+(the same FEM solves, the true plates and residual, geometry, gain and noise; a linear
+16-bit camera without vignetting or flare), read with a sensor file of the true scales
+and geometry (d) without and (e) with the six rest steps as ``--reference`` (each
+inverse within ``--max-seconds``, default 600).
 """
 
 from __future__ import annotations
@@ -51,8 +58,9 @@ import fringekit
 from fringekit.config.files import load_config
 from fringekit.config.inputs import optics_setup
 from fringekit.library.build import DEFAULT_RATIOS, build_library
+from fringekit.library.calibrated import CalibratedSensor
 from fringekit.library.store import load_library
-from fringekit.optics import dark_field_circular, intensity, write_image
+from fringekit.optics import dark_field_circular, intensity, six_step_arrangements, write_image
 from fringekit.optics.jones import qmul, retarder
 from fringekit.prediction.pipeline import solve_config
 from fringekit.prediction.render import mono_map
@@ -120,9 +128,10 @@ def _residual(grid) -> np.ndarray:
     return retarder(2 * np.pi * fringe, 0.3 + 0.05 * x)
 
 
-def sheet_intensity(contacts, work: Path, pixel_mm: float) -> np.ndarray:
-    """Dark-field intensity (linear, source 1) of the whole sheet under ``contacts`` by
-    full FEM, at ``pixel_mm`` on the sheet's axes; contact-zone pixels take their nearest
+def sheet_intensity(contacts, work: Path, pixel_mm: float, phase: bool = False) -> np.ndarray:
+    """Dark-field intensity (n, n) (linear, source 1), or with ``phase`` the six steps'
+    (n, n, 6), of the whole sheet under ``contacts`` by full FEM, at ``pixel_mm`` on the
+    sheet's axes, through the true sensor's plates; contact-zone pixels take their nearest
     valid neighbour's value (a camera sees the sheet there too)."""
     cfg = true_config(contacts)
     n = int(round(20.0 / pixel_mm))
@@ -139,7 +148,10 @@ def sheet_intensity(contacts, work: Path, pixel_mm: float) -> np.ndarray:
         q[..., 0] = 1.0
         valid = np.ones((n, n), bool)
     q = qmul(_residual(optics.grid), q)
-    img = intensity(q, dark_field_circular(**optics.errors))
+    if phase:
+        img = np.stack([intensity(q, a) for a in six_step_arrangements(**optics.errors)], -1)
+    else:
+        img = intensity(q, dark_field_circular(**optics.errors))
     idx = ndimage.distance_transform_edt(~valid, return_distances=False, return_indices=True)
     return img[tuple(idx)]
 
@@ -156,10 +168,9 @@ def truth_sensor(pixels: int) -> dict:
     }
 
 
-def camera_frame(sheet: np.ndarray, pixels: int, rng, noise: float) -> np.ndarray:
-    """The camera's 8-bit frame (pixels, pixels) of a sheet intensity image (the sheet's
-    axes, 20 mm, at the frames' pitch): turned and shifted into the image, vignetted,
-    with flare, black level, gamma and noise."""
+def _into_image(sheet: np.ndarray, pixels: int) -> np.ndarray:
+    """A sheet image (n, n[, k]) (the sheet's axes, 20 mm, at the frames' pitch) turned and
+    shifted into the camera's (pixels, pixels[, k]) by the true geometry."""
     geo = truth_sensor(pixels)
     p, (r_o, c_o), t = geo["pixel_mm"], geo["origin_px"], math.radians(geo["rotation_deg"])
     n = sheet.shape[0]
@@ -169,7 +180,15 @@ def camera_frame(sheet: np.ndarray, pixels: int, rng, noise: float) -> np.ndarra
         qx, qy = math.cos(t) * x + math.sin(t) * y, -math.sin(t) * x + math.cos(t) * y
         return np.column_stack([qx / p + (n - 1) / 2, (n - 1) / 2 - qy / p])
 
-    img = warp(sheet, to_sheet, output_shape=(pixels, pixels), order=1, mode="edge")
+    shape = (pixels, pixels) + sheet.shape[2:]
+    return warp(sheet, to_sheet, output_shape=shape, order=1, mode="edge")
+
+
+def camera_frame(sheet: np.ndarray, pixels: int, rng, noise: float) -> np.ndarray:
+    """The camera's 8-bit frame (pixels, pixels) of a sheet intensity image (the sheet's
+    axes, 20 mm, at the frames' pitch): turned and shifted into the image, vignetted,
+    with flare, black level, gamma and noise."""
+    img = _into_image(sheet, pixels)
     rr, cc = np.mgrid[0:pixels, 0:pixels]
     c = (pixels - 1) / 2
     rho2 = ((rr - c) ** 2 + (cc - c) ** 2) / (2 * c**2)
@@ -178,6 +197,16 @@ def camera_frame(sheet: np.ndarray, pixels: int, rng, noise: float) -> np.ndarra
     raw = b + (1 - b) * np.clip(lin, 0, None) ** (1 / TRUE["gamma"])
     raw = raw + rng.normal(0.0, noise, raw.shape)
     return np.round(np.clip(raw, 0, 1) * 255).astype(np.uint8)
+
+
+def phase_steps(sheet: np.ndarray, pixels: int, rng, noise: float) -> list[np.ndarray]:
+    """The six 16-bit phase steps (pixels, pixels) of a sheet's six intensities (n, n, 6):
+    the true geometry, gain and noise, a linear camera without vignetting or flare (which
+    ``sensor calibrate`` would fit, and does not for phase)."""
+    img = TRUE["gain"] * _into_image(sheet, pixels)
+    img = img + rng.normal(0.0, noise, img.shape)
+    raw = np.round(np.clip(img, 0, 1) * 65535).astype(np.uint16)
+    return [raw[..., k] for k in range(6)]
 
 
 def draw_tests(rng, n_frames: int = 6) -> list[list[tuple]]:
@@ -259,19 +288,74 @@ def render(work: Path, args, rng) -> tuple[list, float]:
     return tests, time.perf_counter() - t0
 
 
-def read_tests(lib, d: Path, tests, **kw) -> tuple[list, float]:
-    """Per test frame: the per-contact errors (or the reason it was refused)."""
+def read_tests(lib, d: Path, tests, steps: bool = False, **kw) -> tuple[list, float]:
+    """Per test frame: the per-contact errors (or the reason it was refused); ``steps``:
+    the frames' six phase steps (``test_I_stepK.png``)."""
     t0 = time.perf_counter()
     out = []
     for i, truth in enumerate(tests):
+        one = d / f"test_{i}.png"
+        images = [d / f"test_{i}_step{k}.png" for k in range(1, 7)] if steps else one
         try:
-            table = fringekit.invert(d / f"test_{i}.png", lib, **kw).table()
+            table = fringekit.invert(images, lib, **kw).table()
             out.append(
                 {"frame": i, "contacts": contact_errors(table, truth), "n_read": len(table["Fz_N"])}
             )
         except fringekit.InvertError as exc:
             out.append({"frame": i, "refused": str(exc)})
     return out, time.perf_counter() - t0
+
+
+def truth_phase_sensor(lib, pixels: int) -> CalibratedSensor:
+    """A sensor file of the true scales and geometry for the six steps (what a phase
+    calibration would give at best): the test of the residual alone."""
+    geo = truth_sensor(pixels)
+    return CalibratedSensor(
+        load_config(lib.folder / "config.toml"),
+        lib.manifest["manifest_sha256"],
+        "phase",
+        (pixels, pixels),
+        geo["pixel_mm"],
+        tuple(geo["origin_px"]),
+        geo["rotation_deg"],
+        TRUE["modulus_scale"],
+        TRUE["fringe_scale"],
+        1.0,
+        (0.0,),
+        report={"calibrated": True},
+    )
+
+
+def run_phase(lib, work: Path, args, tests) -> dict:
+    """(d) and (e): the six steps of the rest and of the test frames (FEM solves from the
+    work folder's cache), read with the true sensor without and with the rest steps as
+    ``reference``."""
+    d = work / "phase"
+    d.mkdir(parents=True, exist_ok=True)
+    rng, p = np.random.default_rng(args.seed + 1), FIELD_MM / args.pixels
+    t0 = time.perf_counter()
+    for name, contacts in [("rest", []), *((f"test_{i}", c) for i, c in enumerate(tests))]:
+        print(f"phase steps of {name}: FEM ...", flush=True)
+        sheet = sheet_intensity(contacts, work, p, phase=True)
+        for k, img in enumerate(phase_steps(sheet, args.pixels, rng, args.noise)):
+            write_image(d / f"{name}_step{k + 1}.png", img)
+    t_render = time.perf_counter() - t0
+    sensor = truth_phase_sensor(lib, args.pixels)
+    rest = [d / f"rest_step{k}.png" for k in range(1, 7)]
+    kw = {"sensor": sensor, "steps": True, "max_seconds": args.max_seconds}
+    e, t_e = read_tests(lib, d, tests, reference=rest, **kw)
+    dd, t_d = read_tests(lib, d, tests, **kw)
+    return {
+        "pixels": args.pixels,
+        "noise": args.noise,
+        "seed": args.seed,
+        "truth": TRUE,
+        "targets": TARGETS,
+        "d_phase_without_reference": {"summary": summary(dd), "frames": dd},
+        "e_phase_with_rest_steps": {"summary": summary(e), "frames": e},
+        "times_s": {"fem_and_render": t_render, "invert_d": t_d, "invert_e": t_e},
+        "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+    }
 
 
 def summary(frames: list[dict]) -> dict:
@@ -308,6 +392,13 @@ def main(argv=None) -> None:
     ap.add_argument(
         "--refine-frames", type=int, default=6, help="(c) on the first N test frames only"
     )
+    ap.add_argument(
+        "--phase",
+        action="store_true",
+        help="instead of the calibration: (d) and (e), the six steps read with the true "
+        "sensor, without and with the six rest steps",
+    )
+    ap.add_argument("--max-seconds", type=float, default=600.0, help="per phase inverse")
     ap.add_argument("--work", default="bench/out/sensor")
     ap.add_argument("--json", default=None)
     args = ap.parse_args(argv)
@@ -329,6 +420,14 @@ def main(argv=None) -> None:
         )
     else:
         tests, t_render = render(work, args, np.random.default_rng(args.seed))
+    if args.phase:
+        result = run_phase(lib, work, args, tests)
+        for name in ("d_phase_without_reference", "e_phase_with_rest_steps"):
+            print(name, json.dumps(result[name]["summary"]))
+        print(json.dumps(result["times_s"]), f"peak memory {result['peak_mb']:.0f} MB")
+        if args.json:
+            Path(args.json).write_text(json.dumps(result, indent=2))
+        return
     t0 = time.perf_counter()
     cal = fringekit.calibrate_sensor(
         lib, d / "rest.png", d / "known.csv", pixel_mm=p, dark=d / "dark.png", progress=True

@@ -491,6 +491,7 @@ def test_a_fit_started_between_two_candidates_finds_the_contact_they_shared(tiny
     assert moved == 0 and np.array_equal(same, start.ravel())
 
 
+@pytest.mark.slow
 def test_two_flagged_candidates_that_split_one_contact_are_merged(tiny_library):
     """Model selection: a 3 N contact beside a 2.5 N one, started from the three
     candidates detection gave on the tracker's 8-bit frame (the 3 N contact split 1.7 mm

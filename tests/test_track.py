@@ -94,6 +94,7 @@ def test_a_still_contact_under_noise_keeps_its_jacobian(tiny_library, tmp_path, 
         assert np.all(np.abs(f.params[0] - still[0][0]) <= 2 * f.sd[0]), f.index
 
 
+@pytest.mark.slow
 def test_a_warm_jacobian_reuses_the_fields_of_its_point(tiny_library, tmp_path, monkeypatch):
     """The chord fit's Jacobian, made at a point it has just evaluated, takes the
     contacts' fields of that evaluation (five interpolations fewer a refresh): the same
@@ -221,6 +222,7 @@ def test_a_touch_a_release_and_a_crossing_keep_their_ids(tiny_library, tmp_path)
     assert released == [(5, f"release {next(iter(seen['B']))}")]
 
 
+@pytest.mark.slow
 def test_a_frame_is_solved_on_one_blas_thread(tiny_library, tmp_path, monkeypatch):
     """The warm fit runs on one BLAS thread: OpenBLAS's threads, spinning while
     they wait, took the cores from the ``--show`` window (the track bench: 4.42 frames a
@@ -424,7 +426,7 @@ def _raise_in_frame(monkeypatch, index: int, exc: BaseException) -> None:
     monkeypatch.setattr(Tracker, "step", raising)
 
 
-@pytest.mark.parametrize("left_out", [0, 1])
+@pytest.mark.parametrize("left_out", [0, pytest.param(1, marks=pytest.mark.slow)])
 def test_a_frame_the_library_cannot_explain_is_drawn_without_contacts(
     tiny_library, tmp_path, monkeypatch, left_out
 ):
@@ -459,6 +461,7 @@ def test_a_frame_the_library_cannot_explain_is_drawn_without_contacts(
     assert written == {"loads.csv", "loads.png", "summary.json", "track.mp4"}  # no spool
 
 
+@pytest.mark.slow
 def test_the_command_writes_to_fringekit_out_track_by_default(tiny_library, tmp_path, monkeypatch):
     """``--out`` is optional, as for ``predict`` and ``analyze``: fringekit-out/track."""
     folder = tmp_path / "frames"
@@ -480,6 +483,7 @@ def test_the_frame_spool_removes_a_frame_saved_but_not_yet_counted(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_ctrl_c_writes_the_frames_solved_before_it(tiny_library, tmp_path, monkeypatch, capsys):
     """Ctrl-C in the third frame: exit 130 in one line, the two frames before it in
     loads.csv, summary.json and the video, and summary.json says where it stopped."""
@@ -595,6 +599,7 @@ class Window:
 """
 
 
+@pytest.mark.slow
 def test_the_live_window_never_holds_the_solver_and_plots_every_frame(
     tiny_library, tmp_path, monkeypatch
 ):
@@ -697,6 +702,7 @@ def test_a_window_that_never_reads_lets_the_run_exit(tmp_path):
     assert mark.read_text() == str(signal.SIG_IGN)
 
 
+@pytest.mark.slow
 def test_a_show_without_a_display_warns_and_tracks_the_stream(tiny_library, tmp_path, monkeypatch):
     """``--show`` where matplotlib opens no window (here its file backend, as on a
     machine without a display): the stream is tracked as without it, and the summary

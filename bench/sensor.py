@@ -375,6 +375,37 @@ def summary(frames: list[dict]) -> dict:
     return out
 
 
+def _fitted(s: CalibratedSensor, pixels: int) -> dict:
+    """Each fitted parameter of the sensor file ``s``, its 1-sigma and its truth."""
+    geo = truth_sensor(pixels)
+    fitted = {
+        k: {"fitted": getattr(s, k), "sd": s.sd.get(k), "truth": v}
+        for k, v in (
+            ("modulus_scale", TRUE["modulus_scale"]),
+            ("fringe_scale", TRUE["fringe_scale"]),
+            ("gamma", TRUE["gamma"]),
+            ("pixel_mm", geo["pixel_mm"]),
+            ("rotation_deg", geo["rotation_deg"]),
+        )
+    }
+    fitted["origin_px"] = {
+        "fitted": list(s.origin_px),
+        "sd": s.sd.get("origin_px"),
+        "truth": list(geo["origin_px"]),
+    }
+    fitted["black"] = {"fitted": list(s.black), "truth": TRUE["black"]}
+    return fitted
+
+
+def _report(result: dict, json_path) -> None:
+    """Print the phase run's summaries and times; write ``result`` to ``json_path``."""
+    for name in ("d_phase_without_reference", "e_phase_with_rest_steps"):
+        print(name, json.dumps(result[name]["summary"]))
+    print(json.dumps(result["times_s"]), f"peak memory {result['peak_mb']:.0f} MB")
+    if json_path:
+        Path(json_path).write_text(json.dumps(result, indent=2))
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--pixels", type=int, default=128)
@@ -421,36 +452,15 @@ def main(argv=None) -> None:
     else:
         tests, t_render = render(work, args, np.random.default_rng(args.seed))
     if args.phase:
-        result = run_phase(lib, work, args, tests)
-        for name in ("d_phase_without_reference", "e_phase_with_rest_steps"):
-            print(name, json.dumps(result[name]["summary"]))
-        print(json.dumps(result["times_s"]), f"peak memory {result['peak_mb']:.0f} MB")
-        if args.json:
-            Path(args.json).write_text(json.dumps(result, indent=2))
-        return
+        return _report(run_phase(lib, work, args, tests), args.json)
     t0 = time.perf_counter()
     cal = fringekit.calibrate_sensor(
         lib, d / "rest.png", d / "known.csv", pixel_mm=p, dark=d / "dark.png", progress=True
     )
     t_cal = time.perf_counter() - t0
     path = cal.write(work / "sensor.json")
-    s, geo = cal.sensor, truth_sensor(args.pixels)
-    fitted = {
-        k: {"fitted": getattr(s, k), "sd": s.sd.get(k), "truth": v}
-        for k, v in (
-            ("modulus_scale", TRUE["modulus_scale"]),
-            ("fringe_scale", TRUE["fringe_scale"]),
-            ("gamma", TRUE["gamma"]),
-            ("pixel_mm", geo["pixel_mm"]),
-            ("rotation_deg", geo["rotation_deg"]),
-        )
-    }
-    fitted["origin_px"] = {
-        "fitted": list(s.origin_px),
-        "sd": s.sd.get("origin_px"),
-        "truth": list(geo["origin_px"]),
-    }
-    fitted["black"] = {"fitted": list(s.black), "truth": TRUE["black"]}
+    s = cal.sensor
+    fitted = _fitted(s, args.pixels)
     a, t_a = read_tests(lib, d, tests, pixel_mm=p)
     b, t_b = read_tests(lib, d, tests, sensor=path)
     few = tests[: args.refine_frames]

@@ -323,8 +323,8 @@ class RestFrames:
 
         Examples
         --------
-        See ``tests/test_track.py``, which reads a residual back from the model's own six
-        steps.
+        See ``tests/test_residual_retarder.py``, which reads a residual back from the
+        model's own six steps.
         """
         self._check_size(shape)
         self.check_steps()
@@ -359,7 +359,17 @@ def _reach(bad: np.ndarray) -> np.ndarray:
 def residual_fringes(residual_ab: np.ndarray, law) -> np.ndarray:
     """(P,) the retardation (fringes, the double pass) of a residual's summed slab pairs
     ``residual_ab`` (P, 2) (Pa m) at the reference wavelength: 2 k |(a, b)| / 2 pi
-    (:meth:`RestFrames.retarder`)."""
+    (:meth:`RestFrames.retarder`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringekit.optics import PSM4_ASSUMED as law
+    >>> k = float(law.retardation_per_stress_length(np.array([law.wavelength_ref]))[0])
+    >>> ab = np.array([[0.25 * np.pi / k, 0.0]])  # pi / 2 through the double pass
+    >>> residual_fringes(ab, law).round(6)
+    array([0.25])
+    """
     k = float(law.retardation_per_stress_length(np.array([law.wavelength_ref]))[0])
     return 2.0 * k * np.hypot(*np.asarray(residual_ab, float).T) / (2.0 * np.pi)
 
@@ -395,7 +405,14 @@ def rest_summary(rest: RestFrames | None, light=None, unknown=None, fringes=None
 def unknown_warning(unknown: np.ndarray | None, phase: bool, where: str) -> list[str]:
     """The one warning (a list of zero or one line) for pixels whose rest light, or
     (``phase``) residual retarder, is not known: left out of every fit of ``where``
-    ("the image", "every frame")."""
+    ("the fit", "every frame").
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> unknown_warning(np.array([True, False, True]), False, "the fit")[0][:45]
+    '2 px saturated in the rest frames (or within '
+    """
     if unknown is None or not unknown.any():
         return []
     what = (

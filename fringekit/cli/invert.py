@@ -55,6 +55,15 @@ def add_parser(sub) -> None:
         "rest (or 6n) give the sheet's residual retarder, put into the model",
     )
     iv.add_argument(
+        "--residual-steps",
+        nargs="+",
+        default=None,
+        metavar="STEP",
+        help="rgb/mono: the six phase steps of the sensor at rest (or 6n), taken once with "
+        "the plates stepped: the sheet's residual retarder, put into the model (for a "
+        "residual beyond what a rest frame's subtraction serves, about 0.05 fringe)",
+    )
+    iv.add_argument(
         "--refine",
         choices=("fem",),
         default=None,
@@ -83,6 +92,7 @@ def run(args: argparse.Namespace) -> int:
         origin_px=args.origin_px,
         sensor=args.sensor,
         reference=args.reference,
+        residual_steps=args.residual_steps,
         refine=args.refine,
         max_seconds=args.max_seconds,
         progress=not args.quiet,

@@ -44,7 +44,7 @@ from fringekit.inversion.fit import WINDOW_MM, InvertResult, invert_image
 from fringekit.inversion.model import ImageModel
 from fringekit.inversion.read import pixel_grid, read_measurement, sensor_config
 from fringekit.inversion.refine import refine_fem
-from fringekit.inversion.rest import RestFrames, take_rest
+from fringekit.inversion.rest import RESIDUAL_STEPS, RestFrames, take_rest
 from fringekit.inversion.scale import check_scale
 from fringekit.inversion.verdict import WARN_RESIDUAL, residual_warnings
 from fringekit.library.calibrated import CalibratedSensor, as_calibrated
@@ -219,6 +219,7 @@ def invert(
     method: str | None = None,
     sensor: str | os.PathLike | CalibratedSensor | None = None,
     reference: str | os.PathLike | Sequence[str | os.PathLike] | None = None,
+    residual_steps: Sequence[str | os.PathLike] | None = None,
     refine: str | None = None,
     max_seconds: float = DEFAULT_MAX_SECONDS,
     progress: bool = False,
@@ -256,6 +257,13 @@ def invert(
         model in series with the loads' retardation. Pixels where the rest is not known
         (saturated; phase: no modulation, or a residual from 0.45 fringe on) are left
         out, with a warning; ``summary["reference"]`` reports it.
+    residual_steps : sequence of paths, optional
+        For rgb and mono (``--residual-steps``): the six phase steps of the sensor at rest
+        (or 6n), taken once with the polariscope's plates stepped: the sheet's residual
+        retarder, read from them as for phase, is put into the model, so that a residual
+        beyond what a rest frame's subtraction serves (about 0.05 fringe) is modelled.
+        Not with ``reference`` (a dark-field rest frame holds the residual's light, which
+        the model then makes).
     refine : {None, "fem"}
         ``"fem"``: after the library fit, rounds of full-FEM defect correction until no
         position or load moves by more than its 1-sigma (one FEM solve each, minutes:
@@ -314,7 +322,7 @@ def invert(
     budget = Budget(max_seconds, say=say, clock=clock)  # the whole run's
     paths = [images] if isinstance(images, (str, os.PathLike)) else list(images)
     lib = _library(library)
-    rest = None if reference is None else RestFrames.read(reference)
+    rest = _rest_frames(reference, residual_steps)
     if cal is not None:
         cal.check(lib)
     cfg, where, warnings = _sensor(lib, cal, paths)
@@ -326,11 +334,9 @@ def invert(
         lib, optics = cal.model_inputs(lib, optics, shape, method)
     if note:
         warnings.append(note)
-    measured, usable, residual_ab, rest_info, more = take_rest(
-        rest, method, measured, usable, shape, optics, cal, _channel(method, paths, rest)
+    measured, usable, residual_ab, rest_info = _with_rest(
+        rest, refine, method, paths, measured, usable, shape, optics, cal, warnings
     )
-    _check_refine(refine, residual_ab)
-    warnings += more
     check_memory(
         detection_bytes(shape, pixel_mm),
         f"detection's smoothing over {SMOOTH_MM} mm ({SMOOTH_MM / (2 * pixel_mm):.3g} px)",
@@ -417,7 +423,7 @@ def _result_line(res: InvertResult, seconds: float) -> str:
 def _channel(method: str, paths, rest) -> int | None:
     """The colour channel a mono colour photograph is read in (its strongest, as
     :func:`~fringekit.inversion.read.read_measurement` reads it), for its rest frames."""
-    if rest is None or method != "mono":
+    if rest is None or rest.option == RESIDUAL_STEPS or method != "mono":
         return None
     data = load_image(paths[0]).data
     return strongest_channel(data) if data.ndim == 3 else None
@@ -427,9 +433,43 @@ def _check_refine(refine, residual_ab) -> None:
     """``--refine fem`` renders the FEM without the rest's residual retarder: refused."""
     if refine == "fem" and residual_ab is not None:
         raise ConfigError(
-            "--refine fem with a phase --reference is not allowed: the full-FEM image it "
-            "renders holds no residual retarder; leave out one or the other"
+            "--refine fem with a residual retarder (a phase --reference, or "
+            "--residual-steps) is not allowed: the full-FEM image it renders holds no "
+            "residual; leave out one or the other"
         )
+
+
+def _rest_frames(reference, residual_steps) -> RestFrames | None:
+    """The frames of the sensor at rest: ``--reference``'s, or the six rest steps of
+    ``--residual-steps`` (the two together are refused in one line)."""
+    if residual_steps is None:
+        return None if reference is None else RestFrames.read(reference)
+    if reference is not None:
+        raise ConfigError(
+            "--residual-steps with --reference is not allowed: the rest frame holds the "
+            "residual's light, which the model makes from the steps; give one of them"
+        )
+    steps = RestFrames.read(residual_steps, RESIDUAL_STEPS)
+    steps.check_steps()
+    return steps
+
+
+def _with_rest(rest, refine, method, paths, measured, usable, shape, optics, cal, warnings):
+    """(measured, usable, residual_ab, summary) with the rest taken into account
+    (:func:`~fringekit.inversion.rest.take_rest`), its warnings added to ``warnings``;
+    ``--residual-steps`` with phase, and a residual with ``--refine fem``, refused."""
+    if rest is not None and rest.option == RESIDUAL_STEPS and method == "phase":
+        raise ConfigError(
+            "--residual-steps is for --method rgb or mono; with --method phase give the "
+            "six rest steps as --reference"
+        )
+    channel = _channel(method, paths, rest)
+    measured, usable, residual_ab, info, more = take_rest(
+        rest, method, measured, usable, shape, optics, cal, channel
+    )
+    _check_refine(refine, residual_ab)
+    warnings += more
+    return measured, usable, residual_ab, info
 
 
 def _source(sensor) -> str | None:

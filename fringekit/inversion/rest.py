@@ -44,6 +44,7 @@ from fringekit.measurement.regions import no_data_regions
 __all__ = [
     "FOLD_NEAR",
     "PHASE_STEPS",
+    "RESIDUAL_STEPS",
     "RestFrames",
     "checked_pixels",
     "frame_linear",
@@ -55,6 +56,9 @@ __all__ = [
     "unknown_warning",
 ]
 
+#: The option of six rest steps that give a dark-field measurement the sheet's residual
+#: retarder (``invert --residual-steps``).
+RESIDUAL_STEPS = "--residual-steps"
 #: A six-step rest's residual is read where it is below this share of half a fringe.
 FOLD_NEAR = 0.9
 #: Frames a load state takes with the phase method (the six phase steps, in
@@ -193,7 +197,7 @@ def steps_linear(images, names):
 
 @dataclass(frozen=True)
 class RestFrames:
-    """Frames of the sensor at rest (``track --reference``), as stored.
+    """Frames of the sensor at rest (``--reference``, ``--residual-steps``), as stored.
 
     Attributes
     ----------
@@ -201,6 +205,8 @@ class RestFrames:
         The frames' pixels as stored, all of one size.
     names : tuple of str
         Their files.
+    option : str
+        The option that gave them, for messages.
 
     Examples
     --------
@@ -221,6 +227,7 @@ class RestFrames:
 
     images: tuple
     names: tuple
+    option: str = "--reference"
 
     @classmethod
     def read(cls, paths, option: str = "--reference") -> RestFrames:
@@ -241,7 +248,7 @@ class RestFrames:
         if len(shapes) > 1:
             sizes = ", ".join(f"{r} x {c}" for r, c in sorted(shapes))
             raise ConfigError(f"{option}: the rest frames differ in size ({sizes} px)")
-        return cls(tuple(images), tuple(str(p) for p in paths))
+        return cls(tuple(images), tuple(str(p) for p in paths), option)
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -252,7 +259,7 @@ class RestFrames:
         """Frames of another size than the stream's ``shape`` are refused in one line."""
         if tuple(shape) != self.shape:
             raise ConfigError(
-                f"--reference {self.names[0]} is {self.shape[0]} x {self.shape[1]} px; the "
+                f"{self.option} {self.names[0]} is {self.shape[0]} x {self.shape[1]} px; the "
                 f"measured frames are {shape[0]} x {shape[1]} px"
             )
 
@@ -261,8 +268,9 @@ class RestFrames:
         refused in one line."""
         if len(self.images) % PHASE_STEPS:
             raise ConfigError(
-                "--reference with --method phase takes the six steps of the sensor at rest "
-                f"(or of several rests, six each); got {len(self.images)} frame(s)"
+                f"{self.option}: the residual retarder is read from the six phase steps of "
+                "the sensor at rest (or of several rests, six each); got "
+                f"{len(self.images)} frame(s)"
             )
 
     def light(self, shape, method: str, camera: str, cal=None, channel=None):
@@ -427,12 +435,16 @@ def unknown_warning(unknown: np.ndarray | None, phase: bool, where: str) -> list
 
 
 def take_rest(rest, method: str, measured, usable, shape, optics, cal=None, channel=None):
-    """One measurement with the sensor's rest taken into account (``invert --reference``).
+    """One measurement with the sensor's rest taken into account (``invert --reference``,
+    ``--residual-steps``).
 
     Parameters
     ----------
     rest : RestFrames or None
-        The frames of the sensor at rest (None: the measurement as it is).
+        The frames of the sensor at rest (None: the measurement as it is). Dark-field
+        frames (rgb, mono), whose light is taken off; or six-step frames (phase, and any
+        method's ``--residual-steps``: ``rest.option``), read as the sheet's residual
+        retarder.
     method : {"rgb", "mono", "phase"}
     measured : (P, C) array
         The measurement's linear intensities, P = rows * cols.
@@ -449,12 +461,12 @@ def take_rest(rest, method: str, measured, usable, shape, optics, cal=None, chan
     Returns
     -------
     measured : (P, C) array
-        Less the rest light (rgb, mono); unchanged for phase.
+        Less the rest light (dark-field rest frames); else unchanged.
     usable : (P,) bool array
         Less the pixels where the rest is not known.
     residual_ab : (P, 2) array or None
-        Phase: the rest's residual retarder (:meth:`RestFrames.retarder`) for the model's
-        ``residual_ab``; None otherwise.
+        Six-step rest frames: the residual retarder (:meth:`RestFrames.retarder`) for the
+        model's ``residual_ab``; None otherwise.
     summary : dict or None
         :func:`rest_summary`.
     warnings : list of str
@@ -474,16 +486,11 @@ def take_rest(rest, method: str, measured, usable, shape, optics, cal=None, chan
     """
     if rest is None:
         return measured, usable, None, None, []
-    if method == "phase":
+    if method == "phase" or rest.option == RESIDUAL_STEPS:
         ab, unknown = rest.retarder(shape, optics.law)
         summary = rest_summary(rest, unknown=unknown, fringes=residual_fringes(ab, optics.law))
         return measured, usable & ~unknown, ab, summary, unknown_warning(unknown, True, "the fit")
     light, unknown = rest.light(shape, method, optics.camera.sensitivities, cal, channel)
     summary = rest_summary(rest, light=light, unknown=unknown)
-    return (
-        measured - light,
-        usable & ~unknown,
-        None,
-        summary,
-        unknown_warning(unknown, False, "the fit"),
-    )
+    warnings = unknown_warning(unknown, False, "the fit")
+    return measured - light, usable & ~unknown, None, summary, warnings

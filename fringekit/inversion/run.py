@@ -26,6 +26,7 @@ def run_invert(
     origin_px=None,
     sensor=None,
     reference=None,
+    residual_steps=None,
     refine=None,
     max_seconds=DEFAULT_MAX_SECONDS,
     progress=True,
@@ -36,7 +37,8 @@ def run_invert(
     answer, flagged)."""
     paths = [images] if isinstance(images, (str, os.PathLike)) else list(images)
     rest = [reference] if isinstance(reference, (str, os.PathLike)) else list(reference or [])
-    inputs = [*paths, *rest, getattr(library, "folder", library), sensor]
+    steps = list(residual_steps or [])
+    inputs = [*paths, *rest, *steps, getattr(library, "folder", library), sensor]
     with claim_output(out, command="invert", inputs=inputs) as work:
         inv = invert(
             images,
@@ -46,6 +48,7 @@ def run_invert(
             method=method,
             sensor=sensor,
             reference=reference,
+            residual_steps=residual_steps,
             refine=refine,
             max_seconds=max_seconds,
             progress=progress,

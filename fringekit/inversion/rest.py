@@ -267,8 +267,9 @@ class RestFrames:
         """A phase stream's rest is whole six-step states: another count of frames is
         refused in one line."""
         if len(self.images) % PHASE_STEPS:
+            where = self.option + (" with --method phase" if self.option == "--reference" else "")
             raise ConfigError(
-                f"{self.option}: the residual retarder is read from the six phase steps of "
+                f"{where}: the residual retarder is read from the six phase steps of "
                 "the sensor at rest (or of several rests, six each); got "
                 f"{len(self.images)} frame(s)"
             )

@@ -131,3 +131,61 @@ def test_a_residual_near_half_a_fringe_is_left_out_not_folded(tiny_library, tmp_
     k = blank.law.retardation_per_stress_length(np.array([blank.law.wavelength_ref]))[0]
     err = np.max(np.abs(got - ab)[~unknown])
     assert err < 1e-3 * 0.9 * np.pi / (2 * k), err
+
+
+@pytest.mark.slow
+def test_a_grey_stream_with_a_residual_is_tracked_with_six_rest_steps(tiny_library, tmp_path):
+    """Grey frames (16-bit) of two moving contacts in a sheet with a residual of up to 0.3
+    fringe, six times what a rest frame's subtraction serves: tracked with the six rest
+    steps as ``--residual-steps``, the residual is in the model and every contact comes
+    back within 5 um and 2e-3 of its Fz."""
+    blank, _ = _model(tiny_library)
+    _, _, ab = _residual(blank)
+    truth = [
+        [(-4.0 + 0.2 * k, 3.5, 2.5 + 0.1 * k, 0.3, 0.0), (3.0, -4.0 + 0.5 * k, 3.0, 0.0, 0.3)]
+        for k in range(2)
+    ]
+    kw = {"pixels": PX, "pixel_mm": PIXEL_MM, "bit_depth": 16, "residual_ab": ab}
+    frames, rest = tmp_path / "frames", tmp_path / "rest"
+    library_frames(tiny_library, truth, frames, method="mono", **kw)
+    library_frames(tiny_library, [[]], rest, method="phase", **kw)
+    steps = [str(rest / f"frame_0000_step{k}.png") for k in range(1, 7)]
+    out = tmp_path / "out"
+    lib = ["--library", str(tiny_library.folder), "--pixel-mm", str(PIXEL_MM), "--quiet"]
+    args = ["track", str(frames), *lib, "--residual-steps", *steps, "--out", str(out)]
+    assert main(args) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["method"] == "mono"
+    assert summary["reference"]["residual_max_fringe"] == pytest.approx(0.3, abs=0.01)
+    rows = list(csv.DictReader((out / "loads.csv").open()))
+    assert len(rows) == 4
+    for row in rows:
+        got = np.array([float(row[k]) for k in ("x_mm", "y_mm", "Fz_N", "Fx_N", "Fy_N")])
+        t = np.asarray(truth[int(row["frame"])])
+        want = t[int(np.argmin(np.hypot(*(t[:, :2] - got[:2]).T)))]
+        assert np.all(np.abs(got[:2] - want[:2]) <= 5e-3), (row, want)
+        assert np.all(np.abs(got[2:] - want[2:]) <= 2e-3 * want[2]), (row, want)
+        assert row["reliable"] == "true", row
+
+
+def test_rest_steps_for_a_grey_stream_are_refused_with_a_reference_or_phase(
+    tiny_library, tmp_path, capsys
+):
+    """``track --residual-steps`` with ``--reference``, or with ``--method phase``: one
+    line each, naming the options; nothing written."""
+    blank, _ = _model(tiny_library)
+    lin, _ = replace(blank, residual_ab=_residual(blank)[2]).linear([])
+    steps = [str(p) for p in _write_steps(tmp_path, "rest", lin)]
+    frames = tmp_path / "frames"
+    library_frames(tiny_library, [[]], frames, pixels=PX, pixel_mm=PIXEL_MM)
+    lib = ["--library", str(tiny_library.folder), "--pixel-mm", str(PIXEL_MM), "--quiet"]
+    for extra, words in (
+        (["--reference", steps[0]], ["--residual-steps with --reference"]),
+        (["--method", "phase"], ["--residual-steps", "--method phase"]),
+    ):
+        out = tmp_path / "out"
+        args = ["track", str(frames), *lib, "--residual-steps", *steps, *extra]
+        assert main([*args, "--out", str(out)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and all(w in err[0] for w in words), err
+        assert not out.exists()

@@ -59,6 +59,15 @@ def add_parser(sub) -> None:
         "for phase, the rest's six steps: the sheet's residual retarder goes into the model",
     )
     tr.add_argument(
+        "--residual-steps",
+        nargs="+",
+        default=None,
+        metavar="STEP",
+        help="rgb/mono: the six phase steps of the sensor at rest (or 6n), taken once with "
+        "the plates stepped: the sheet's residual retarder, put into the model (for a "
+        "residual beyond what a rest frame's subtraction serves, about 0.05 fringe)",
+    )
+    tr.add_argument(
         "--stride",
         type=at_least_one,
         default=TRACK_STRIDE,
@@ -84,6 +93,7 @@ def run(args: argparse.Namespace) -> int:
         method=args.method,
         sensor=args.sensor,
         reference=args.reference,
+        residual_steps=args.residual_steps,
         stride=args.stride,
         fps=args.fps,
         max_frames=args.max_frames,

@@ -44,7 +44,12 @@ from fringekit.inversion.fit import WINDOW_MM, InvertResult, invert_image
 from fringekit.inversion.model import ImageModel
 from fringekit.inversion.read import pixel_grid, read_measurement, sensor_config
 from fringekit.inversion.refine import refine_fem
-from fringekit.inversion.rest import RESIDUAL_STEPS, RestFrames, take_rest
+from fringekit.inversion.rest import (
+    RESIDUAL_STEPS,
+    check_rest_method,
+    rest_frames,
+    take_rest,
+)
 from fringekit.inversion.scale import check_scale
 from fringekit.inversion.verdict import WARN_RESIDUAL, residual_warnings
 from fringekit.library.calibrated import CalibratedSensor, as_calibrated
@@ -322,7 +327,7 @@ def invert(
     budget = Budget(max_seconds, say=say, clock=clock)  # the whole run's
     paths = [images] if isinstance(images, (str, os.PathLike)) else list(images)
     lib = _library(library)
-    rest = _rest_frames(reference, residual_steps)
+    rest = rest_frames(reference, residual_steps)
     if cal is not None:
         cal.check(lib)
     cfg, where, warnings = _sensor(lib, cal, paths)
@@ -439,30 +444,11 @@ def _check_refine(refine, residual_ab) -> None:
         )
 
 
-def _rest_frames(reference, residual_steps) -> RestFrames | None:
-    """The frames of the sensor at rest: ``--reference``'s, or the six rest steps of
-    ``--residual-steps`` (the two together are refused in one line)."""
-    if residual_steps is None:
-        return None if reference is None else RestFrames.read(reference)
-    if reference is not None:
-        raise ConfigError(
-            "--residual-steps with --reference is not allowed: the rest frame holds the "
-            "residual's light, which the model makes from the steps; give one of them"
-        )
-    steps = RestFrames.read(residual_steps, RESIDUAL_STEPS)
-    steps.check_steps()
-    return steps
-
-
 def _with_rest(rest, refine, method, paths, measured, usable, shape, optics, cal, warnings):
     """(measured, usable, residual_ab, summary) with the rest taken into account
     (:func:`~fringekit.inversion.rest.take_rest`), its warnings added to ``warnings``;
     ``--residual-steps`` with phase, and a residual with ``--refine fem``, refused."""
-    if rest is not None and rest.option == RESIDUAL_STEPS and method == "phase":
-        raise ConfigError(
-            "--residual-steps is for --method rgb or mono; with --method phase give the "
-            "six rest steps as --reference"
-        )
+    check_rest_method(rest, method)
     channel = _channel(method, paths, rest)
     measured, usable, residual_ab, info, more = take_rest(
         rest, method, measured, usable, shape, optics, cal, channel

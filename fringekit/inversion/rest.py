@@ -46,10 +46,12 @@ __all__ = [
     "PHASE_STEPS",
     "RESIDUAL_STEPS",
     "RestFrames",
+    "check_rest_method",
     "checked_pixels",
     "frame_linear",
     "grey",
     "residual_fringes",
+    "rest_frames",
     "rest_summary",
     "steps_linear",
     "take_rest",
@@ -264,8 +266,8 @@ class RestFrames:
             )
 
     def check_steps(self) -> None:
-        """A phase stream's rest is whole six-step states: another count of frames is
-        refused in one line."""
+        """Six-step rest frames (phase's ``--reference``, ``--residual-steps``) are whole
+        six-step sets: another count of frames is refused in one line."""
         if len(self.images) % PHASE_STEPS:
             where = self.option + (" with --method phase" if self.option == "--reference" else "")
             raise ConfigError(
@@ -363,6 +365,42 @@ def _reach(bad: np.ndarray) -> np.ndarray:
         return bad.ravel()
     reach = int(np.ceil(2 * max(1.0, max(bad.shape) / MAP_CELLS)))
     return ndimage.binary_dilation(bad, np.ones((2 * reach + 1,) * 2, bool)).ravel()
+
+
+def rest_frames(reference, residual_steps) -> RestFrames | None:
+    """The frames of the sensor at rest: ``--reference``'s, or the six rest steps of
+    ``--residual-steps`` (whole six-step sets); the two together are refused in one line.
+
+    Examples
+    --------
+    >>> rest_frames(None, None) is None
+    True
+    """
+    if residual_steps is None:
+        return None if reference is None else RestFrames.read(reference)
+    if reference is not None:
+        raise ConfigError(
+            "--residual-steps with --reference is not allowed: the rest frame holds the "
+            "residual's light, which the model makes from the steps; give one of them"
+        )
+    steps = RestFrames.read(residual_steps, RESIDUAL_STEPS)
+    steps.check_steps()
+    return steps
+
+
+def check_rest_method(rest: RestFrames | None, method: str) -> None:
+    """``--residual-steps`` serves the dark-field methods (rgb, mono); phase takes its
+    rest steps as ``--reference``: refused in one line.
+
+    Examples
+    --------
+    >>> check_rest_method(None, "phase")
+    """
+    if rest is not None and rest.option == RESIDUAL_STEPS and method == "phase":
+        raise ConfigError(
+            "--residual-steps is for --method rgb or mono; with --method phase give the "
+            "six rest steps as --reference"
+        )
 
 
 def residual_fringes(residual_ab: np.ndarray, law) -> np.ndarray:

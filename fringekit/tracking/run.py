@@ -42,6 +42,7 @@ def run_track(
     method=None,
     sensor=None,
     reference=None,
+    residual_steps=None,
     stride: int = TRACK_STRIDE,
     fps=None,
     max_frames=None,
@@ -60,6 +61,7 @@ def run_track(
         getattr(library, "folder", library),
         sensor,
         *([reference] if isinstance(reference, (str, os.PathLike)) else reference or []),
+        *(residual_steps or []),
     ]
     with claim_output(out, command="track", inputs=inputs) as work:
         spool = FrameSpool(work / ".frames") if video else None
@@ -79,6 +81,7 @@ def run_track(
                 method=method,
                 sensor=sensor,
                 reference=reference,
+                residual_steps=residual_steps,
                 stride=stride,
                 fps=fps,
                 max_frames=max_frames,

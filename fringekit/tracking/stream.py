@@ -33,10 +33,12 @@ from fringekit.config.inputs import optics_setup
 from fringekit.errors import ConfigError, SourceError
 from fringekit.inversion.rest import (
     PHASE_STEPS,
-    RestFrames,
+    RESIDUAL_STEPS,
+    check_rest_method,
     frame_linear,
     grey,
     residual_fringes,
+    rest_frames,
     rest_summary,
     steps_linear,
     unknown_warning,
@@ -196,6 +198,7 @@ def track(
     method: str | None = None,
     sensor: str | os.PathLike | CalibratedSensor | None = None,
     reference=None,
+    residual_steps=None,
     stride: int = TRACK_STRIDE,
     fps: float | None = None,
     max_frames: int | None = None,
@@ -235,6 +238,11 @@ def track(
         (:class:`~fringekit.inversion.rest.RestFrames`; with a calibrated ``sensor``, in
         place of its rest map). For ``phase``, the six steps of the rest (or of several,
         six each): the sheet's residual retarder, read from them, is in the model.
+    residual_steps : sequence of paths, optional
+        For rgb and mono (``--residual-steps``): the six phase steps of the sensor at rest
+        (or 6n), taken once with the plates stepped; the sheet's residual retarder, read
+        from them, is in the model (:func:`fringekit.invert`'s ``residual_steps``). Not
+        with ``reference``.
     stride : int
         Every ``stride``-th pixel in both directions is fitted per frame (default 4).
     fps : float, optional
@@ -295,7 +303,9 @@ def track(
         raise ConfigError(f"--stride {stride} is not allowed; give a whole number 1-16")
     cfg, where = _sensor(lib, cal)
     optics = optics_setup(cfg)
-    rest = None if reference is None else RestFrames.read(reference)
+    rest = rest_frames(reference, residual_steps)
+    if method is not None:
+        check_rest_method(rest, method)
     if method == "phase" and rest is not None:
         rest.check_steps()  # before the first frame is read
     live = (
@@ -403,7 +413,9 @@ class _Run:
         lib, optics, shape = self.lib, self.optics, img.shape[:2]
         if self.cal is not None:
             lib, optics = self.cal.model_inputs(lib, optics, shape, self.method)
-        if self.rest is not None and self.method == "phase":
+        check_rest_method(self.rest, self.method)
+        steps = self.rest is not None and self.rest.option == RESIDUAL_STEPS
+        if self.rest is not None and (self.method == "phase" or steps):
             self.rest_ab, self.rest_unknown = self.rest.retarder(shape, optics.law)
         elif self.rest is not None:
             if self.method == "mono" and grey(img).ndim == 3:
@@ -461,9 +473,8 @@ class _Run:
         events = [{"frame": f.index, "events": list(f.events)} for f in self.frames if f.events]
         unreliable = int(sum(int(np.sum(~f.reliable)) for f in self.frames))
         warnings = [self.channel.note, *self.notes] if self.channel.note else list(self.notes)
-        phase = self.rest_ab is not None
-        where = "every state" if phase else "every frame"
-        warnings += unknown_warning(self.rest_unknown, phase, where)
+        where = "every state" if self.method == "phase" else "every frame"
+        warnings += unknown_warning(self.rest_unknown, self.rest_ab is not None, where)
         if self.refused:
             warnings.append(
                 f"{len(self.refused)} frame(s) the library cannot explain were left out "

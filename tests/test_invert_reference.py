@@ -18,6 +18,7 @@ from fringekit.cli.main import main
 from fringekit.config.files import load_config
 from fringekit.config.inputs import optics_setup
 from fringekit.inversion import invert
+from fringekit.library.calibrated import CalibratedSensor
 from fringekit.optics import write_image
 from fringekit.tracking import library_frames
 from fringekit.tracking.synthetic import blank_model
@@ -150,13 +151,18 @@ def test_a_bad_reference_is_one_line_and_writes_nothing(
     tiny_library, glare_image, phase_steps, tmp_path, capsys
 ):
     """Rest frames of another size, five phase rest steps, ``--refine fem`` with a phase
-    rest, ``--residual-steps`` with phase, three of them, or with ``--reference``: each
-    refused in one line naming the option; no output folder is made."""
+    rest, ``--residual-steps`` with phase, three of them, with ``--reference`` or with a
+    calibrated sensor's rest map: each refused in one line naming the option; no output
+    folder is made."""
     lit, _ = glare_image
     steps, rest = phase_steps
     small = tmp_path / "small.png"
     write_image(small, np.zeros((PX, PX - 2), np.uint8))
     lib = ["--library", str(tiny_library.folder), "--pixel-mm", str(PIXEL_MM)]
+    cfg = load_config(tiny_library.folder / "config.toml")
+    sha, middle = tiny_library.manifest["manifest_sha256"], ((PX - 1) / 2,) * 2
+    cal = CalibratedSensor(cfg, sha, "mono", (PX, PX), PIXEL_MM, middle, 0.0, 1.0, 1.0, 1.0, (0.0,))
+    sensor = replace(cal, rest=np.zeros((8, 8, 1))).save(tmp_path / "sensor.json")
     for images, extra, words in (
         ([lit], ["--reference", str(small)], ["--reference", "small.png", f"{PX} x {PX - 2}"]),
         (steps, ["--reference", *map(str, rest[:5])], ["--reference", "six phase steps", "got 5"]),
@@ -167,6 +173,11 @@ def test_a_bad_reference_is_one_line_and_writes_nothing(
             [lit],
             ["--reference", str(lit), "--residual-steps", *map(str, rest)],
             ["--residual-steps with --reference"],
+        ),
+        (
+            [lit],
+            ["--sensor", str(sensor), "--residual-steps", *map(str, rest)],
+            ["--residual-steps with a calibrated --sensor"],
         ),
     ):
         out = tmp_path / "out"

@@ -448,7 +448,7 @@ def _with_rest(rest, refine, method, paths, measured, usable, shape, optics, cal
     """(measured, usable, residual_ab, summary) with the rest taken into account
     (:func:`~fringekit.inversion.rest.take_rest`), its warnings added to ``warnings``;
     ``--residual-steps`` with phase, and a residual with ``--refine fem``, refused."""
-    check_rest_method(rest, method)
+    check_rest_method(rest, method, cal)
     channel = _channel(method, paths, rest)
     measured, usable, residual_ab, info, more = take_rest(
         rest, method, measured, usable, shape, optics, cal, channel

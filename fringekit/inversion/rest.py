@@ -388,18 +388,27 @@ def rest_frames(reference, residual_steps) -> RestFrames | None:
     return steps
 
 
-def check_rest_method(rest: RestFrames | None, method: str) -> None:
-    """``--residual-steps`` serves the dark-field methods (rgb, mono); phase takes its
-    rest steps as ``--reference``: refused in one line.
+def check_rest_method(rest: RestFrames | None, method: str | None, cal=None) -> None:
+    """``--residual-steps`` serves the dark-field methods (rgb, mono) of a sensor without
+    a rest map: with ``method`` phase (which takes its rest steps as ``--reference``), or
+    a calibrated sensor ``cal`` whose rest map holds the residual's light (which the model
+    would make again), it is refused in one line.
 
     Examples
     --------
     >>> check_rest_method(None, "phase")
     """
-    if rest is not None and rest.option == RESIDUAL_STEPS and method == "phase":
+    if rest is None or rest.option != RESIDUAL_STEPS:
+        return
+    if method == "phase":
         raise ConfigError(
             "--residual-steps is for --method rgb or mono; with --method phase give the "
             "six rest steps as --reference"
+        )
+    if cal is not None and cal.calibrated and cal.rest is not None:
+        raise ConfigError(
+            "--residual-steps with a calibrated --sensor is not allowed yet: its rest map "
+            "holds the residual's light, which the model would make again from the steps"
         )
 
 

@@ -304,8 +304,7 @@ def track(
     cfg, where = _sensor(lib, cal)
     optics = optics_setup(cfg)
     rest = rest_frames(reference, residual_steps)
-    if method is not None:
-        check_rest_method(rest, method)
+    check_rest_method(rest, method, cal)
     if method == "phase" and rest is not None:
         rest.check_steps()  # before the first frame is read
     live = (
@@ -413,7 +412,7 @@ class _Run:
         lib, optics, shape = self.lib, self.optics, img.shape[:2]
         if self.cal is not None:
             lib, optics = self.cal.model_inputs(lib, optics, shape, self.method)
-        check_rest_method(self.rest, self.method)
+        check_rest_method(self.rest, self.method, self.cal)
         steps = self.rest is not None and self.rest.option == RESIDUAL_STEPS
         if self.rest is not None and (self.method == "phase" or steps):
             self.rest_ab, self.rest_unknown = self.rest.retarder(shape, optics.law)

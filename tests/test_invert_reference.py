@@ -18,6 +18,7 @@ from fringekit.cli.main import main
 from fringekit.config.files import load_config
 from fringekit.config.inputs import optics_setup
 from fringekit.inversion import invert
+from fringekit.inversion.rest import RestFrames, take_rest
 from fringekit.library.calibrated import CalibratedSensor
 from fringekit.optics import write_image
 from fringekit.tracking import library_frames
@@ -102,7 +103,6 @@ def phase_steps(tiny_library, tmp_path_factory):
     kw = {"pixels": PX, "pixel_mm": PIXEL_MM, "method": "phase", "bit_depth": 16}
     library_frames(tiny_library, [TRUTH], d / "loaded", residual_ab=ab, **kw)
     library_frames(tiny_library, [[]], d / "rest", residual_ab=ab, **kw)
-    assert replace(blank, residual_ab=ab).background is not None
     steps = [d / "loaded" / f"frame_0000_step{k}.png" for k in range(1, 7)]
     rest = [d / "rest" / f"frame_0000_step{k}.png" for k in range(1, 7)]
     return steps, rest
@@ -151,9 +151,9 @@ def test_a_bad_reference_is_one_line_and_writes_nothing(
     tiny_library, glare_image, phase_steps, tmp_path, capsys
 ):
     """Rest frames of another size, five phase rest steps, ``--refine fem`` with a phase
-    rest, ``--residual-steps`` with phase, three of them, with ``--reference`` or with a
-    calibrated sensor's rest map: each refused in one line naming the option; no output
-    folder is made."""
+    rest or with ``--residual-steps``, and ``--residual-steps`` with phase, with rgb, three
+    of them, with ``--reference`` or with a calibrated sensor's rest map: each refused in
+    one line naming the option; no output folder is made."""
     lit, _ = glare_image
     steps, rest = phase_steps
     small = tmp_path / "small.png"
@@ -163,10 +163,19 @@ def test_a_bad_reference_is_one_line_and_writes_nothing(
     sha, middle = tiny_library.manifest["manifest_sha256"], ((PX - 1) / 2,) * 2
     cal = CalibratedSensor(cfg, sha, "mono", (PX, PX), PIXEL_MM, middle, 0.0, 1.0, 1.0, 1.0, (0.0,))
     sensor = replace(cal, rest=np.zeros((8, 8, 1))).save(tmp_path / "sensor.json")
+    grey = read_pixels(lit).astype(float)
+    colour = tmp_path / "colour.tif"
+    write_image(colour, np.stack([grey, 0.9 * grey, 0.8 * grey], -1).astype(np.uint16))
     for images, extra, words in (
         ([lit], ["--reference", str(small)], ["--reference", "small.png", f"{PX} x {PX - 2}"]),
         (steps, ["--reference", *map(str, rest[:5])], ["--reference", "six phase steps", "got 5"]),
-        (steps, ["--reference", *map(str, rest), "--refine", "fem"], ["--refine fem"]),
+        (steps, ["--reference", *map(str, rest), "--refine", "fem"], ["--refine fem", "residual"]),
+        (
+            [lit],
+            ["--residual-steps", *map(str, rest), "--refine", "fem"],
+            ["--refine fem", "residual"],
+        ),
+        ([colour], ["--residual-steps", *map(str, rest)], ["--residual-steps", "rgb"]),
         (steps, ["--residual-steps", *map(str, rest)], ["--residual-steps", "--method phase"]),
         ([lit], ["--residual-steps", *map(str, rest[:3])], ["--residual-steps", "got 3"]),
         (
@@ -186,3 +195,15 @@ def test_a_bad_reference_is_one_line_and_writes_nothing(
         assert code == 2 and len(err) == 1, err
         assert all(w in err[0] for w in words), err
         assert not out.exists()
+
+
+def test_six_steps_given_as_a_dark_field_rest_are_warned_of(tiny_library):
+    """Phase steps of the rest average about half of full scale, which a dark field at
+    rest never does: given as a mono ``--reference`` they are warned of, naming
+    ``--residual-steps``; a dark rest is not."""
+    cfg = load_config(tiny_library.folder / "config.toml")
+    optics, measured, usable = optics_setup(cfg), np.full((16, 1), 0.3), np.ones(16, bool)
+    for level, warned in ((0.5, True), (0.05, False)):
+        rest = RestFrames((np.full((4, 4), level),), ("rest.png",))
+        *_, warnings = take_rest(rest, "mono", measured, usable, (4, 4), optics)
+        assert (len(warnings) == 1 and "--residual-steps" in warnings[0]) == warned, warnings

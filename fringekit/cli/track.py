@@ -63,7 +63,7 @@ def add_parser(sub) -> None:
         nargs="+",
         default=None,
         metavar="STEP",
-        help="rgb/mono: the six phase steps of the sensor at rest (or 6n), taken once with "
+        help="mono: the six phase steps of the sensor at rest (or 6n), taken once with "
         "the plates stepped: the sheet's residual retarder, put into the model (for a "
         "residual beyond what a rest frame's subtraction serves, about 0.05 fringe)",
     )

@@ -54,7 +54,7 @@ from fringekit.inversion.scale import check_scale
 from fringekit.inversion.verdict import WARN_RESIDUAL, residual_warnings
 from fringekit.library.calibrated import CalibratedSensor, as_calibrated
 from fringekit.library.store import Library, check_sensor, load_library
-from fringekit.output.folders import atomic_write
+from fringekit.output.folders import as_paths, atomic_write
 
 __all__ = ["LOAD_COLUMNS", "Inversion", "invert"]
 
@@ -325,7 +325,7 @@ def invert(
     _check_numbers(pixel_mm, max_seconds)
     say = echo if progress else (lambda s: None)
     budget = Budget(max_seconds, say=say, clock=clock)  # the whole run's
-    paths = [images] if isinstance(images, (str, os.PathLike)) else list(images)
+    paths = as_paths(images)
     lib = _library(library)
     rest = rest_frames(reference, residual_steps)
     if cal is not None:

@@ -133,7 +133,8 @@ class ImageModel:
         summed through the thickness), taken as a stress frozen evenly through the sheet:
         added to every ray's slabs in equal parts before the Jones integration, so that it
         composes with the loads' retardation as a retarder in the sheet does
-        (:meth:`background`; ``track --method phase --reference``); None: no residual
+        (:meth:`background`; six rest steps: a phase ``--reference``, or
+        ``--residual-steps``); None: no residual
     """
 
     lib: Library

@@ -1,5 +1,5 @@
-"""Frames as the model sees them, and the sensor at rest (``invert --reference``,
-``track --reference``).
+"""Frames as the model sees them, and the sensor at rest (``--reference`` and
+``--residual-steps`` of ``invert`` and ``track``).
 
 A frame is decoded as ``invert`` decodes an image (:func:`frame_linear`): a colour frame
 whose three channels are equal is a grey one; a calibrated sensor's response, rest frame
@@ -21,7 +21,8 @@ residual of 0.05 fringe (rest light 2.4 % of I0), the load's light is 5 % low, a
 cross term reaches 0.15 I0 where sin d_l = 1. A grey or colour frame cannot give the
 residual's axis; the six phase steps can: for the phase method the rest is read as a
 retarder (:meth:`RestFrames.retarder`) and put into the model, in series with the loads'
-retardation, as a stress frozen evenly through the sheet. With a calibrated sensor the
+retardation, as a stress frozen evenly through the sheet; a grey image's model holds it
+likewise when six rest steps are given (``--residual-steps``). With a calibrated sensor the
 reference replaces the sensor file's rest map: both frames go through the sensor's
 correction, and their difference is the frame's light less the reference's, over the
 illumination.
@@ -29,7 +30,6 @@ illumination.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,9 +40,11 @@ from fringekit.errors import ConfigError, InputError, SourceError
 from fringekit.inversion.read import frame_measurement, steps_measurement
 from fringekit.library.calibrated import MAP_CELLS, coarse_map, fine_map
 from fringekit.measurement.regions import no_data_regions
+from fringekit.output.folders import as_paths
 
 __all__ = [
     "FOLD_NEAR",
+    "BRIGHT_REST",
     "PHASE_STEPS",
     "RESIDUAL_STEPS",
     "RestFrames",
@@ -55,12 +57,16 @@ __all__ = [
     "rest_summary",
     "steps_linear",
     "take_rest",
+    "bright_rest_warning",
     "unknown_warning",
 ]
 
-#: The option of six rest steps that give a dark-field measurement the sheet's residual
-#: retarder (``invert --residual-steps``).
+#: The option of six rest steps that give a grey measurement the sheet's residual
+#: retarder (``invert`` and ``track``'s ``--residual-steps``).
 RESIDUAL_STEPS = "--residual-steps"
+#: A dark-field rest light whose mean over the frame is above this share of full scale is
+#: warned of: a dark field at rest is dark (six phase steps average about half).
+BRIGHT_REST = 0.3
 #: A six-step rest's residual is read where it is below this share of half a fringe.
 FOLD_NEAR = 0.9
 #: Frames a load state takes with the phase method (the six phase steps, in
@@ -235,7 +241,7 @@ class RestFrames:
     def read(cls, paths, option: str = "--reference") -> RestFrames:
         """Read ``paths`` (one path or several); an unreadable file, or frames of
         different sizes, are refused in one line naming ``option``."""
-        paths = [paths] if isinstance(paths, (str, os.PathLike)) else list(paths)
+        paths = as_paths(paths)
         if not paths:
             raise ConfigError(f"{option}: give at least one frame of the sensor at rest")
         images = []
@@ -258,7 +264,8 @@ class RestFrames:
         return tuple(self.images[0].shape[:2])
 
     def _check_size(self, shape) -> None:
-        """Frames of another size than the stream's ``shape`` are refused in one line."""
+        """Frames of another size than the measurement's ``shape`` are refused in one
+        line."""
         if tuple(shape) != self.shape:
             raise ConfigError(
                 f"{self.option} {self.names[0]} is {self.shape[0]} x {self.shape[1]} px; the "
@@ -277,14 +284,14 @@ class RestFrames:
             )
 
     def light(self, shape, method: str, camera: str, cal=None, channel=None):
-        """The rest light to take off every frame of ``shape`` (rows, cols), and the
-        pixels it is not known at.
+        """The rest light to take off a measurement of ``shape`` (rows, cols) (an image, or
+        every frame of a stream), and the pixels it is not known at.
 
-        The frames are decoded as the stream's (:func:`frame_linear`, in its ``channel``),
-        averaged, and smoothed to the calibrated sensor's map grid
+        The frames are decoded as the measurement (:func:`frame_linear`, in its
+        ``channel``), averaged, and smoothed to the calibrated sensor's map grid
         (:func:`~fringekit.library.calibrated.coarse_map`, at most 64 cells a side), so
-        that the rest frames' noise is not added to every frame. Frames of another size
-        than the stream's are refused in one line.
+        that the rest frames' noise is not added to the measurement. Frames of another
+        size are refused in one line.
 
         Returns
         -------
@@ -298,7 +305,8 @@ class RestFrames:
         self._check_size(shape)
         lins, sat = [], np.zeros(shape, bool)
         for im, n in zip(self.images, self.names, strict=True):
-            lin, usable, nodata, _ = frame_linear(im, method, camera, n, cal, channel)
+            name = f"{self.option} {n}"
+            lin, usable, nodata, _ = frame_linear(im, method, camera, name, cal, channel)
             lins.append(lin)
             sat |= ~(usable | nodata).reshape(shape)
         mean = np.mean(lins, axis=0).reshape(*shape, -1)
@@ -389,10 +397,11 @@ def rest_frames(reference, residual_steps) -> RestFrames | None:
 
 
 def check_rest_method(rest: RestFrames | None, method: str | None, cal=None) -> None:
-    """``--residual-steps`` serves the dark-field methods (rgb, mono) of a sensor without
-    a rest map: with ``method`` phase (which takes its rest steps as ``--reference``), or
-    a calibrated sensor ``cal`` whose rest map holds the residual's light (which the model
-    would make again), it is refused in one line.
+    """``--residual-steps`` serves the mono method of a sensor without a rest map: with
+    ``method`` phase (which takes its rest steps as ``--reference``), rgb (white light,
+    sRGB-decoded, which steps read as stored do not match), or a calibrated sensor ``cal``
+    whose rest map holds the residual's light (which the model would make again), it is
+    refused in one line.
 
     Examples
     --------
@@ -402,13 +411,20 @@ def check_rest_method(rest: RestFrames | None, method: str | None, cal=None) -> 
         return
     if method == "phase":
         raise ConfigError(
-            "--residual-steps is for --method rgb or mono; with --method phase give the "
-            "six rest steps as --reference"
+            "--residual-steps is for --method mono; with --method phase give the six rest "
+            "steps as --reference"
+        )
+    if method == "rgb":
+        raise ConfigError(
+            "--residual-steps is for --method mono: the six steps are read as stored, in "
+            "the monochromatic light of the grey image; a white-light rgb image is not "
+            "served yet (use --method mono, or a phase rest with --method phase)"
         )
     if cal is not None and cal.calibrated and cal.rest is not None:
         raise ConfigError(
             "--residual-steps with a calibrated --sensor is not allowed yet: its rest map "
-            "holds the residual's light, which the model would make again from the steps"
+            "holds the residual's light, which the model would make again from the steps; "
+            "give a sensor file without one (sensor init), or leave out --residual-steps"
         )
 
 
@@ -458,6 +474,27 @@ def rest_summary(rest: RestFrames | None, light=None, unknown=None, fringes=None
     return out
 
 
+def bright_rest_warning(light: np.ndarray | None) -> list[str]:
+    """The one warning (a list of zero or one line) for a dark-field rest light (P, C)
+    whose mean is above BRIGHT_REST of full scale: six phase steps given as ``--reference``
+    (they average about half), or a rest frame not taken in the dark field.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> bright_rest_warning(np.full((4, 1), 0.02)), len(bright_rest_warning(np.full((4, 1), 0.5)))
+    ([], 1)
+    """
+    if light is None or float(np.mean(light)) <= BRIGHT_REST:
+        return []
+    return [
+        f"--reference: the rest light averages {float(np.mean(light)):.2f} of full scale, "
+        "which a dark field at rest does not; phase steps of the rest go in "
+        "--residual-steps (mono) or with --method phase, and a rest frame must be taken "
+        "in the measurement's polariscope"
+    ]
+
+
 def unknown_warning(unknown: np.ndarray | None, phase: bool, where: str) -> list[str]:
     """The one warning (a list of zero or one line) for pixels whose rest light, or
     (``phase``) residual retarder, is not known: left out of every fit of ``where``
@@ -472,8 +509,8 @@ def unknown_warning(unknown: np.ndarray | None, phase: bool, where: str) -> list
     if unknown is None or not unknown.any():
         return []
     what = (
-        "saturated or without modulation in the rest steps, or whose residual reaches half "
-        "a fringe (or within two map cells of one), were left out of "
+        "saturated or without modulation in the rest steps, or whose residual reaches 0.45 "
+        "fringe (or within two map cells of one), were left out of "
         f"{where}: their residual retarder is not known"
         if phase
         else "saturated in the rest frames (or within two map cells of one) were left out "
@@ -540,5 +577,5 @@ def take_rest(rest, method: str, measured, usable, shape, optics, cal=None, chan
         return measured, usable & ~unknown, ab, summary, unknown_warning(unknown, True, "the fit")
     light, unknown = rest.light(shape, method, optics.camera.sensitivities, cal, channel)
     summary = rest_summary(rest, light=light, unknown=unknown)
-    warnings = unknown_warning(unknown, False, "the fit")
+    warnings = unknown_warning(unknown, False, "the fit") + bright_rest_warning(light)
     return measured - light, usable & ~unknown, None, summary, warnings

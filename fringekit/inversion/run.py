@@ -7,11 +7,9 @@ earlier result intact.
 
 from __future__ import annotations
 
-import os
-
 from fringekit.inversion.budget import DEFAULT_MAX_SECONDS
 from fringekit.inversion.loads import invert
-from fringekit.output.folders import claim_output
+from fringekit.output.folders import as_paths, claim_output
 
 __all__ = ["run_invert"]
 
@@ -35,10 +33,13 @@ def run_invert(
     """Invert one image (or six) against a library; write ``out``; return the summary
     (``stopped_after`` set when the time budget cut the fit short: the folder holds that
     answer, flagged)."""
-    paths = [images] if isinstance(images, (str, os.PathLike)) else list(images)
-    rest = [reference] if isinstance(reference, (str, os.PathLike)) else list(reference or [])
-    steps = list(residual_steps or [])
-    inputs = [*paths, *rest, *steps, getattr(library, "folder", library), sensor]
+    inputs = [
+        *as_paths(images),
+        *as_paths(reference),
+        *as_paths(residual_steps),
+        getattr(library, "folder", library),
+        sensor,
+    ]
     with claim_output(out, command="invert", inputs=inputs) as work:
         inv = invert(
             images,

@@ -33,10 +33,30 @@ from pathlib import Path
 from fringekit.errors import InputError
 from fringekit.output.versions import package_version
 
-__all__ = ["MARKER", "OutputClaim", "atomic_write", "claim_output", "os_error_message"]
+__all__ = [
+    "MARKER",
+    "OutputClaim",
+    "as_paths",
+    "atomic_write",
+    "claim_output",
+    "os_error_message",
+]
 
 #: The file in every output folder that says which command's run wrote it.
 MARKER = ".fringekit-run.json"
+
+
+def as_paths(value) -> list:
+    """An option that takes one path or several, as a list (None: empty).
+
+    Examples
+    --------
+    >>> as_paths("rest.png"), as_paths(["a.png", "b.png"]), as_paths(None)
+    (['rest.png'], ['a.png', 'b.png'], [])
+    """
+    if value is None:
+        return []
+    return [value] if isinstance(value, (str, os.PathLike)) else list(value)
 
 
 def atomic_write(path, data: str | bytes | Callable[[Path], object]) -> Path:

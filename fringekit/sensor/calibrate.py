@@ -42,7 +42,7 @@ from fringekit.library.calibrated import (
     linearise,
 )
 from fringekit.library.store import Library, load_library
-from fringekit.output.folders import atomic_write
+from fringekit.output.folders import as_paths, atomic_write
 from fringekit.sensor.figure import calibration_figure
 from fringekit.sensor.fit import KnownFit, fit_known, illumination_basis
 from fringekit.sensor.frames import read_frame, read_frames, read_known
@@ -249,8 +249,7 @@ def calibrate_sensor(
         raise ConfigError(
             f"--pixel-mm {pixel_mm} is not allowed; give the nominal pitch on the sheet (mm, > 0)"
         )
-    refs = [reference] if isinstance(reference, (str, os.PathLike)) else list(reference)
-    darks = [dark] if isinstance(dark, (str, os.PathLike)) else list(dark or [])
+    refs, darks = as_paths(reference), as_paths(dark)
     method = _method(method, _peek(refs[0]))
     rest, _ = read_frames(refs, method, "--reference")
     shape = rest.shape[:2]

@@ -22,7 +22,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from fringekit.library.calibrated import as_calibrated
-from fringekit.output.folders import claim_output
+from fringekit.output.folders import as_paths, claim_output
 from fringekit.tracking.display import LiveDisplay, marks
 from fringekit.tracking.figure import OverlayPainter, sheet_to_pixel
 from fringekit.tracking.stream import track
@@ -60,8 +60,8 @@ def run_track(
         source if os.path.exists(str(source)) else None,
         getattr(library, "folder", library),
         sensor,
-        *([reference] if isinstance(reference, (str, os.PathLike)) else reference or []),
-        *(residual_steps or []),
+        *as_paths(reference),
+        *as_paths(residual_steps),
     ]
     with claim_output(out, command="track", inputs=inputs) as work:
         spool = FrameSpool(work / ".frames") if video else None

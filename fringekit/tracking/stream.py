@@ -34,6 +34,7 @@ from fringekit.errors import ConfigError, SourceError
 from fringekit.inversion.rest import (
     PHASE_STEPS,
     RESIDUAL_STEPS,
+    bright_rest_warning,
     check_rest_method,
     frame_linear,
     grey,
@@ -348,7 +349,7 @@ class _Run:
         self.t_loop = 0.0
         self.rest_light: np.ndarray | None = None
         self.rest_unknown: np.ndarray | None = None  # (P,) pixels it is not known at
-        self.rest_ab: np.ndarray | None = None  # (P, 2) the phase rest's residual retarder
+        self.rest_ab: np.ndarray | None = None  # (P, 2) the rest steps' residual retarder
         self.rest_channel: int | None = None  # the colour channel it was read in
         self.channel = MonoChannel()  # the channel a mono stream's colour frames are read in
         self.partial = 0  # phase steps at the end that made no whole state
@@ -436,7 +437,7 @@ class _Run:
             self.rest_channel = channel
 
     def _residual_fringes(self) -> np.ndarray | None:
-        """(P,) the phase rest's residual retardation (fringes, the double pass), or None."""
+        """(P,) the rest steps' residual retardation (fringes, the double pass), or None."""
         if self.rest_ab is None:
             return None
         return residual_fringes(self.rest_ab, self.tracker.blank.law)
@@ -474,6 +475,7 @@ class _Run:
         warnings = [self.channel.note, *self.notes] if self.channel.note else list(self.notes)
         where = "every state" if self.method == "phase" else "every frame"
         warnings += unknown_warning(self.rest_unknown, self.rest_ab is not None, where)
+        warnings += bright_rest_warning(self.rest_light)
         if self.refused:
             warnings.append(
                 f"{len(self.refused)} frame(s) the library cannot explain were left out "

@@ -13,6 +13,7 @@ from fringekit.cli.options import (
     in_range,
     nonnegative,
     origin_px_option,
+    residual_steps_option,
 )
 from fringekit.inversion.budget import DEFAULT_MAX_SECONDS
 from fringekit.inversion.run import run_invert
@@ -54,15 +55,7 @@ def add_parser(sub) -> None:
         "(glare, ghosts, stray light) is taken off the image; phase, the six steps of the "
         "rest (or 6n) give the sheet's residual retarder, put into the model",
     )
-    iv.add_argument(
-        "--residual-steps",
-        nargs="+",
-        default=None,
-        metavar="STEP",
-        help="mono: the six phase steps of the sensor at rest (or 6n), taken once with "
-        "the plates stepped: the sheet's residual retarder, put into the model (for a "
-        "residual beyond what a rest frame's subtraction serves, about 0.05 fringe)",
-    )
+    residual_steps_option(iv)
     iv.add_argument(
         "--refine",
         choices=("fem",),

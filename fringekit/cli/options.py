@@ -41,6 +41,7 @@ __all__ = [
     "pixel",
     "positive",
     "origin_px_option",
+    "residual_steps_option",
     "run_options",
 ]
 
@@ -187,6 +188,20 @@ def origin_px_option(
     its help."""
     p.add_argument(
         "--origin-px", nargs=2, type=finite, metavar=("ROW", "COL"), default=None, help=text
+    )
+
+
+def residual_steps_option(p: argparse.ArgumentParser) -> None:
+    """``--residual-steps STEP...``: the six phase steps of the sensor at rest that give a
+    mono measurement the sheet's residual retarder (``invert``, ``track``)."""
+    p.add_argument(
+        "--residual-steps",
+        nargs="+",
+        default=None,
+        metavar="STEP",
+        help="mono: the six phase steps of the sensor at rest (or 6n), taken once with "
+        "the plates stepped: the sheet's residual retarder, put into the model (for a "
+        "residual beyond what a rest frame's subtraction serves, about 0.05 fringe)",
     )
 
 

@@ -13,6 +13,7 @@ from fringekit.cli.options import (
     in_range,
     origin_px_option,
     positive,
+    residual_steps_option,
 )
 from fringekit.tracking.run import run_track
 from fringekit.tracking.tracker import TRACK_STRIDE
@@ -58,15 +59,7 @@ def add_parser(sub) -> None:
         "stray light) is taken off every frame, in place of a sensor file's rest map; "
         "for phase, the rest's six steps: the sheet's residual retarder goes into the model",
     )
-    tr.add_argument(
-        "--residual-steps",
-        nargs="+",
-        default=None,
-        metavar="STEP",
-        help="mono: the six phase steps of the sensor at rest (or 6n), taken once with "
-        "the plates stepped: the sheet's residual retarder, put into the model (for a "
-        "residual beyond what a rest frame's subtraction serves, about 0.05 fringe)",
-    )
+    residual_steps_option(tr)
     tr.add_argument(
         "--stride",
         type=at_least_one,

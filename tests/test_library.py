@@ -78,8 +78,9 @@ def test_the_turned_interpolation_is_exact_on_a_bilinear_field():
     assert np.all(got[3] == 0.0)  # 9 mm: beyond the lattice
 
 
-def test_manifest_resume_and_checksums(tiny_library, capsys):
-    """On the fast tier's tiny library (2 loads x 2 ratios)."""
+def test_manifest_resume_and_checksums(tiny_library, tmp_path, capsys):
+    """On the fast tier's tiny library (2 loads x 2 ratios), rebuilt in a copy: the
+    session's library stays as other tests read it (a rebuild writes a new manifest)."""
     from library_fixtures import TINY, TINY_LOADS, TINY_RATIOS
 
     from fringekit.library.build import build_library
@@ -92,9 +93,11 @@ def test_manifest_resume_and_checksums(tiny_library, capsys):
     # a second build of the same folder solves nothing and gives the same fields
     before = {n: f["sha256"] for n, f in m["files"].items()}
     msgs = []
+    folder = tmp_path / "lib"
+    shutil.copytree(tiny_library.folder, folder)
     m2 = build_library(
         sensor_config(**TINY),
-        tiny_library.folder,
+        folder,
         loads=TINY_LOADS,
         ratios=TINY_RATIOS,
         workers=0,
@@ -103,7 +106,7 @@ def test_manifest_resume_and_checksums(tiny_library, capsys):
     )
     assert "2 already solved" in msgs[0]
     assert {n: f["sha256"] for n, f in m2.manifest["files"].items()} == before
-    written = json.loads((tiny_library.folder / "manifest.json").read_text())
+    written = json.loads((folder / "manifest.json").read_text())
     assert written["files"] == m2.manifest["files"]
 
 

@@ -18,6 +18,7 @@ from fringekit.cli.main import main
 from fringekit.config.files import load_config
 from fringekit.config.inputs import optics_setup
 from fringekit.inversion import invert
+from fringekit.inversion.read import read_measurement
 from fringekit.inversion.rest import RestFrames, take_rest
 from fringekit.library.calibrated import CalibratedSensor
 from fringekit.optics import write_image
@@ -207,3 +208,25 @@ def test_six_steps_given_as_a_dark_field_rest_are_warned_of(tiny_library):
         rest = RestFrames((np.full((4, 4), level),), ("rest.png",))
         *_, warnings = take_rest(rest, "mono", measured, usable, (4, 4), optics)
         assert (len(warnings) == 1 and "--residual-steps" in warnings[0]) == warned, warnings
+
+
+def test_a_green_light_photograph_s_rest_is_read_in_its_channel(tmp_path):
+    """A colour photograph of green light read by mono is read in its green channel
+    (``Measurement.channel``), and so is its colour rest frame, whose red glare (0.5 of full
+    scale) would otherwise be taken off: the light taken off is the rest's green, 0.1."""
+    r, c = np.mgrid[:16, :16] / 15.0
+    photo = np.zeros((16, 16, 3))
+    photo[..., 1] = 0.2 + 0.6 * r * c  # the fringes, in green
+    photo[..., 0] = 0.02
+    rest = np.stack([np.full((16, 16), v) for v in (0.5, 0.1, 0.05)], -1)
+    for name, im in (("photo.tif", photo), ("rest.tif", rest)):
+        write_image(tmp_path / name, np.round(im * 65535).astype(np.uint16))
+    meas = read_measurement([tmp_path / "photo.tif"], "mono", "none")
+    assert meas.channel == 1
+    optics = optics_setup(load_config("small"))
+    got, usable, ab, summary, _ = take_rest(
+        RestFrames.read([tmp_path / "rest.tif"]), "mono", meas.linear, meas.usable,
+        meas.shape, optics, None, meas.channel,
+    )  # fmt: skip
+    assert ab is None and summary["light_max"][0] == pytest.approx(0.1, abs=1e-4)
+    assert np.allclose(got[:, 0], photo[..., 1].ravel() - 0.1, atol=1e-4) and usable.all()

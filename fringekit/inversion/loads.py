@@ -33,7 +33,6 @@ from pathlib import Path
 import numpy as np
 
 from fringekit._memory import check_memory
-from fringekit.analysis import load_image, strongest_channel
 from fringekit.config.files import load_config
 from fringekit.config.inputs import optics_setup
 from fringekit.errors import ConfigError
@@ -45,7 +44,6 @@ from fringekit.inversion.model import ImageModel
 from fringekit.inversion.read import pixel_grid, read_measurement, sensor_config
 from fringekit.inversion.refine import refine_fem
 from fringekit.inversion.rest import (
-    RESIDUAL_STEPS,
     check_rest_method,
     rest_frames,
     take_rest,
@@ -332,15 +330,14 @@ def invert(
         cal.check(lib)
     cfg, where, warnings = _sensor(lib, cal, paths)
     optics = optics_setup(cfg)
-    method, measured, usable, nodata, shape, note = read_measurement(
-        paths, method, optics.camera.sensitivities, cal
-    )
+    meas = read_measurement(paths, method, optics.camera.sensitivities, cal)
+    method, shape = meas.method, meas.shape
     if cal is not None:
         lib, optics = cal.model_inputs(lib, optics, shape, method)
-    if note:
-        warnings.append(note)
+    if meas.note:
+        warnings.append(meas.note)
     measured, usable, residual_ab, rest_info = _with_rest(
-        rest, refine, method, paths, measured, usable, shape, optics, cal, warnings
+        rest, refine, method, meas.channel, meas.linear, meas.usable, shape, optics, cal, warnings
     )
     check_memory(
         detection_bytes(shape, pixel_mm),
@@ -352,7 +349,7 @@ def invert(
     sheet_mm = (cfg["sheet"]["width_mm"], cfg["sheet"]["length_mm"])
     grid = pixel_grid(shape, pixel_mm, origin_px)
     wl = {k: cfg["optics"][k] for k in ("light", "white_light_wavelengths")}
-    model = ImageModel.build(lib, grid, method, measured, usable, optics, nodata=nodata, **wl)
+    model = ImageModel.build(lib, grid, method, measured, usable, optics, nodata=meas.nodata, **wl)
     model = replace(model, residual_ab=residual_ab)
     say(
         f"invert: {method}, {shape[0]} x {shape[1]} px, library {lib.folder} "
@@ -425,15 +422,6 @@ def _result_line(res: InvertResult, seconds: float) -> str:
     return f"invert: {len(res.params)} indenter(s), {what}, {seconds:.1f} s"
 
 
-def _channel(method: str, paths, rest) -> int | None:
-    """The colour channel a mono colour photograph is read in (its strongest, as
-    :func:`~fringekit.inversion.read.read_measurement` reads it), for its rest frames."""
-    if rest is None or rest.option == RESIDUAL_STEPS or method != "mono":
-        return None
-    data = load_image(paths[0]).data
-    return strongest_channel(data) if data.ndim == 3 else None
-
-
 def _check_refine(refine, residual_ab) -> None:
     """``--refine fem`` renders the FEM without the rest's residual retarder: refused."""
     if refine == "fem" and residual_ab is not None:
@@ -444,12 +432,13 @@ def _check_refine(refine, residual_ab) -> None:
         )
 
 
-def _with_rest(rest, refine, method, paths, measured, usable, shape, optics, cal, warnings):
+def _with_rest(rest, refine, method, channel, measured, usable, shape, optics, cal, warnings):
     """(measured, usable, residual_ab, summary) with the rest taken into account
     (:func:`~fringekit.inversion.rest.take_rest`), its warnings added to ``warnings``;
-    ``--residual-steps`` with phase, and a residual with ``--refine fem``, refused."""
+    ``--residual-steps`` with phase, and a residual with ``--refine fem``, refused.
+    ``channel``: the colour channel a mono colour photograph is read in (the rest frames
+    are read in it too)."""
     check_rest_method(rest, method, cal)
-    channel = _channel(method, paths, rest)
     measured, usable, residual_ab, info, more = take_rest(
         rest, method, measured, usable, shape, optics, cal, channel
     )

@@ -3,12 +3,13 @@ saturated and no-data pixels), the sensor's config, and the pixel grid."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import colour as cs
 import numpy as np
 
-from fringekit.analysis import grey_channel, load_image, load_six_step
+from fringekit.analysis import grey_channel, load_image, load_six_step, strongest_channel
 from fringekit.config.files import load_config
 from fringekit.errors import ConfigError
 from fringekit.measurement.mono import colour_as_grey
@@ -16,6 +17,7 @@ from fringekit.measurement.regions import no_data_regions
 from fringekit.optics import PixelGrid
 
 __all__ = [
+    "Measurement",
     "frame_measurement",
     "pixel_grid",
     "read_measurement",
@@ -75,14 +77,59 @@ def steps_measurement(frames) -> tuple[np.ndarray, np.ndarray]:
     return raw, np.any([f.saturated for f in frames], axis=0)
 
 
-def read_measurement(paths, method: str | None, camera_name: str, sensor=None):
-    """(method, measured (P, C) linear, usable (P,), no-data (P,), shape, note) from the
-    image files: usable pixels are neither saturated nor at the no-data fill level; the note
-    says which channel of a colour photograph of monochromatic light the mono method reads
-    (one whose channels disagree is refused). ``sensor``: a
-    :class:`~fringekit.library.calibrated.CalibratedSensor` whose response, rest frame and
-    illumination are applied (rgb and mono; its image size and method are checked by the
-    caller)."""
+@dataclass(frozen=True)
+class Measurement:
+    """The image ``invert`` fits, as :func:`read_measurement` reads it.
+
+    Attributes
+    ----------
+    method : {"phase", "rgb", "mono"}
+    linear : (P, C) float array
+        Linear intensity, P = rows * cols; C = 6 (phase), 3 (rgb) or 1 (mono).
+    usable : (P,) bool array
+        Pixels neither saturated nor at the no-data fill level.
+    nodata : (P,) bool array
+        Pixels at the no-data fill level.
+    shape : tuple of int
+        (rows, cols).
+    note : str
+        Which channel of a colour photograph of monochromatic light mono reads (or "").
+    channel : int or None
+        That channel (0-2), for the rest frames to be read in it; None otherwise.
+    """
+
+    method: str
+    linear: np.ndarray
+    usable: np.ndarray
+    nodata: np.ndarray
+    shape: tuple
+    note: str = ""
+    channel: int | None = None
+
+
+def read_measurement(paths, method: str | None, camera_name: str, sensor=None) -> Measurement:
+    """The :class:`Measurement` of the image files: usable pixels are neither saturated nor
+    at the no-data fill level; the note says which channel of a colour photograph of
+    monochromatic light the mono method reads (one whose channels disagree is refused).
+    ``sensor``: a :class:`~fringekit.library.calibrated.CalibratedSensor` whose response,
+    rest frame and illumination are applied (rgb and mono; its image size and method are
+    checked by the caller).
+
+    Examples
+    --------
+    A green-light photograph on a colour camera is read in its green channel:
+
+    >>> import tempfile, numpy as np
+    >>> from pathlib import Path
+    >>> from fringekit.optics import write_image
+    >>> path = Path(tempfile.mkdtemp()) / "green.png"
+    >>> rgb = np.zeros((8, 8, 3), np.uint8)
+    >>> rgb[..., 1] = np.linspace(10, 200, 64).reshape(8, 8)
+    >>> write_image(path, rgb)
+    >>> m = read_measurement([path], "mono", "none")
+    >>> m.method, m.shape, m.linear.shape, m.channel
+    ('mono', (8, 8), (64, 1), 1)
+    """
     paths = [str(p) for p in paths]
     if method is None:
         single = len(paths) == 1
@@ -90,16 +137,20 @@ def read_measurement(paths, method: str | None, camera_name: str, sensor=None):
     want = 6 if method == "phase" else 1
     if len(paths) != want:
         raise ConfigError(f"--method {method} takes {want} image(s); got {len(paths)}")
+    channel = None
     if method == "phase":
         raw, sat = steps_measurement(load_six_step(paths))
         lin, note = raw, ""
     else:
         frame = load_image(paths[0])
         lin, raw, sat, note = frame_measurement(frame, method, camera_name, sensor)
+        if method == "mono" and frame.data.ndim == 3:
+            channel = strongest_channel(frame.data)
     nodata = no_data_regions(raw)
     rows, cols = raw.shape[:2]
     usable = (~sat & ~nodata).ravel()
-    return method, lin.reshape(rows * cols, -1), usable, nodata.ravel(), (rows, cols), note
+    linear = lin.reshape(rows * cols, -1)
+    return Measurement(method, linear, usable, nodata.ravel(), (rows, cols), note, channel)
 
 
 def sensor_config(images) -> tuple[dict | None, str | None]:

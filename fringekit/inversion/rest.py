@@ -272,6 +272,12 @@ class RestFrames:
                 f"measured frames are {shape[0]} x {shape[1]} px"
             )
 
+    def are_steps(self, method: str) -> bool:
+        """Whether the frames are six-step sets read as the residual retarder
+        (:meth:`retarder`): phase's ``--reference`` and ``--residual-steps``; otherwise
+        they are the rest light to take off (:meth:`light`)."""
+        return method == "phase" or self.option == RESIDUAL_STEPS
+
     def check_steps(self) -> None:
         """Six-step rest frames (phase's ``--reference``, ``--residual-steps``) are whole
         six-step sets: another count of frames is refused in one line."""
@@ -571,7 +577,7 @@ def take_rest(rest, method: str, measured, usable, shape, optics, cal=None, chan
     """
     if rest is None:
         return measured, usable, None, None, []
-    if method == "phase" or rest.option == RESIDUAL_STEPS:
+    if rest.are_steps(method):
         ab, unknown = rest.retarder(shape, optics.law)
         summary = rest_summary(rest, unknown=unknown, fringes=residual_fringes(ab, optics.law))
         return measured, usable & ~unknown, ab, summary, unknown_warning(unknown, True, "the fit")

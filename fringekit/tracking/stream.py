@@ -33,7 +33,6 @@ from fringekit.config.inputs import optics_setup
 from fringekit.errors import ConfigError, SourceError
 from fringekit.inversion.rest import (
     PHASE_STEPS,
-    RESIDUAL_STEPS,
     bright_rest_warning,
     check_rest_method,
     frame_linear,
@@ -414,8 +413,7 @@ class _Run:
         if self.cal is not None:
             lib, optics = self.cal.model_inputs(lib, optics, shape, self.method)
         check_rest_method(self.rest, self.method, self.cal)
-        steps = self.rest is not None and self.rest.option == RESIDUAL_STEPS
-        if self.rest is not None and (self.method == "phase" or steps):
+        if self.rest is not None and self.rest.are_steps(self.method):
             self.rest_ab, self.rest_unknown = self.rest.retarder(shape, optics.law)
         elif self.rest is not None:
             if self.method == "mono" and grey(img).ndim == 3:

@@ -1,10 +1,18 @@
-"""Shared fixtures: small, fast meshes (a few seconds each), generated once per session."""
+"""Shared fixtures: small, fast meshes (a few seconds each), generated once per session.
+
+The suite runs in several processes (pytest-xdist): the session's cache and libraries are
+made once for all of them, in the session's shared temporary folder, by the first worker
+that needs them (the others wait on a file lock, then read what it wrote). A test must not
+change what they hold: copy them first.
+"""
 
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import pytest
+from filelock import FileLock
 
 from fringekit.meshes import IndenterSite, Layers, MeshSpec, Sizing, build_mesh
 
@@ -42,9 +50,28 @@ def small_spec(symmetry="full", indenters=CENTRE, **kw) -> MeshSpec:
     )
 
 
+def _shared_root(tmp_path_factory) -> Path:
+    """The temporary folder of the whole run: the workers' common parent under xdist."""
+    base = tmp_path_factory.getbasetemp()
+    return base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+
+
+def _made_once(tmp_path_factory, name: str, make) -> Path:
+    """``root / name``, made by ``make(folder)`` in the first process that asks for it;
+    the others wait for it (the mesh and solution caches write atomically, so the
+    workers also share a cache)."""
+    folder = _shared_root(tmp_path_factory) / name
+    with FileLock(f"{folder}.lock"):
+        if not (folder / ".made").is_file():
+            folder.mkdir(exist_ok=True)
+            make(folder)
+            (folder / ".made").touch()
+    return folder
+
+
 @pytest.fixture(scope="session")
 def cache_dir(tmp_path_factory):
-    return tmp_path_factory.mktemp("fringekit-cache")
+    return _made_once(tmp_path_factory, "fringekit-cache", lambda folder: None)
 
 
 @pytest.fixture(scope="session")
@@ -55,17 +82,23 @@ def small_meshes(cache_dir):
 
 @pytest.fixture(scope="session")
 def test_library(cache_dir, tmp_path_factory):
-    """The coarse library of tests/library_fixtures.py (built once, in this process)."""
+    """The coarse library of tests/library_fixtures.py (built once for the run)."""
     from library_fixtures import LOADS, RATIOS, sensor_config
 
     from fringekit.library.build import build_library
     from fringekit.library.store import load_library
 
-    out = tmp_path_factory.mktemp("library") / "lib"
-    build_library(
-        sensor_config(), out, loads=LOADS, ratios=RATIOS, cache_dir=cache_dir, progress=False
-    )
-    return load_library(out)
+    def make(folder):
+        build_library(
+            sensor_config(),
+            folder / "lib",
+            loads=LOADS,
+            ratios=RATIOS,
+            cache_dir=cache_dir,
+            progress=False,
+        )
+
+    return load_library(_made_once(tmp_path_factory, "library", make) / "lib")
 
 
 @pytest.fixture(scope="session")
@@ -77,13 +110,14 @@ def tiny_library(cache_dir, tmp_path_factory):
     from fringekit.library.build import build_library
     from fringekit.library.store import load_library
 
-    out = tmp_path_factory.mktemp("tiny-library") / "lib"
-    build_library(
-        sensor_config(**TINY),
-        out,
-        loads=TINY_LOADS,
-        ratios=TINY_RATIOS,
-        cache_dir=cache_dir,
-        progress=False,
-    )
-    return load_library(out)
+    def make(folder):
+        build_library(
+            sensor_config(**TINY),
+            folder / "lib",
+            loads=TINY_LOADS,
+            ratios=TINY_RATIOS,
+            cache_dir=cache_dir,
+            progress=False,
+        )
+
+    return load_library(_made_once(tmp_path_factory, "tiny-library", make) / "lib")

@@ -224,9 +224,8 @@ def test_a_green_light_photograph_s_rest_is_read_in_its_channel(tmp_path):
     meas = read_measurement([tmp_path / "photo.tif"], "mono", "none")
     assert meas.channel == 1
     optics = optics_setup(load_config("small"))
-    got, usable, ab, summary, _ = take_rest(
-        RestFrames.read([tmp_path / "rest.tif"]), "mono", meas.linear, meas.usable,
-        meas.shape, optics, None, meas.channel,
-    )  # fmt: skip
+    rest = RestFrames.read([tmp_path / "rest.tif"])
+    args = (meas.linear, meas.usable, meas.shape, optics, None, meas.channel)
+    got, usable, ab, summary, _ = take_rest(rest, "mono", *args)
     assert ab is None and summary["light_max"][0] == pytest.approx(0.1, abs=1e-4)
     assert np.allclose(got[:, 0], photo[..., 1].ravel() - 0.1, atol=1e-4) and usable.all()

@@ -60,6 +60,7 @@ def test_fig7_optics_errors_distort_the_phasemap(tmp_path, cache_dir):
     assert res["optics_error"]["oval_amplitude_fringe"] > 0.001
 
 
+@pytest.mark.slow
 def test_fig8_axis_insensitive_is_folded(tmp_path, cache_dir):
     res = _run("fig8_axis_insensitive", tmp_path, cache_dir)
     assert res["range"][1] <= 0.5 + 1e-9 and res["rms_fringe"] < 0.02

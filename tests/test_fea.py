@@ -480,6 +480,7 @@ def test_symmetry_models_agree(coarse):
         assert out[name][2] == pytest.approx(8.0, rel=1e-6)
 
 
+@pytest.mark.slow
 def test_shear_with_stick(coarse):
     """8 N + 8 N with full stick on a half model: converges, carries the shear, and the
     stress pattern shifts in the shear direction."""

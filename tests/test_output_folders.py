@@ -36,6 +36,7 @@ def _leftovers(root):
     return sorted(p.name for p in root.iterdir() if p.name.startswith("."))
 
 
+@pytest.mark.slow
 def test_a_rerun_replaces_the_earlier_run_whole(folder):
     root, out, run = folder
     assert run("indenter.load_N=[4.0, 8.0]", "optics.render=all") == 0
@@ -46,6 +47,7 @@ def test_a_rerun_replaces_the_earlier_run_whole(folder):
     assert _leftovers(root) == []
 
 
+@pytest.mark.slow
 def test_a_failed_solve_keeps_the_earlier_run(folder, capsys):
     root, out, run = folder
     assert run() == 0

@@ -245,7 +245,7 @@ def test_a_frame_is_solved_on_one_blas_thread(tiny_library, tmp_path, monkeypatc
     assert seen and all(s <= {1} for s in seen), seen
 
 
-@pytest.mark.parametrize("off_mm", [0.9, 0.0])
+@pytest.mark.parametrize("off_mm", [pytest.param(0.9, marks=pytest.mark.slow), 0.0])
 def test_a_touch_fitted_off_its_axis_is_moved_onto_it(tiny_library, off_mm):
     """The touch of the crossing stream above, as one machine's arithmetic fitted it: its
     axis 0.9 mm off, a tangential load it does not bear standing in for the offset. The
@@ -635,6 +635,7 @@ def test_the_live_window_never_holds_the_solver_and_plots_every_frame(
         np.testing.assert_array_equal(np.array(drawn["loads"][i]).T, rows)
 
 
+@pytest.mark.slow
 def test_a_stuck_window_is_ended_and_the_run_told(tmp_path, monkeypatch):
     """A window that never finishes its draw holds up the end of a run by the close's
     waits only (here shortened), and is ended; the run is told why."""
@@ -679,6 +680,7 @@ if __name__ == "__main__":
 """
 
 
+@pytest.mark.slow
 def test_a_window_that_never_reads_lets_the_run_exit(tmp_path):
     """No window could open (matplotlib's file backend): the frames handed to it are
     dropped and the run's interpreter exits (it used to wait forever on writing them into

@@ -102,25 +102,24 @@ def small_meshes(cache_dir):
     return {s: build_mesh(small_spec(s), cache_dir=cache_dir) for s in ("full", "half", "quarter")}
 
 
+def _library(tmp_path_factory, name: str, cache_dir, cfg: dict, loads, ratios):
+    """A library of ``loads`` x ``ratios`` built once for the run (:func:`_made_once`)."""
+    from fringekit.library.build import build_library
+    from fringekit.library.store import load_library
+
+    def make(folder):
+        kw = {"loads": loads, "ratios": ratios, "cache_dir": cache_dir, "progress": False}
+        build_library(cfg, folder / "lib", **kw)
+
+    return load_library(_made_once(tmp_path_factory, name, make) / "lib")
+
+
 @pytest.fixture(scope="session")
 def test_library(cache_dir, tmp_path_factory):
     """The coarse library of tests/library_fixtures.py (built once for the run)."""
     from library_fixtures import LOADS, RATIOS, sensor_config
 
-    from fringekit.library.build import build_library
-    from fringekit.library.store import load_library
-
-    def make(folder):
-        build_library(
-            sensor_config(),
-            folder / "lib",
-            loads=LOADS,
-            ratios=RATIOS,
-            cache_dir=cache_dir,
-            progress=False,
-        )
-
-    return load_library(_made_once(tmp_path_factory, "library", make) / "lib")
+    return _library(tmp_path_factory, "library", cache_dir, sensor_config(), LOADS, RATIOS)
 
 
 @pytest.fixture(scope="session")
@@ -129,17 +128,5 @@ def tiny_library(cache_dir, tmp_path_factory):
     the fast tier's library, built in a few seconds."""
     from library_fixtures import TINY, TINY_LOADS, TINY_RATIOS, sensor_config
 
-    from fringekit.library.build import build_library
-    from fringekit.library.store import load_library
-
-    def make(folder):
-        build_library(
-            sensor_config(**TINY),
-            folder / "lib",
-            loads=TINY_LOADS,
-            ratios=TINY_RATIOS,
-            cache_dir=cache_dir,
-            progress=False,
-        )
-
-    return load_library(_made_once(tmp_path_factory, "tiny-library", make) / "lib")
+    cfg = sensor_config(**TINY)
+    return _library(tmp_path_factory, "tiny-library", cache_dir, cfg, TINY_LOADS, TINY_RATIOS)

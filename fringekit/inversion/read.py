@@ -96,6 +96,13 @@ class Measurement:
         Which channel of a colour photograph of monochromatic light mono reads (or "").
     channel : int or None
         That channel (0-2), for the rest frames to be read in it; None otherwise.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> m = Measurement("mono", np.zeros((6, 1)), np.ones(6, bool), np.zeros(6, bool), (2, 3))
+    >>> m.linear.reshape(*m.shape, -1).shape, m.channel
+    ((2, 3, 1), None)
     """
 
     method: str

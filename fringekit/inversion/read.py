@@ -19,6 +19,7 @@ from fringekit.optics import PixelGrid
 __all__ = [
     "Measurement",
     "frame_measurement",
+    "pixel_arrays",
     "pixel_grid",
     "read_measurement",
     "sensor_config",
@@ -75,6 +76,26 @@ def steps_measurement(frames) -> tuple[np.ndarray, np.ndarray]:
     """
     raw = np.stack([f.data if f.data.ndim == 2 else f.data.mean(-1) for f in frames], -1)
     return raw, np.any([f.saturated for f in frames], axis=0)
+
+
+def pixel_arrays(lin: np.ndarray, raw: np.ndarray, sat: np.ndarray):
+    """(linear (P, C), usable (P,), nodata (P,)) of an image's linear intensities
+    (rows, cols, C), stored values and saturated pixels (rows, cols), P = rows * cols:
+    usable pixels are neither saturated nor at the no-data fill level.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> raw = np.full((2, 3, 1), 0.4)
+    >>> sat = np.zeros((2, 3), bool)
+    >>> sat[0, 0] = True
+    >>> linear, usable, nodata = pixel_arrays(raw, raw, sat)
+    >>> linear.shape, int(usable.sum()), int(nodata.sum())
+    ((6, 1), 5, 0)
+    """
+    nodata = no_data_regions(raw).ravel()
+    usable = ~sat.ravel() & ~nodata
+    return lin.reshape(usable.size, -1), usable, nodata
 
 
 @dataclass(frozen=True)
@@ -153,11 +174,8 @@ def read_measurement(paths, method: str | None, camera_name: str, sensor=None) -
         lin, raw, sat, note = frame_measurement(frame, method, camera_name, sensor)
         if method == "mono" and frame.data.ndim == 3:
             channel = strongest_channel(frame.data)
-    nodata = no_data_regions(raw)
-    rows, cols = raw.shape[:2]
-    usable = (~sat & ~nodata).ravel()
-    linear = lin.reshape(rows * cols, -1)
-    return Measurement(method, linear, usable, nodata.ravel(), (rows, cols), note, channel)
+    linear, usable, nodata = pixel_arrays(lin, raw, sat)
+    return Measurement(method, linear, usable, nodata, raw.shape[:2], note, channel)
 
 
 def sensor_config(images) -> tuple[dict | None, str | None]:

@@ -37,9 +37,8 @@ from scipy import ndimage
 
 from fringekit.analysis import Frame, normalise, read_pixels, six_step
 from fringekit.errors import ConfigError, InputError, SourceError
-from fringekit.inversion.read import frame_measurement, steps_measurement
+from fringekit.inversion.read import frame_measurement, pixel_arrays, steps_measurement
 from fringekit.library.calibrated import MAP_CELLS, coarse_map, fine_map
-from fringekit.measurement.regions import no_data_regions
 from fringekit.output.folders import as_paths
 
 __all__ = [
@@ -157,15 +156,7 @@ def frame_linear(raw: np.ndarray, method: str, camera: str, name: str, cal=None,
     if callable(channel):
         channel = channel(frame.data, name) if method == "mono" else None
     lin, data, sat, note = frame_measurement(frame, method, camera, cal, channel)
-    return _pixels(lin, data, sat, note)
-
-
-def _pixels(lin, raw, sat, note: str):
-    """(measured (P, C), usable (P,), nodata (P,), note) of a frame's linear intensities,
-    stored values and saturated pixels: usable pixels are neither saturated nor no-data."""
-    nodata = no_data_regions(raw)
-    usable = (~sat & ~nodata).ravel()
-    return lin.reshape(usable.size, -1), usable, nodata.ravel(), note
+    return (*pixel_arrays(lin, data, sat), note)
 
 
 def steps_linear(images, names):
@@ -200,7 +191,7 @@ def steps_linear(images, names):
     """
     frames = [normalise(grey(im), source=n) for im, n in zip(images, names, strict=True)]
     raw, sat = steps_measurement(frames)
-    return _pixels(raw, raw, sat, "")
+    return (*pixel_arrays(raw, raw, sat), "")
 
 
 @dataclass(frozen=True)

@@ -48,7 +48,8 @@ def add_parser(sub) -> None:
         "--sensor",
         default=None,
         help="(with --library) a calibrated sensor file (fringekit sensor calibrate): the "
-        "library read as its sheet, and state_01/camera.png the frame its camera records",
+        "library read as its sheet, and state_01/camera.png the frame its camera records "
+        "(a phase sensor's six steps: camera_step1.png to camera_step6.png)",
     )
     pr.set_defaults(func=run)
 

@@ -22,17 +22,21 @@ def add_parser(sub) -> None:
     acts = se.add_subparsers(dest="action", required=True)
     c = acts.add_parser(
         "calibrate",
-        help="modulus and fringe-value scales, camera response, light, rest frame and "
-        "geometry from rest frames and frames of known loads",
+        help="modulus and fringe-value scales, camera response, light, rest frame (phase: "
+        "residual retarder) and geometry from rest frames and frames of known loads",
     )
     c.add_argument("--library", required=True, help="library folder (fringekit library build)")
     c.add_argument(
-        "--reference", nargs="+", required=True, help="frame(s) of the sensor at rest, same light"
+        "--reference",
+        nargs="+",
+        required=True,
+        help="frame(s) of the sensor at rest, same light (phase: the six steps, or sets of six)",
     )
     c.add_argument(
         "--known",
         required=True,
-        help="KNOWN.csv: image,x_mm,y_mm,Fx_N,Fy_N,Fz_N per contact (blank x_mm,y_mm: fitted)",
+        help="KNOWN.csv: image,x_mm,y_mm,Fx_N,Fy_N,Fz_N per contact (blank x_mm,y_mm: fitted; "
+        "phase: image is the six steps' files joined by ';')",
     )
     c.add_argument("--out", required=True, help="the sensor file to write (.json; a .png beside)")
     c.add_argument(
@@ -48,9 +52,9 @@ def add_parser(sub) -> None:
     c.add_argument("--dark", nargs="+", default=None, help="frame(s) with the light off")
     c.add_argument(
         "--method",
-        choices=("rgb", "mono"),
+        choices=("rgb", "mono", "phase"),
         default=None,
-        help="default: rgb for colour frames, mono for grey ones",
+        help="default: rgb for colour frames, mono for grey ones (phase: six-step frames)",
     )
     c.add_argument("--quiet", action="store_true", help="no step lines")
     c.set_defaults(func=run)

@@ -23,6 +23,7 @@ __all__ = [
     "pixel_grid",
     "read_measurement",
     "sensor_config",
+    "sensor_linear",
     "steps_measurement",
 ]
 
@@ -32,6 +33,22 @@ def _decode(frame, camera_name: str, colour: bool) -> np.ndarray:
     if colour and camera_name == "CIE1931":
         return np.clip(cs.cctf_decoding(frame.data, function="sRGB"), 0.0, 1.0)
     return frame.data
+
+
+def sensor_linear(raw: np.ndarray, sensor) -> np.ndarray | None:
+    """Linear intensities (rows, cols, C) of stored values ``raw`` (rows, cols, C) through a
+    calibrated sensor (its response undone, rest frame taken off, divided by its
+    illumination), or None when ``sensor`` is None or not calibrated (a ``sensor init``
+    file).
+
+    Examples
+    --------
+    >>> sensor_linear(np.zeros((2, 2, 1)), None) is None
+    True
+    """
+    if sensor is None or not sensor.calibrated:
+        return None
+    return sensor.correct(sensor.linear(raw))
 
 
 def frame_measurement(frame, method: str, camera_name: str, sensor=None, channel=None):
@@ -53,9 +70,8 @@ def frame_measurement(frame, method: str, camera_name: str, sensor=None, channel
         note = "" if method == "rgb" else colour_as_grey(frame.data, None, name, "--method mono")
         data = frame.data if method == "rgb" or frame.data.ndim == 2 else grey_channel(frame.data)
     raw = data.reshape(*data.shape[:2], -1)
-    if sensor is not None and sensor.calibrated:
-        lin = sensor.correct(sensor.linear(raw))
-    else:
+    lin = sensor_linear(raw, sensor)
+    if lin is None:
         lin = _decode(frame, camera_name, True).reshape(raw.shape) if method == "rgb" else raw
     return lin, raw, frame.saturated, note
 
@@ -140,8 +156,8 @@ def read_measurement(paths, method: str | None, camera_name: str, sensor=None) -
     at the no-data fill level; the note says which channel of a colour photograph of
     monochromatic light the mono method reads (one whose channels disagree is refused).
     ``sensor``: a :class:`~fringekit.library.calibrated.CalibratedSensor` whose response,
-    rest frame and illumination are applied (rgb and mono; its image size and method are
-    checked by the caller).
+    rest frame and illumination are applied (its image size and method are checked by
+    the caller).
 
     Examples
     --------
@@ -168,7 +184,8 @@ def read_measurement(paths, method: str | None, camera_name: str, sensor=None) -
     channel = None
     if method == "phase":
         raw, sat = steps_measurement(load_six_step(paths))
-        lin, note = raw, ""
+        lin, note = sensor_linear(raw, sensor), ""
+        lin = raw if lin is None else lin
     else:
         frame = load_image(paths[0])
         lin, raw, sat, note = frame_measurement(frame, method, camera_name, sensor)

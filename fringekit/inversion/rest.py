@@ -35,9 +35,14 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from fringekit.analysis import Frame, normalise, read_pixels, six_step
+from fringekit.analysis import normalise, read_pixels, six_step
 from fringekit.errors import ConfigError, InputError, SourceError
-from fringekit.inversion.read import frame_measurement, pixel_arrays, steps_measurement
+from fringekit.inversion.read import (
+    frame_measurement,
+    pixel_arrays,
+    sensor_linear,
+    steps_measurement,
+)
 from fringekit.library.calibrated import MAP_CELLS, coarse_map, fine_map
 from fringekit.output.folders import as_paths
 
@@ -55,6 +60,7 @@ __all__ = [
     "rest_frames",
     "rest_summary",
     "steps_linear",
+    "steps_retarder",
     "take_rest",
     "bright_rest_warning",
     "unknown_warning",
@@ -159,10 +165,10 @@ def frame_linear(raw: np.ndarray, method: str, camera: str, name: str, cal=None,
     return (*pixel_arrays(lin, data, sat), note)
 
 
-def steps_linear(images, names):
+def steps_linear(images, names, cal=None):
     """The six phase-stepped frames of one load state as the model sees them (as
     ``invert --method phase`` reads six images: each step grey, a colour one as the mean of
-    its channels).
+    its channels; through the calibrated sensor ``cal``, when given).
 
     Parameters
     ----------
@@ -191,7 +197,8 @@ def steps_linear(images, names):
     """
     frames = [normalise(grey(im), source=n) for im, n in zip(images, names, strict=True)]
     raw, sat = steps_measurement(frames)
-    return (*pixel_arrays(raw, raw, sat), "")
+    lin = sensor_linear(raw, cal)
+    return (*pixel_arrays(raw if lin is None else lin, raw, sat), "")
 
 
 @dataclass(frozen=True)
@@ -310,7 +317,7 @@ class RestFrames:
         light = fine_map(coarse_map(mean), shape).reshape(mean.shape[0] * mean.shape[1], -1)
         return light, _reach(sat)
 
-    def retarder(self, shape, law) -> tuple[np.ndarray, np.ndarray]:
+    def retarder(self, shape, law, cal=None) -> tuple[np.ndarray, np.ndarray]:
         """The residual retarder of the sheet from six-step rest frames, as the summed
         slab pair :class:`~fringekit.inversion.model.ImageModel` takes (``residual_ab``).
 
@@ -326,7 +333,8 @@ class RestFrames:
         reference wavelength), so (a, b) = d (cos 2t, sin 2t) / (2 k). It is smoothed as
         the rest light is (:meth:`light`). The formulas take the plates as ideal; light
         added evenly to the six steps cancels in their differences, light that differs
-        from step to step biases them.
+        from step to step biases them. ``cal``: a calibrated sensor, whose response is
+        undone first (the formulas need linear intensities).
 
         Returns
         -------
@@ -347,20 +355,61 @@ class RestFrames:
         frames = [
             normalise(grey(im), source=n) for im, n in zip(self.images, self.names, strict=True)
         ]
-        steps = []
-        for k in range(PHASE_STEPS):  # each step averaged over the rests
-            same = frames[k::PHASE_STEPS]
-            data = np.mean([f.data for f in same], axis=0)
-            sat = np.any([f.saturated for f in same], axis=0)
-            steps.append(Frame(data, sat, same[0].bit_depth, same[0].source))
-        res = six_step(steps)
-        # near half a fringe the formulas fold the retardation and lose the axis
-        ok = res.valid & (res.delta_axis_insensitive < FOLD_NEAR * np.pi)
-        d = np.where(ok, res.delta_axis_insensitive, 0.0)
-        v = d[..., None] * np.stack([np.cos(2 * res.isoclinic), np.sin(2 * res.isoclinic)], -1)
-        k = float(law.retardation_per_stress_length(np.array([law.wavelength_ref]))[0])
-        ab = fine_map(coarse_map(v), shape) / (2.0 * k)
-        return ab.reshape(-1, 2), _reach(~ok)
+        data = np.stack(  # each step averaged over the rests
+            [np.mean([f.data for f in frames[k::PHASE_STEPS]], axis=0) for k in range(PHASE_STEPS)],
+            -1,
+        )
+        sat = np.any([f.saturated for f in frames], axis=0)
+        lin = sensor_linear(data, cal)
+        return steps_retarder(data if lin is None else lin, sat, law)
+
+
+def steps_retarder(steps: np.ndarray, saturated: np.ndarray | None, law):
+    """The residual retarder of six rest steps (the kernel of :meth:`RestFrames.retarder`).
+
+    Parameters
+    ----------
+    steps : (rows, cols, 6) array
+        The steps' linear intensities, in :data:`~fringekit.analysis.SIX_STEP_ORDER`.
+    saturated : (rows, cols) bool array or None
+        Pixels saturated in a step (None: none).
+    law : StressOpticLaw
+        The sheet's (its fringe value sets the slab pair of a retardation).
+
+    Returns
+    -------
+    residual_ab : (P, 2) array
+        Pa m, P = rows * cols.
+    unknown : (P,) bool array
+        As :meth:`RestFrames.retarder`'s.
+
+    Examples
+    --------
+    A residual of 0.15 fringe (the double pass) read back from its six steps:
+
+    >>> import fringekit
+    >>> from fringekit.config.inputs import optics_setup
+    >>> from fringekit.optics import intensity, six_step_arrangements
+    >>> from fringekit.optics.jones import retarder_spectrum
+    >>> law = optics_setup(fringekit.Config.builtin("small").data).law
+    >>> k = law.retardation_per_stress_length(np.array([law.wavelength_ref]))
+    >>> a = np.full(64, 0.15 * 2 * np.pi / k[0])  # one ray's retardation 2 pi 0.15 rad
+    >>> q = retarder_spectrum(a * np.cos(0.4), a * np.sin(0.4), k)[:, 0].reshape(8, 8, 4)
+    >>> steps = np.stack([intensity(q, s) for s in six_step_arrangements()], -1)
+    >>> ab, unknown = steps_retarder(steps, None, law)
+    >>> round(float(residual_fringes(ab, law).mean()), 6), int(unknown.sum())
+    (0.15, 0)
+    """
+    res = six_step([steps[..., k] for k in range(PHASE_STEPS)])
+    if saturated is None:
+        saturated = np.zeros(steps.shape[:2], bool)
+    # near half a fringe the formulas fold the retardation and lose the axis
+    ok = res.valid & ~saturated & (res.delta_axis_insensitive < FOLD_NEAR * np.pi)
+    d = np.where(ok, res.delta_axis_insensitive, 0.0)
+    v = d[..., None] * np.stack([np.cos(2 * res.isoclinic), np.sin(2 * res.isoclinic)], -1)
+    k = float(law.retardation_per_stress_length(np.array([law.wavelength_ref]))[0])
+    ab = fine_map(coarse_map(v), steps.shape[:2]) / (2.0 * k)
+    return ab.reshape(-1, 2), _reach(~ok)
 
 
 def _reach(bad: np.ndarray) -> np.ndarray:
@@ -471,6 +520,22 @@ def rest_summary(rest: RestFrames | None, light=None, unknown=None, fringes=None
     return out
 
 
+def _sensor_residual(cal, method: str, shape, law):
+    """(residual_ab (P, 2), summary) of a phase-calibrated sensor file's residual retarder
+    (its rest steps, read at calibration), or (None, None)."""
+    ab = cal.residual_ab(shape) if cal is not None and method == "phase" else None
+    if ab is None:
+        return None, None
+    fringes = residual_fringes(ab, law)
+    summary = {
+        "frames": [],
+        "residual_from": "the sensor file",
+        "residual_mean_fringe": float(fringes.mean()),
+        "residual_max_fringe": float(fringes.max()),
+    }
+    return ab, summary
+
+
 def bright_rest_warning(light: np.ndarray | None) -> list[str]:
     """The one warning (a list of zero or one line) for a dark-field rest light (P, C)
     whose mean is above BRIGHT_REST of full scale: six phase steps given as ``--reference``
@@ -523,10 +588,11 @@ def take_rest(rest, method: str, measured, usable, shape, optics, cal=None, chan
     Parameters
     ----------
     rest : RestFrames or None
-        The frames of the sensor at rest (None: the measurement as it is). Dark-field
-        frames (rgb, mono), whose light is taken off; or six-step frames (phase, and any
-        method's ``--residual-steps``: ``rest.option``), read as the sheet's residual
-        retarder.
+        The frames of the sensor at rest (None: the measurement as it is, with a phase
+        sensor file's residual retarder when ``cal`` holds one). Dark-field frames (rgb,
+        mono), whose light is taken off; or six-step frames (phase, and any method's
+        ``--residual-steps``: ``rest.option``), read as the sheet's residual retarder
+        (through ``cal``'s response).
     method : {"rgb", "mono", "phase"}
     measured : (P, C) array
         The measurement's linear intensities, P = rows * cols.
@@ -567,9 +633,9 @@ def take_rest(rest, method: str, measured, usable, shape, optics, cal=None, chan
     (0.2, None, [0.1], [])
     """
     if rest is None:
-        return measured, usable, None, None, []
+        return (measured, usable, *_sensor_residual(cal, method, shape, optics.law), [])
     if rest.are_steps(method):
-        ab, unknown = rest.retarder(shape, optics.law)
+        ab, unknown = rest.retarder(shape, optics.law, cal)
         summary = rest_summary(rest, unknown=unknown, fringes=residual_fringes(ab, optics.law))
         return measured, usable & ~unknown, ab, summary, unknown_warning(unknown, True, "the fit")
     light, unknown = rest.light(shape, method, optics.camera.sensitivities, cal, channel)

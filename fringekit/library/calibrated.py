@@ -19,7 +19,11 @@ applies it:
   scales the load's light by cos d_r and leaves a cross term up to (sin d_r) / 2 of
   the full-scale light (d_r the residual retardation;
   :mod:`fringekit.inversion.rest` gives the formula), so the subtraction holds only
-  where the residual is small;
+  where the residual is small. For the six phase steps the residual retarder itself is
+  calibrated (``residual``: the summed slab pair of a stress frozen evenly through the
+  sheet, at the sensor's fringe value) and put into the model in series with the loads'
+  retardation, as ``invert --method phase --reference`` does with rest steps
+  (:meth:`~fringekit.inversion.rest.RestFrames.retarder`); no rest light is subtracted;
 - **the geometry**: the pixel pitch on the sheet, the pixel of the sheet's origin and the
   rotation of the sheet's axes in the image (positive: the sheet's x axis turned
   counter-clockwise from the image's rows). The image is fitted in its own axes and the
@@ -107,7 +111,7 @@ class CalibratedSensor:
         The sensor's effective config (sheet, optics, camera), as the library's.
     library_sha256 : str
         The ``manifest_sha256`` of the library it was calibrated with.
-    method : {"rgb", "mono"}
+    method : {"rgb", "mono", "phase"}
     shape : (rows, cols)
         The image size (px).
     pixel_mm : float
@@ -121,7 +125,7 @@ class CalibratedSensor:
     gamma : float
         The camera response's exponent (1: linear).
     black : (C,) tuple
-        The black level per channel (raw units, 0-1).
+        The black level per channel (raw units, 0-1; one for the six phase steps).
     illumination : (h, w) array or None
         Relative illumination, mean 1, on a coarse grid.
     rest : (h, w, C) array or None
@@ -130,6 +134,10 @@ class CalibratedSensor:
         1-sigma of the fitted values, by attribute name.
     report : dict
         How the calibration went (frames, residuals, warnings).
+    residual : (h, w, 2) array or None
+        The phase method's residual retarder of the sheet at rest on a coarse grid: the
+        summed slab pair ((sigma_xx - sigma_yy) dz, 2 sigma_xy dz) through the thickness
+        (Pa m) at this sheet's fringe value (:meth:`residual_ab`).
 
     Examples
     --------
@@ -161,6 +169,7 @@ class CalibratedSensor:
     rest: np.ndarray | None = field(default=None, repr=False)
     sd: dict = field(default_factory=dict)
     report: dict = field(default_factory=dict, repr=False)
+    residual: np.ndarray | None = field(default=None, repr=False)
 
     def check(self, lib, shape=None, method: str | None = None, where: str = "--sensor") -> None:
         """Refuse, in one line, a library, image size or method this sensor was not
@@ -205,7 +214,7 @@ class CalibratedSensor:
         """
         rows, cols = (int(v) for v in shape)
         origin = tuple(origin_px) if origin_px is not None else ((rows - 1) / 2, (cols - 1) / 2)
-        black = (0.0,) * (3 if method == "rgb" else 1)
+        black = (0.0,) * (3 if method == "rgb" else 1)  # the six phase steps: one camera
         sha = lib.manifest.get("manifest_sha256", "")
         return cls(
             cfg,
@@ -291,6 +300,13 @@ class CalibratedSensor:
             out = out / np.clip(fine_map(self.illumination, out.shape[:2]), 1e-3, None)[..., None]
         return out
 
+    def residual_ab(self, shape) -> np.ndarray | None:
+        """The residual retarder (P, 2) (Pa m, P = rows * cols) on an image of ``shape``
+        (the model's ``residual_ab``), or None without one."""
+        if self.residual is None:
+            return None
+        return fine_map(self.residual, shape).reshape(-1, 2)
+
     def to_sheet(self, values: np.ndarray, sd: bool = False) -> np.ndarray:
         """Indenter parameters (n, 5) x, y (mm), Fz, Fx, Fy (N) fitted in the image's axes,
         in the sheet's: positions and tangential loads turned by ``-rotation_deg``;
@@ -318,6 +334,7 @@ class CalibratedSensor:
             "black": list(self.black),
             "illumination": None if self.illumination is None else self.illumination.tolist(),
             "rest": None if self.rest is None else self.rest.tolist(),
+            "residual": None if self.residual is None else self.residual.tolist(),
             "sd": self.sd,
             "report": self.report,
             "config": self.config,
@@ -398,9 +415,9 @@ def load_sensor(path) -> CalibratedSensor:
             "fringekit sensor calibrate)"
         )
     try:
-        maps = {
-            k: None if d[k] is None else np.asarray(d[k], float) for k in ("illumination", "rest")
-        }
+        maps = {k: d[k] for k in ("illumination", "rest")}
+        maps["residual"] = d.get("residual")  # none in a file of before phase was calibrated
+        maps = {k: None if v is None else np.asarray(v, float) for k, v in maps.items()}
         return CalibratedSensor(
             config=d["config"],
             shape=tuple(int(v) for v in d["shape"]),

@@ -21,13 +21,14 @@ from fringekit.config.files import ConfigError, to_toml
 from fringekit.config.inputs import check_layout, optics_setup
 from fringekit.library.calibrated import as_calibrated
 from fringekit.library.store import LoadedIndenter, check_sensor, load_library
-from fringekit.library.synth import synthesise
+from fringekit.library.synth import quaternions_where, superpose, synthesise
 from fringekit.optics import (
     OpticalMap,
     PixelGrid,
     dark_field_circular,
     intensity,
     light_source,
+    six_step_arrangements,
     white_light_matrix,
     write_image,
 )
@@ -155,8 +156,25 @@ def camera_linear(cfg: dict, lib, inds, cal) -> np.ndarray:
         q = synthesise(lib, turned, grid, opt.law, lam).q
         light = light_source(cfg["optics"]["light"], lam)
         return intensity(q, arr) @ white_light_matrix(light, opt.camera)
-    q = synthesise(lib, turned, grid, opt.law, np.array([opt.law.wavelength_ref])).q
+    lam = np.array([opt.law.wavelength_ref])
+    if cal.method == "phase":  # the six steps, the sheet's residual retarder in series
+        return _steps_linear(lib, turned, grid, opt.law, cal, six_step_arrangements(**opt.errors))
+    q = synthesise(lib, turned, grid, opt.law, lam).q
     return intensity(q[:, :, 0], arr)[..., None]
+
+
+def _steps_linear(lib, inds, grid, law, cal, arrangements) -> np.ndarray:
+    """The six steps' linear intensities (rows, cols, 6) of ``inds`` (the image's axes) with
+    the calibrated sensor's residual retarder added to every ray's slabs in equal parts
+    (a stress frozen evenly through the sheet, as the inverse's model holds it), every
+    ray integrated slab by slab."""
+    xy = grid.xy()
+    ab, _ = superpose(lib, inds, xy)
+    res = cal.residual_ab(cal.shape)
+    if res is not None:
+        ab = ab + (res / ab.shape[1]).astype(np.float32)[:, None, :]
+    q = quaternions_where(ab, np.ones(len(xy), bool), law, np.array([law.wavelength_ref]))
+    return np.stack([intensity(q[:, 0], a) for a in arrangements], -1).reshape(*cal.shape, -1)
 
 
 def file_values(raw: np.ndarray, bit_depth: int) -> np.ndarray:
@@ -188,7 +206,8 @@ def run_library_predict(
 ) -> dict:
     """Synthesise the config's final state from ``library`` into ``out``; the summary.
     ``sensor``: a calibrated sensor file (``fringekit sensor calibrate``): the library is
-    read as its sheet, and ``state_01/camera.png`` is the frame its camera records."""
+    read as its sheet, and ``state_01/camera.png`` is the frame its camera records (a
+    phase sensor's six steps: ``camera_step1.png`` to ``camera_step6.png``)."""
     t0 = time.perf_counter()
     cal = as_calibrated(sensor)
     if sensor is not None and cal is None:
@@ -205,7 +224,12 @@ def run_library_predict(
         (work / "config.toml").write_text(to_toml(cfg))
         rendered = _render(cfg, lib, inds, work / "state_01", cal)
         if cal is not None:
-            write_image(work / "state_01" / "camera.png", camera_frame(cfg, lib, inds, cal))
+            frame = camera_frame(cfg, lib, inds, cal)
+            if cal.method == "phase":  # six files, in fringekit.analysis.SIX_STEP_ORDER
+                for k in range(frame.shape[-1]):
+                    write_image(work / "state_01" / f"camera_step{k + 1}.png", frame[..., k])
+            else:
+                write_image(work / "state_01" / "camera.png", frame)
         summary = {
             "case": cfg["case"],
             "status": "ok",

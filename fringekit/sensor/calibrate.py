@@ -16,8 +16,12 @@ The steps (each in its module):
    calibrated grid (the scales depend on the pitch: a fringe pattern seen larger looks
    like a softer sheet).
 
-Only the dark-field methods are calibrated (rgb, mono): the six phase steps would give the
-residual retarder in full, which fringekit does not fit yet.
+For the phase method (``--method phase``) every frame is six phase steps. The rest steps
+are not subtracted: they are read as the sheet's residual retarder
+(:func:`~fringekit.inversion.rest.steps_retarder`, at each response and fringe value the
+fit tries), which the model holds in series with the loads' retardation, and the sensor
+file keeps it (``CalibratedSensor.residual``); the six steps share one illumination and
+one offset per frame.
 """
 
 from __future__ import annotations
@@ -31,9 +35,11 @@ from pathlib import Path
 import numpy as np
 
 from fringekit.config.files import load_config
+from fringekit.config.inputs import optics_setup
 from fringekit.errors import ConfigError
 from fringekit.inversion.detect import detect, noise_sd
 from fringekit.inversion.fit import subsample
+from fringekit.inversion.rest import residual_fringes, steps_retarder
 from fringekit.inversion.verdict import WARN_RESIDUAL
 from fringekit.library.calibrated import (
     CalibratedSensor,
@@ -45,7 +51,7 @@ from fringekit.library.store import Library, load_library
 from fringekit.output.folders import as_paths, atomic_write
 from fringekit.sensor.figure import calibration_figure
 from fringekit.sensor.fit import KnownFit, fit_known, illumination_basis
-from fringekit.sensor.frames import read_frame, read_frames, read_known
+from fringekit.sensor.frames import read_frame, read_frames, read_known, read_steps
 from fringekit.sensor.geometry import sheet_geometry
 from fringekit.sensor.render import image_model
 
@@ -61,13 +67,8 @@ MAX_ROUNDS = 4
 
 
 def _method(method, rest: np.ndarray | None) -> str:
-    if method == "phase":
-        raise ConfigError(
-            "--method phase: sensor calibrate reads dark-field frames (rgb or mono); the six "
-            "phase steps' residual retarder is not fitted yet"
-        )
-    if method not in (None, "rgb", "mono"):
-        raise ConfigError(f"--method {method!r} is not allowed; give rgb or mono")
+    if method not in (None, "rgb", "mono", "phase"):
+        raise ConfigError(f"--method {method!r} is not allowed; give rgb, mono or phase")
     return method or ("rgb" if rest is not None and rest.ndim == 3 else "mono")
 
 
@@ -82,7 +83,7 @@ def _black(dark, rest: np.ndarray, method: str, shape) -> tuple[np.ndarray, np.n
         d, _ = read_frames(dark, method, "--dark", shape)
         flat = d.reshape(-1, d.shape[-1])
         return flat.mean(0), flat.std(0) / math.sqrt(len(flat)), "dark frames"
-    flat = rest.reshape(-1, rest.shape[-1])
+    flat = rest.reshape(-1, 1 if method == "phase" else rest.shape[-1])  # phase: one camera
     low = np.percentile(flat, 0.1, axis=0)
     return low, flat.std(0) / math.sqrt(len(flat)), "the rest frames' darkest pixels (no --dark)"
 
@@ -191,10 +192,12 @@ def calibrate_sensor(
     library : Library or path
         The sensor's response library.
     reference : path or sequence of paths
-        Frames of the sensor at rest, in the light of the measurements (averaged).
+        Frames of the sensor at rest, in the light of the measurements (averaged); for
+        phase, one or more sets of the six steps.
     known : path
         ``KNOWN.csv``: ``image,x_mm,y_mm,Fx_N,Fy_N,Fz_N`` per contact (image paths relative
-        to the table; blank x_mm, y_mm: the position is fitted; ``diameter_mm`` optional).
+        to the table, for phase six joined by ``;``; blank x_mm, y_mm: the position is
+        fitted; ``diameter_mm`` optional).
     pixel_mm : float
         The nominal pixel pitch on the sheet (mm): the pitch, unless two or more known
         positions give it.
@@ -202,8 +205,8 @@ def calibrate_sensor(
         The nominal pixel of the sheet's origin (default the image centre).
     dark : path or sequence of paths, optional
         Frames with the light off (the black level).
-    method : {"rgb", "mono"}, optional
-        Default rgb for colour frames, mono for grey.
+    method : {"rgb", "mono", "phase"}, optional
+        Default rgb for colour frames, mono for grey (phase is given, never guessed).
     progress : bool
         One line per step through ``echo``.
 
@@ -250,8 +253,13 @@ def calibrate_sensor(
             f"--pixel-mm {pixel_mm} is not allowed; give the nominal pitch on the sheet (mm, > 0)"
         )
     refs, darks = as_paths(reference), as_paths(dark)
+    if not refs:
+        raise ConfigError("--reference: give at least one frame of the sensor at rest")
     method = _method(method, _peek(refs[0]))
-    rest, _ = read_frames(refs, method, "--reference")
+    if method == "phase":
+        rest, rest_sat = read_steps(refs, "--reference")
+    else:
+        rest, rest_sat = read_frames(refs, method, "--reference")
     shape = rest.shape[:2]
     origin_px = (
         tuple(origin_px) if origin_px is not None else ((shape[0] - 1) / 2, (shape[1] - 1) / 2)
@@ -259,7 +267,7 @@ def calibrate_sensor(
     black, black_sd, black_from = _black(darks, rest, method, shape)
     frames = read_known(known, method, lib, shape)
     cfg = load_config(lib.folder / "config.toml")
-    gamma0 = 2.2 if method == "rgb" else 1.0
+    gamma0 = 2.2 if method == "rgb" else 1.0  # sRGB, or a linear machine-vision camera
     say(
         f"sensor calibrate: {method}, {shape[0]} x {shape[1]} px, {len(frames)} known "
         f"frame(s), black level from {black_from}"
@@ -278,8 +286,9 @@ def calibrate_sensor(
         grid = (geo.pixel_mm, geo.origin_px)
         fit, geo = _fit(lib, cfg, method, shape, *grid, frames, rest, black, starts, fit)
         say(_line(fit, geo, time.perf_counter() - t0) + " (on the calibrated grid)")
+    rest_maps = _rest_maps(cfg, method, fit, rest, rest_sat, black)
     return _assemble(
-        lib, cfg, method, shape, fit, geo, rest, black, black_sd, black_from, frames, t0
+        lib, cfg, method, shape, fit, geo, rest_maps, black, black_sd, black_from, frames, t0
     )
 
 
@@ -371,8 +380,27 @@ def _line(fit: KnownFit, geo, seconds: float) -> str:
     )
 
 
+def _rest_maps(cfg, method, fit: KnownFit, rest, rest_sat, black) -> dict:
+    """The sensor file's maps of the sheet at rest, on the coarse grid, at the fitted
+    response: the rest light (rgb, mono) or the residual retarder at the fitted fringe
+    value (phase), with its retardation (fringes) and the pixels it is not read at."""
+    lin = linearise(rest, black, fit.gamma)
+    if method != "phase":
+        return {"rest": coarse_map(lin), "residual": None, "report": {}}
+    law = optics_setup(cfg).law
+    law = replace(law, f_sigma=law.f_sigma * fit.fringe_scale)
+    ab, unknown = steps_retarder(lin, rest_sat.reshape(rest.shape[:2]), law)
+    fringes = residual_fringes(ab, law)
+    report = {
+        "residual_max_fringe": float(fringes.max()),
+        "residual_unknown_px": int(np.count_nonzero(unknown)),
+    }
+    return {"rest": None, "residual": coarse_map(ab.reshape(*rest.shape[:2], 2)), "report": report}
+
+
 def _assemble(lib, cfg, method, shape, fit, geo, rest, black, black_sd, black_from, frames, t0):
-    """The calibration of the fit and geometry, with its 1-sigma and report."""
+    """The calibration of the fit and geometry, with its 1-sigma and report; ``rest``:
+    :func:`_rest_maps`."""
     illumination, illumination_sd, gains = _illumination(fit, shape)
     rot, rot_sd = _rotation(fit, geo)
     warnings = [
@@ -381,6 +409,11 @@ def _assemble(lib, cfg, method, shape, fit, geo, rest, black, black_sd, black_fr
         for fr, r in zip(frames, fit.residual_rms, strict=True)
         if not r <= WARN_RESIDUAL
     ]
+    if rest["report"].get("residual_unknown_px"):
+        warnings.append(
+            f"the rest steps give no residual retarder at {rest['report']['residual_unknown_px']}"
+            " px (saturated, without modulation, or near half a fringe): taken as none there"
+        )
     warnings += [
         f"the {name.replace('_', ' ')} ended on a bound of the fit ({getattr(fit, name):.4g}): "
         "the known frames do not determine it; check their loads, the pitch and the rest frame"
@@ -395,6 +428,7 @@ def _assemble(lib, cfg, method, shape, fit, geo, rest, black, black_sd, black_fr
         "illumination": illumination_sd,
     }
     report = {
+        **rest["report"],
         "black_level_from": black_from,
         "exposure_gain": gains,
         "known_positions": geo.n_known,
@@ -419,9 +453,10 @@ def _assemble(lib, cfg, method, shape, fit, geo, rest, black, black_sd, black_fr
         fit.gamma,
         tuple(float(v) for v in black),
         illumination,
-        coarse_map(linearise(rest, black, fit.gamma)),
+        rest["rest"],
         {k: _finite(v) for k, v in sd.items()},
         report,
+        rest["residual"],
     )
     return SensorCalibration(sensor, fit, [str(fr.path) for fr in frames])
 

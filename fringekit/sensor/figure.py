@@ -6,18 +6,35 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
+from fringekit.config.inputs import optics_setup
+from fringekit.inversion.rest import residual_fringes
+
 __all__ = ["calibration_figure"]
 
 
 def _grey(v: np.ndarray) -> np.ndarray:
-    """A (rows, cols[, C]) image as one channel (the channels' mean)."""
+    """A (rows, cols[, C]) image as one channel: the colour channels' mean, or the second
+    of the six phase steps (a dark field, 1 - cos d; their mean is even)."""
+    if v.ndim == 3 and v.shape[-1] == 6:
+        return v[..., 1]
     return v.mean(-1) if v.ndim == 3 else v
 
 
+def _rest(s):
+    """(map, title, colour-bar label) of the sheet at rest: the rest frame's light, or the
+    phase method's residual retarder in fringes."""
+    if s.residual is None:
+        return _grey(s.rest), "rest frame (residual birefringence)", "linear intensity"
+    law = s.optics(optics_setup(s.config)).law
+    fringes = residual_fringes(s.residual.reshape(-1, 2), law).reshape(s.residual.shape[:2])
+    return fringes, "residual retarder (rest steps)", "retardation (fringe)"
+
+
 def calibration_figure(path, cal) -> None:
-    """First row: the illumination (relative) and the rest frame's linear intensity, with
-    the fitted scales; one row per known frame: the measured frame less the rest frame,
-    the fit, and the residual of the mean gain (its ``residual_rms`` in the title)."""
+    """First row: the illumination (relative) and the rest frame's linear intensity (phase:
+    the residual retarder), with the fitted scales; one row per known frame: the measured
+    frame less the rest frame (phase: its second step), the fit, and the residual of the
+    mean gain (its ``residual_rms`` in the title)."""
     s, fit = cal.sensor, cal.fit
     n = len(fit.fitted)
     fig = Figure(figsize=(12, 3.6 * (n + 1)), dpi=90)
@@ -25,9 +42,10 @@ def calibration_figure(path, cal) -> None:
     im = axes[0, 0].imshow(s.illumination, cmap="viridis")
     fig.colorbar(im, ax=axes[0, 0], fraction=0.046, label="relative illumination")
     axes[0, 0].set_title("illumination")
-    im = axes[0, 1].imshow(_grey(s.rest), cmap="magma")
-    fig.colorbar(im, ax=axes[0, 1], fraction=0.046, label="linear intensity")
-    axes[0, 1].set_title("rest frame (residual birefringence)")
+    rest, title, label = _rest(s)
+    im = axes[0, 1].imshow(rest, cmap="magma")
+    fig.colorbar(im, ax=axes[0, 1], fraction=0.046, label=label)
+    axes[0, 1].set_title(title)
     axes[0, 2].axis("off")
     text = [
         f"modulus x {s.modulus_scale:.4f}",
@@ -45,7 +63,8 @@ def calibration_figure(path, cal) -> None:
         zip(cal.images, fit.measured, fit.fitted, fit.residual_rms, strict=True), start=1
     ):
         top = float(np.max(d)) or 1.0
-        for ax, v, title in ((axes[i, 0], d, "measured - rest"), (axes[i, 1], f, "fitted")):
+        seen = "measured (step 2)" if s.method == "phase" else "measured - rest"
+        for ax, v, title in ((axes[i, 0], d, seen), (axes[i, 1], f, "fitted")):
             ax.imshow(np.clip(_grey(v.reshape(*shape, -1)) / top, 0, 1), cmap="gray")
             ax.set_title(f"{title}: {name.rsplit('/', 1)[-1]}")
         im = axes[i, 2].imshow(

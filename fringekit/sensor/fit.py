@@ -41,6 +41,7 @@ from scipy.optimize import least_squares
 
 from fringekit.inversion.fit import EXACT_MM, subsample
 from fringekit.inversion.model import ImageModel
+from fringekit.inversion.rest import steps_retarder
 from fringekit.inversion.uncertainty import correlation_area, model_sd, parameter_sd
 from fringekit.library.calibrated import linearise
 from fringekit.library.store import LoadedIndenter
@@ -127,7 +128,7 @@ class _Problem:
 
     def __init__(self, base: ImageModel, frames, rest: np.ndarray, black, stride: int):
         self.frames, self.black = frames, np.asarray(black, float)
-        self.stride = stride
+        self.stride, self.groups = stride, base.groups
         rows, cols = base.grid.shape
         pick = np.ix_(np.arange(0, rows, stride), np.arange(0, cols, stride))
         self.models = []
@@ -138,6 +139,11 @@ class _Problem:
         rr, cc = np.meshgrid(*(np.arange(0, n, stride) for n in (rows, cols)), indexing="ij")
         self.basis = illumination_basis((rows, cols), rr.ravel(), cc.ravel())
         self.rest = rest[pick].reshape(-1, rest.shape[-1])
+        self.steps = rest[pick] if base.method == "phase" else None  # the rest's six steps
+        if self.steps is not None:  # where the residual is not read: held fixed
+            _, unknown = steps_retarder(linearise(self.steps, self.black, 1.0), None, base.law)
+            self.models = [replace(m, usable=m.usable & ~unknown) for m in self.models]
+        self.law0 = base.law
         self.f0 = base.law.f_sigma
         self.lib0 = base.lib
         self.sheared = any(np.any(fr.loads[:, 2:4] != 0) for fr in frames)
@@ -166,34 +172,47 @@ class _Problem:
         """Per-frame model images M_f (P, C), measured D_f (P, C) and the pixels used."""
         k, s, gamma = math.exp(theta[0]), math.exp(theta[1]), theta[2]
         lib = self.lib0.scaled(k)
-        rest = linearise(self.rest, self.black, gamma)
+        law = replace(self.law0, f_sigma=self.f0 * s)
+        ab, rest = self.at_rest(gamma, law)
         M, D, use = [], [], []
         for model, inds, j in zip(
             self.models, self.indenters(theta), range(len(self.models)), strict=True
         ):
-            law = replace(model.law, f_sigma=self.f0 * s)
-            mf = replace(model, lib=lib, law=law)
+            mf = replace(model, lib=lib, law=law, residual_ab=ab)
             lin, outside = mf.linear(inds)
             M.append(lin)
             D.append(linearise(model.measured, self.black, gamma) - rest)
             use.append(model.usable & (outside if self.keep is None else self.keep[j]))
         return M, D, use
 
+    def at_rest(self, gamma: float, law):
+        """(residual_ab (P, 2) or None, rest light (P, C) or 0): the phase method's rest
+        steps read as the residual retarder (:func:`~fringekit.inversion.rest.steps_retarder`)
+        at the response ``gamma`` and the sheet's ``law``, which the model holds; the
+        dark-field methods' rest light, which is subtracted."""
+        if self.steps is None:
+            return None, linearise(self.rest, self.black, gamma)
+        ab, _ = steps_retarder(linearise(self.steps, self.black, gamma), None, law)
+        return ab, 0.0
+
     def solve_linear(self, M, D, use):
         """The illumination coefficients (J, C), offsets (F, C), fitted images and the
-        normal matrices' inverses (C, J + F, J + F) on the used pixels."""
+        normal matrices' inverses (C, J + F, J + F) on the used pixels: one illumination
+        and offset per channel group (a colour channel; the grey image; the six phase
+        steps together, which share the light and the exposure)."""
         F, J, C = len(M), self.basis.shape[1], M[0].shape[1]
         coef, offs = np.zeros((J, C)), np.zeros((F, C))
         cov = np.zeros((C, J + F, J + F))
         fitted = [np.zeros_like(m) for m in M]
-        for c in range(C):  # one to three channels
-            A = np.concatenate([self._design(M[f][:, c], f, F)[use[f]] for f in range(F)])
-            b = np.concatenate([D[f][use[f], c] for f in range(F)])
+        for g in self.groups:  # one to three groups
+            pairs = [(f, c) for f in range(F) for c in g]
+            A = np.concatenate([self._design(M[f][:, c], f, F)[use[f]] for f, c in pairs])
+            b = np.concatenate([D[f][use[f], c] for f, c in pairs])
             x, *_ = np.linalg.lstsq(A, b, rcond=None)
-            coef[:, c], offs[:, c] = x[:J], x[J:]
+            coef[:, g], offs[:, g] = x[:J, None], x[J:, None]
             r = b - A @ x
-            cov[c] = float(r @ r) / max(len(b) - J - F, 1) * np.linalg.pinv(A.T @ A)
-            for f in range(F):
+            cov[g] = float(r @ r) / max(len(b) - J - F, 1) * np.linalg.pinv(A.T @ A)
+            for f, c in pairs:
                 fitted[f][:, c] = self._design(M[f][:, c], f, F) @ x
         return coef, offs, fitted, cov
 

@@ -2,8 +2,10 @@
 the known-load frames with their table (``KNOWN.csv``).
 
 Every frame is read as stored values in [0, 1] (no response undone: the calibration fits
-the response), (rows, cols, C) with C = 3 for ``rgb`` and 1 for ``mono``; a bad file, a
-frame of another size or a table that cannot be read is one
+the response), (rows, cols, C) with C = 3 for ``rgb`` and 1 for ``mono``; for ``phase``
+a frame is six phase steps (in :data:`~fringekit.analysis.SIX_STEP_ORDER`; in KNOWN.csv
+six file names joined by ``;``), each grey (a colour one as the mean of its channels), C
+= 6. A bad file, a frame of another size or a table that cannot be read is one
 :class:`~fringekit.errors.ConfigError` line naming it.
 """
 
@@ -18,9 +20,10 @@ import numpy as np
 
 from fringekit.analysis import normalise, read_pixels
 from fringekit.errors import ConfigError, InputError
-from fringekit.inversion.read import frame_measurement
+from fringekit.inversion.read import frame_measurement, steps_measurement
+from fringekit.inversion.rest import PHASE_STEPS
 
-__all__ = ["KNOWN_COLUMNS", "KnownFrame", "read_frame", "read_frames", "read_known"]
+__all__ = ["KNOWN_COLUMNS", "KnownFrame", "read_frame", "read_frames", "read_known", "read_steps"]
 
 #: The columns of KNOWN.csv (``diameter_mm`` may be added: the sphere of each row).
 KNOWN_COLUMNS = ("image", "x_mm", "y_mm", "Fx_N", "Fy_N", "Fz_N")
@@ -33,6 +36,7 @@ class KnownFrame:
     Attributes
     ----------
     path : Path
+        The image (phase: its first step).
     raw : (rows, cols, C) stored values in [0, 1]
     usable : (rows * cols,) bool — not saturated
     loads : (n, 5) x_mm, y_mm (NaN where the position is not known), Fx_N, Fy_N, Fz_N,
@@ -59,6 +63,9 @@ def read_frame(path, option: str):
 def _read(path, method: str, option: str) -> tuple[np.ndarray, np.ndarray]:
     """(raw (rows, cols, C), saturated (rows, cols)) of one image file."""
     frame = read_frame(path, option)
+    if method == "phase":  # one step: grey, a colour one as the mean of its channels
+        raw, sat = steps_measurement([frame])
+        return raw.astype(float), sat
     _, raw, sat, _ = frame_measurement(frame, method, "none")  # stored values only
     return raw.astype(float), sat
 
@@ -80,6 +87,34 @@ def read_frames(paths, method: str, option: str, shape=None) -> tuple[np.ndarray
         frames.append(raw)
         sats.append(sat.ravel())
     return np.mean(frames, axis=0), np.any(sats, axis=0)
+
+
+def read_steps(paths, option: str, shape=None) -> tuple[np.ndarray, np.ndarray]:
+    """The six phase steps (rows, cols, 6) of one or more six-step sets (each step the mean
+    over the sets), and where any frame is saturated (rows * cols,); a count of frames
+    that is not a whole number of sets is refused in one line naming ``option``.
+
+    Examples
+    --------
+    >>> try:
+    ...     read_steps(["a.png"] * 4, "--reference")
+    ... except ValueError as exc:
+    ...     print(str(exc)[-14:])
+    got 4 frame(s)
+    """
+    paths = list(paths)
+    if not paths or len(paths) % PHASE_STEPS:
+        raise ConfigError(
+            f"{option}: --method phase reads the six phase steps of each frame (or several "
+            f"sets of six); got {len(paths)} frame(s)"
+        )
+    steps, sats = [], []
+    for k in range(PHASE_STEPS):  # each step over the sets, all of one size
+        m, sat = read_frames(paths[k::PHASE_STEPS], "phase", option, shape)
+        shape = m.shape[:2]
+        steps.append(m)
+        sats.append(sat)
+    return np.concatenate(steps, axis=-1), np.any(sats, axis=0)
 
 
 def _number(row: dict, key: str, line: int, path, blank_ok: bool = False) -> float:
@@ -118,25 +153,42 @@ def read_known(path, method: str, lib, shape) -> list[KnownFrame]:
     rows = _rows(path)
     if not rows:
         raise ConfigError(f"--known {path}: no rows; give one row per contact of each image")
-    by_image: dict[str, list] = {}
+    by_image: dict[str, tuple] = {}
     for line, row in enumerate(rows, start=2):
         name = (row.get("image") or "").strip()
-        img = path.parent / name
-        if not name or not img.is_file():
-            raise ConfigError(f"{path} line {line}: image {name!r} not found (in {path.parent})")
+        files = _images(name, method, path, line)
         x, y = (_number(row, k, line, path, blank_ok=True) for k in ("x_mm", "y_mm"))
         if math.isnan(x) != math.isnan(y):
             raise ConfigError(f"{path} line {line}: give both x_mm and y_mm, or leave both blank")
         fx, fy, fz = (_number(row, k, line, path) for k in ("Fx_N", "Fy_N", "Fz_N"))
         d = _diameter(row, line, path, lib)
         _check_range(lib, fx, fy, fz, line, path)
-        by_image.setdefault(name, []).append((x, y, fx, fy, fz, d))
+        by_image.setdefault(name, (files, []))[1].append((x, y, fx, fy, fz, d))
     out = []
-    for name, contacts in by_image.items():
-        raw, sat = read_frames([path.parent / name], method, "--known image", shape)
+    for files, contacts in by_image.values():
+        if method == "phase":
+            raw, sat = read_steps(files, "--known image", shape)
+        else:
+            raw, sat = read_frames(files, method, "--known image", shape)
         a = np.array(contacts, float)
-        out.append(KnownFrame(path.parent / name, raw, ~sat, a[:, :5], a[:, 5]))
+        out.append(KnownFrame(files[0], raw, ~sat, a[:, :5], a[:, 5]))
     return out
+
+
+def _images(name: str, method: str, path: Path, line: int) -> list[Path]:
+    """The files of a KNOWN.csv ``image`` cell (six joined by ``;`` for phase), each
+    checked to be there."""
+    names = [n.strip() for n in name.split(";")] if name else []
+    want = PHASE_STEPS if method == "phase" else 1
+    if len(names) != want:
+        what = "six files joined by ';' (the phase steps)" if want > 1 else "one file"
+        raise ConfigError(
+            f"{path} line {line}: image {name!r} is not allowed; give {what} for --method {method}"
+        )
+    for n in names:
+        if not n or not (path.parent / n).is_file():
+            raise ConfigError(f"{path} line {line}: image {n!r} not found (in {path.parent})")
+    return [path.parent / n for n in names]
 
 
 def _diameter(row: dict, line: int, path, lib) -> float:

@@ -13,6 +13,8 @@ noise given here.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from fringekit.config.inputs import optics_setup
@@ -27,12 +29,13 @@ __all__ = ["image_model", "sensor_frame"]
 
 def image_model(lib, sensor: CalibratedSensor) -> ImageModel:
     """The image model of ``sensor``'s frames: its library (modulus scale), optics (fringe
-    value scale) and pixel grid, fitted in the image's axes; no measured image."""
+    value scale), pixel grid and residual retarder (phase), fitted in the image's axes; no
+    measured image."""
     cfg = sensor.config
     optics = sensor.optics(optics_setup(cfg))
     rows, cols = sensor.shape
-    C = 3 if sensor.method == "rgb" else 1
-    return ImageModel.build(
+    C = {"rgb": 3, "phase": 6}.get(sensor.method, 1)
+    model = ImageModel.build(
         sensor.library(lib),
         pixel_grid(sensor.shape, sensor.pixel_mm, sensor.origin_px),
         sensor.method,
@@ -42,6 +45,7 @@ def image_model(lib, sensor: CalibratedSensor) -> ImageModel:
         light=cfg["optics"]["light"],
         white_light_wavelengths=cfg["optics"]["white_light_wavelengths"],
     )
+    return replace(model, residual_ab=sensor.residual_ab(sensor.shape))
 
 
 def sensor_frame(

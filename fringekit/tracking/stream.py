@@ -414,7 +414,10 @@ class _Run:
             lib, optics = self.cal.model_inputs(lib, optics, shape, self.method)
         check_rest_method(self.rest, self.method, self.cal)
         if self.rest is not None and self.rest.are_steps(self.method):
-            self.rest_ab, self.rest_unknown = self.rest.retarder(shape, optics.law)
+            self.rest_ab, self.rest_unknown = self.rest.retarder(shape, optics.law, self.cal)
+        elif self.rest is None and self.cal is not None and self.method == "phase":
+            self.rest_ab = self.cal.residual_ab(shape)  # a phase sensor file's, or None
+            self.rest_unknown = np.zeros(shape[0] * shape[1], bool)
         elif self.rest is not None:
             if self.method == "mono" and grey(img).ndim == 3:
                 self.channel(normalise(grey(img), source=name).data, name)
@@ -448,7 +451,7 @@ class _Run:
     def _solve(self, raw, steps) -> TrackedFrame:
         if self.method == "phase":
             measured, usable, nodata, note = steps_linear(
-                [s.image for s in steps], [s.name for s in steps]
+                [s.image for s in steps], [s.name for s in steps], self.cal
             )
         else:
             camera = self.optics.camera.sensitivities

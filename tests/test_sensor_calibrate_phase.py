@@ -1,0 +1,208 @@
+"""fringekit sensor calibrate --method phase: six-step frames rendered by a sensor that
+departs from its library as test_sensor_calibrate's does (modulus +15 %, fringe value
+-8 %, gamma 2.2, a black level, 30 % vignetting, the image turned 2 degrees, 1 % off in
+pitch and 0.6 mm off in origin) and whose sheet holds a residual retarder of up to
+0.2 fringe (turning axis) are calibrated back, the residual retarder with them; invert,
+track and predict --library use it; the bad inputs are one line each."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from library_fixtures import TINY, sensor_config
+from test_sensor_calibrate import KNOWN, PIXEL_MM, PX, TEST
+
+import fringekit
+from fringekit.analysis import read_pixels
+from fringekit.cli.main import main
+from fringekit.config.files import load_config, to_toml
+from fringekit.config.inputs import optics_setup
+from fringekit.inversion.rest import residual_fringes
+from fringekit.library.calibrated import CalibratedSensor, coarse_map, load_sensor
+from fringekit.library.store import load_library
+from fringekit.optics import write_image
+from fringekit.sensor import sensor_frame
+
+#: The residual retarder's peak (fringes, the double pass).
+RESIDUAL = 0.2
+#: The exposure: the six steps' brightest (1 + cos d) / 2 of full light stays below full
+#: scale after the vignetting and the response.
+GAIN = 0.45
+
+
+def _truth(lib) -> CalibratedSensor:
+    rr, cc = np.mgrid[0:PX, 0:PX]
+    u, v = (cc - 31.5) / 32, (rr - 31.5) / 32
+    light = 1.0 - 0.15 * (u**2 + v**2) + 0.05 * u  # 30 % darker in the corners
+    cfg = load_config(lib.folder / "config.toml")
+    law = optics_setup(cfg).law
+    law = replace(law, f_sigma=law.f_sigma * 0.92)
+    k = float(law.retardation_per_stress_length(np.array([law.wavelength_ref]))[0])
+    d = RESIDUAL * 2 * np.pi * np.exp(-((u - 0.3) ** 2 + (v + 0.2) ** 2) / 0.15)
+    axis = 0.6 + 0.5 * u  # twice the residual's principal direction (rad)
+    ab = np.stack([d * np.cos(axis), d * np.sin(axis)], -1) / (2 * k)
+    return CalibratedSensor(
+        cfg,
+        lib.manifest["manifest_sha256"],
+        "phase",
+        (PX, PX),
+        PIXEL_MM * 0.99,
+        (31.5 + 2.4, 31.5 - 1.6),
+        2.0,
+        1.15,
+        0.92,
+        2.2,
+        (0.03,),
+        coarse_map(light / light.mean()),
+        None,
+        residual=coarse_map(ab),
+    )
+
+
+def _six(folder, name: str, lib, truth, contacts) -> list:
+    """The six steps of ``contacts`` as 16-bit files; their paths."""
+    steps = sensor_frame(lib, truth, contacts, gain=GAIN, bit_depth=16)
+    paths = [folder / f"{name}_{k + 1}.png" for k in range(6)]
+    for k, p in enumerate(paths):
+        write_image(p, steps[..., k])
+    return paths
+
+
+@pytest.fixture(scope="module")
+def lib(tiny_library):
+    """The tiny library as it is on disk (its manifest's checksum is the sensor's)."""
+    return load_library(tiny_library.folder)
+
+
+@pytest.fixture(scope="module")
+def calibrated(lib, tmp_path_factory):
+    """The frames, and the sensor file ``sensor calibrate --method phase`` wrote."""
+    d = tmp_path_factory.mktemp("phase-sensor")
+    truth = _truth(lib)
+    rest = _six(d, "rest", lib, truth, [])
+    rows = ["image,x_mm,y_mm,Fx_N,Fy_N,Fz_N"]
+    for i, c in enumerate(KNOWN):
+        names = ";".join(p.name for p in _six(d, f"known{i}", lib, truth, [c]))
+        rows.append(f"{names}," + ",".join(f"{x:g}" for x in c))
+    (d / "known.csv").write_text("\n".join(rows) + "\n")
+    _six(d, "test", lib, truth, TEST)
+    argv = ["sensor", "calibrate", "--library", str(lib.folder), "--quiet", "--method", "phase"]
+    argv += ["--reference", *map(str, rest), "--known", str(d / "known.csv")]
+    assert main([*argv, "--out", str(d / "sensor.json"), "--pixel-mm", str(PIXEL_MM)]) == 0
+    return d, truth, load_sensor(d / "sensor.json")
+
+
+@pytest.mark.slow
+def test_phase_calibration_returns_the_sensor_and_its_residual_retarder(calibrated):
+    """Scales to 1e-3, the response, pitch, origin and rotation, each error within 3 of
+    its stated 1-sigma; the illumination within 1 %; the residual retarder within 0.002
+    fringe everywhere (16-bit frames of the library's own model)."""
+    d, truth, got = calibrated
+    assert (d / "sensor.png").is_file() and got.method == "phase" and got.rest is None
+    checks = {
+        "modulus_scale": (got.modulus_scale, truth.modulus_scale, 1e-3 * truth.modulus_scale),
+        "fringe_scale": (got.fringe_scale, truth.fringe_scale, 1e-3 * truth.fringe_scale),
+        "gamma": (got.gamma, truth.gamma, 3e-3),
+        "pixel_mm": (got.pixel_mm, truth.pixel_mm, 1e-4 * truth.pixel_mm),
+        "rotation_deg": (got.rotation_deg, truth.rotation_deg, 0.02),
+        "origin_px": (math.dist(got.origin_px, truth.origin_px), 0.0, 0.05),
+    }
+    for name, (value, want, tol) in checks.items():
+        assert abs(value - want) <= tol, (name, value, want)
+        assert abs(value - want) <= 3 * got.sd[name] + 1e-12, (name, value - want, got.sd[name])
+    assert abs(got.black[0] - 0.03) < 1e-3
+    assert np.abs(got.illumination - truth.illumination).max() < 0.01
+    law = got.optics(optics_setup(got.config)).law
+    peak = residual_fringes(truth.residual.reshape(-1, 2), law).max()
+    off = residual_fringes((got.residual - truth.residual).reshape(-1, 2), law).max()
+    assert peak > 0.9 * RESIDUAL and off < 0.002, (peak, off)
+    assert got.report["warnings"] == [] and got.report["residual_max_fringe"] > 0.9 * RESIDUAL
+
+
+def _errors(table, want: np.ndarray):
+    """Per true contact: the position error (mm) and the largest load error (N) of the
+    nearest contact read."""
+    got = np.column_stack([table[k] for k in ("x_mm", "y_mm", "Fx_N", "Fy_N", "Fz_N")])
+    got = got[[int(np.argmin(np.hypot(*(got[:, :2] - w[:2]).T))) for w in want]]
+    return np.hypot(*(got[:, :2] - want[:, :2]).T), np.abs(got[:, 2:] - want[:, 2:]).max(1)
+
+
+@pytest.mark.slow
+def test_invert_and_track_read_phase_frames_through_the_sensor_file(calibrated, lib):
+    """Two contacts in the residual, turned and scaled by the sensor: within 0.02 mm and
+    1 % of Fz through the sensor file (its residual retarder in the model), by invert and
+    by track; read with the nominal pitch and no residual they are refused or off."""
+    d, _, _ = calibrated
+    sensor, want = d / "sensor.json", np.array(TEST)
+    steps = [d / f"test_{k + 1}.png" for k in range(6)]
+    inv = fringekit.invert(steps, lib, sensor=sensor, method="phase")
+    pos, load = _errors(inv.table(), want)
+    assert np.all(pos < 0.02) and np.all(load < 0.01 * want[:, 4]), (pos, load)
+    assert inv.summary["reference"]["residual_from"] == "the sensor file"
+    try:
+        plain = fringekit.invert(steps, lib, pixel_mm=PIXEL_MM, method="phase").table()
+        pos, load = _errors(plain, want)
+        assert np.any(pos > 0.05) or np.any(load > 0.03 * want[:, 4]), (pos, load)
+    except fringekit.InvertError:
+        pass  # refused: as good a "no" as a wrong answer flagged
+    frames = d / "frames"
+    frames.mkdir()
+    for i in range(2):  # two load states, six steps each
+        for k, p in enumerate(steps):
+            (frames / f"s{i}_{k + 1}.png").write_bytes(p.read_bytes())
+    t = fringekit.track(frames, lib, sensor=sensor, method="phase")
+    table = t.table()
+    pos, load = _errors({k: v[table["frame"] == 1] for k, v in table.items()}, want)
+    assert np.all(pos < 0.02) and np.all(load < 0.01 * want[:, 4]), (pos, load)
+
+
+def test_bad_phase_calibration_inputs_are_one_line_each_and_write_nothing(lib, tmp_path, capsys):
+    """Rest frames that are not whole six-step sets, a known frame of one file, and a
+    missing step: exit 2, one line naming the input, nothing written."""
+    truth = _truth(lib)
+    rest = _six(tmp_path, "rest", lib, truth, [])
+    known = _six(tmp_path, "k", lib, truth, [KNOWN[0]])
+    row = ",".join(f"{x:g}" for x in KNOWN[0])
+    base = ["sensor", "calibrate", "--library", str(lib.folder), "--pixel-mm", "0.25"]
+    base += ["--method", "phase", "--known", str(tmp_path / "known.csv")]
+    base += ["--out", str(tmp_path / "s.json")]
+    cases = [
+        (rest[:4], ";".join(p.name for p in known), "--reference: --method phase reads the six"),
+        (rest, known[0].name, "give six files joined by ';' (the phase steps)"),
+        (rest, ";".join(["gone.png"] + [p.name for p in known[1:]]), "'gone.png' not found"),
+    ]
+    for refs, cell, words in cases:
+        (tmp_path / "known.csv").write_text(f"image,x_mm,y_mm,Fx_N,Fy_N,Fz_N\n{cell},{row}\n")
+        assert main([*base, "--reference", *map(str, refs)]) == 2, words
+        err = capsys.readouterr().err.strip()
+        assert words in err and "\n" not in err, err
+        assert not (tmp_path / "s.json").exists() and not (tmp_path / "s.png").exists()
+
+
+def test_predict_library_with_a_phase_sensor_writes_its_six_steps(lib, tmp_path):
+    """``predict --library --sensor`` with a phase sensor writes the six steps its camera
+    records, residual retarder included: the calibration's forward model (sensor_frame)
+    to one count of 8 bits."""
+    truth = replace(_truth(lib), report={"exposure_gain": [GAIN]})
+    truth.save(tmp_path / "sensor.json")
+    cfg = sensor_config(**TINY)
+    cfg["contact"]["friction"] = "stick"
+    proto = cfg["indenter"][0]
+    cfg["indenter"] = [
+        dict(proto, x_mm=x, y_mm=y, load_N=[fz], shear_N=[[fx, fy]]) for x, y, fx, fy, fz in TEST
+    ]
+    (tmp_path / "case.toml").write_text(to_toml(cfg))
+    argv = ["predict", str(tmp_path / "case.toml"), "--library", str(lib.folder)]
+    argv += ["--sensor", str(tmp_path / "sensor.json"), "--out", str(tmp_path / "out"), "--quiet"]
+    assert main(argv) == 0
+    want = sensor_frame(lib, truth, TEST, gain=GAIN, bit_depth=8).astype(int)
+    for k in range(6):
+        got = read_pixels(tmp_path / "out" / "state_01" / f"camera_step{k + 1}.png").astype(int)
+        assert got.shape == (PX, PX) and np.abs(got - want[..., k]).max() <= 1, k
+    assert not (tmp_path / "out" / "state_01" / "camera.png").exists()
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["calibrated_sensor"]["fringe_scale"] == 0.92

@@ -31,12 +31,12 @@ tangential load is at least 0.1 N), against the invert issue's targets (Fz 3 %,
 tangential 10 % and 5 deg, position 0.05 mm), and with ``--refine`` (c) with the sensor
 file and ``--refine fem`` (one to four FEM solves per frame: about half an hour).
 
-``--phase`` runs instead the residual's test for the six-step method, which ``sensor
-calibrate`` does not calibrate: the six phase steps of the rest and of the test frames
-(the same FEM solves, the true plates and residual, geometry, gain and noise; a linear
-16-bit camera without vignetting or flare), read with a sensor file of the true scales
-and geometry (d) without and (e) with the six rest steps as ``--reference`` (each
-inverse within ``--max-seconds``, default 600).
+``--phase`` runs instead the six-step method: the six phase steps of the rest, the three
+known frames and the six test frames (the same FEM solves, the true plates, residual,
+geometry and camera, at 16 bits), calibrated by ``sensor calibrate --method phase`` (the
+rest steps read as the residual retarder), and the test frames read (d) without
+calibration (the nominal pitch, no rest) and (e) through the sensor file (each inverse
+within ``--max-seconds``, default 600).
 """
 
 from __future__ import annotations
@@ -184,10 +184,10 @@ def _into_image(sheet: np.ndarray, pixels: int) -> np.ndarray:
     return warp(sheet, to_sheet, output_shape=shape, order=1, mode="edge")
 
 
-def camera_frame(sheet: np.ndarray, pixels: int, rng, noise: float) -> np.ndarray:
-    """The camera's 8-bit frame (pixels, pixels) of a sheet intensity image (the sheet's
-    axes, 20 mm, at the frames' pitch): turned and shifted into the image, vignetted,
-    with flare, black level, gamma and noise."""
+def camera_frame(sheet: np.ndarray, pixels: int, rng, noise: float, bits: int = 8) -> np.ndarray:
+    """The camera's 8-bit (or 16-bit) frame (pixels, pixels) of a sheet intensity image
+    (the sheet's axes, 20 mm, at the frames' pitch): turned and shifted into the image,
+    vignetted, with flare, black level, gamma and noise."""
     img = _into_image(sheet, pixels)
     rr, cc = np.mgrid[0:pixels, 0:pixels]
     c = (pixels - 1) / 2
@@ -196,17 +196,18 @@ def camera_frame(sheet: np.ndarray, pixels: int, rng, noise: float) -> np.ndarra
     b = TRUE["black"]
     raw = b + (1 - b) * np.clip(lin, 0, None) ** (1 / TRUE["gamma"])
     raw = raw + rng.normal(0.0, noise, raw.shape)
-    return np.round(np.clip(raw, 0, 1) * 255).astype(np.uint8)
+    top, kind = (255, np.uint8) if bits == 8 else (65535, np.uint16)
+    return np.round(np.clip(raw, 0, 1) * top).astype(kind)
 
 
 def phase_steps(sheet: np.ndarray, pixels: int, rng, noise: float) -> list[np.ndarray]:
     """The six 16-bit phase steps (pixels, pixels) of a sheet's six intensities (n, n, 6):
-    the true geometry, gain and noise, a linear camera without vignetting or flare (which
-    ``sensor calibrate`` would fit, and does not for phase)."""
-    img = TRUE["gain"] * _into_image(sheet, pixels)
-    img = img + rng.normal(0.0, noise, img.shape)
-    raw = np.round(np.clip(img, 0, 1) * 65535).astype(np.uint16)
-    return [raw[..., k] for k in range(6)]
+    the true geometry and camera (:func:`camera_frame`'s vignetting, flare, black level,
+    gamma and noise; the six steps' brightest, (1 + cos d) / 2 of the light, at about the
+    dark-field frames' exposure)."""
+    return [
+        camera_frame(sheet[..., k], pixels, rng, noise, bits=16) for k in range(sheet.shape[-1])
+    ]
 
 
 def draw_tests(rng, n_frames: int = 6) -> list[list[tuple]]:
@@ -306,54 +307,55 @@ def read_tests(lib, d: Path, tests, steps: bool = False, **kw) -> tuple[list, fl
     return out, time.perf_counter() - t0
 
 
-def truth_phase_sensor(lib, pixels: int) -> CalibratedSensor:
-    """A sensor file of the true scales and geometry for the six steps (what a phase
-    calibration would give at best): the test of the residual alone."""
-    geo = truth_sensor(pixels)
-    return CalibratedSensor(
-        load_config(lib.folder / "config.toml"),
-        lib.manifest["manifest_sha256"],
-        "phase",
-        (pixels, pixels),
-        geo["pixel_mm"],
-        tuple(geo["origin_px"]),
-        geo["rotation_deg"],
-        TRUE["modulus_scale"],
-        TRUE["fringe_scale"],
-        1.0,
-        (0.0,),
-        report={"calibrated": True},
-    )
-
-
 def run_phase(lib, work: Path, args, tests) -> dict:
-    """(d) and (e): the six steps of the rest and of the test frames (FEM solves from the
-    work folder's cache), read with the true sensor without and with the rest steps as
-    ``reference``."""
+    """(d) and (e): the six steps of the rest, the known and the test frames (FEM solves
+    from the work folder's cache), calibrated with ``sensor calibrate --method phase``;
+    the test frames read without and with the sensor file."""
     d = work / "phase"
     d.mkdir(parents=True, exist_ok=True)
     rng, p = np.random.default_rng(args.seed + 1), FIELD_MM / args.pixels
     t0 = time.perf_counter()
-    for name, contacts in [("rest", []), *((f"test_{i}", c) for i, c in enumerate(tests))]:
+    frames = [("rest", []), *((f"known_{i}", [c]) for i, c in enumerate(KNOWN))]
+    frames += [(f"test_{i}", c) for i, c in enumerate(tests)]
+    for name, contacts in frames:
         print(f"phase steps of {name}: FEM ...", flush=True)
         sheet = sheet_intensity(contacts, work, p, phase=True)
         for k, img in enumerate(phase_steps(sheet, args.pixels, rng, args.noise)):
             write_image(d / f"{name}_step{k + 1}.png", img)
+    rows = ["image,x_mm,y_mm,Fx_N,Fy_N,Fz_N"]
+    for i, c in enumerate(KNOWN):
+        steps = ";".join(f"known_{i}_step{k}.png" for k in range(1, 7))
+        rows.append(f"{steps}," + ",".join(f"{v:g}" for v in c))
+    (d / "known.csv").write_text("\n".join(rows) + "\n")
     t_render = time.perf_counter() - t0
-    sensor = truth_phase_sensor(lib, args.pixels)
+    t0 = time.perf_counter()
     rest = [d / f"rest_step{k}.png" for k in range(1, 7)]
-    kw = {"sensor": sensor, "steps": True, "max_seconds": args.max_seconds}
-    e, t_e = read_tests(lib, d, tests, reference=rest, **kw)
-    dd, t_d = read_tests(lib, d, tests, **kw)
+    dark = work / "frames" / "dark.png"  # the camera's, with the light off
+    cal = fringekit.calibrate_sensor(
+        lib, rest, d / "known.csv", pixel_mm=p, dark=dark, method="phase", progress=True
+    )
+    t_cal = time.perf_counter() - t0
+    path = cal.write(work / "sensor_phase.json")
+    kw = {"steps": True, "max_seconds": args.max_seconds}
+    dd, t_d = read_tests(lib, d, tests, pixel_mm=p, **kw)
+    e, t_e = read_tests(lib, d, tests, sensor=path, **kw)
     return {
         "pixels": args.pixels,
         "noise": args.noise,
         "seed": args.seed,
         "truth": TRUE,
         "targets": TARGETS,
-        "d_phase_without_reference": {"summary": summary(dd), "frames": dd},
-        "e_phase_with_rest_steps": {"summary": summary(e), "frames": e},
-        "times_s": {"fem_and_render": t_render, "invert_d": t_d, "invert_e": t_e},
+        "fitted": _fitted(cal.sensor, args.pixels),
+        "residual_max_fringe": cal.sensor.report.get("residual_max_fringe"),
+        "warnings": cal.sensor.report["warnings"],
+        "d_phase_uncalibrated": {"summary": summary(dd), "frames": dd},
+        "e_phase_calibrated": {"summary": summary(e), "frames": e},
+        "times_s": {
+            "fem_and_render": t_render,
+            "calibrate": t_cal,
+            "invert_d": t_d,
+            "invert_e": t_e,
+        },
         "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
     }
 
@@ -398,8 +400,11 @@ def _fitted(s: CalibratedSensor, pixels: int) -> dict:
 
 
 def _report(result: dict, json_path) -> None:
-    """Print the phase run's summaries and times; write ``result`` to ``json_path``."""
-    for name in ("d_phase_without_reference", "e_phase_with_rest_steps"):
+    """Print the phase run's fit, summaries and times; write ``result`` to ``json_path``."""
+    for k, v in result["fitted"].items():
+        print(f"{k}: {v}")
+    print("warnings:", result["warnings"])
+    for name in ("d_phase_uncalibrated", "e_phase_calibrated"):
         print(name, json.dumps(result[name]["summary"]))
     print(json.dumps(result["times_s"]), f"peak memory {result['peak_mb']:.0f} MB")
     if json_path:
@@ -426,8 +431,7 @@ def main(argv=None) -> None:
     ap.add_argument(
         "--phase",
         action="store_true",
-        help="instead of the calibration: (d) and (e), the six steps read with the true "
-        "sensor, without and with the six rest steps",
+        help="instead of the dark-field calibration: the six-step method's, (d) and (e)",
     )
     ap.add_argument("--max-seconds", type=float, default=600.0, help="per phase inverse")
     ap.add_argument("--work", default="bench/out/sensor")

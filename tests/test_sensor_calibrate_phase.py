@@ -158,6 +158,7 @@ def test_invert_and_track_read_phase_frames_through_the_sensor_file(calibrated, 
     table = t.table()
     pos, load = _errors({k: v[table["frame"] == 1] for k, v in table.items()}, want)
     assert np.all(pos < 0.02) and np.all(load < 0.01 * want[:, 4]), (pos, load)
+    assert t.summary["reference"]["residual_from"] == "the sensor file"
 
 
 def test_bad_phase_calibration_inputs_are_one_line_each_and_write_nothing(lib, tmp_path, capsys):

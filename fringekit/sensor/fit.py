@@ -17,6 +17,12 @@ rescales the linear intensities, does not lower the cost by itself. The pixels w
 contact circles (widened) are left out, as ``invert`` leaves them out, and the mask is
 held fixed during a fit.
 
+For the six phase steps (C = 6) the rest is not subtracted (lin_rest = 0): the rest steps,
+linearised at the gamma being tried, give the sheet's residual retarder
+(:func:`~fringekit.inversion.rest.steps_retarder`, at the fringe value being tried), which
+M_f holds in series with the loads' retardation; the six steps share L and o_f (one
+light, one exposure), as ``invert`` gives them one gain and offset.
+
 The loads are known; the contacts' positions in the image are fitted (with a known
 position, the start). The 1-sigma of the fitted values are those of a linear
 least-squares problem at the solution (sigma^2 (J^T J)^-1, sigma^2 the residual's

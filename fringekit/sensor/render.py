@@ -8,7 +8,8 @@ M the library's linear image (modulus and fringe-value scales applied), L the
 illumination, R the rest frame's linear intensity, g the exposure gain and b the black
 level (:mod:`fringekit.library.calibrated`): the frame ``predict --library --sensor``
 writes (:func:`~fringekit.prediction.from_library.camera_linear`), with the exposure and
-noise given here.
+noise given here. For the phase method M is the six steps' image with the sensor's
+residual retarder in the sheet, and R is none.
 """
 
 from __future__ import annotations

@@ -40,6 +40,7 @@ from fringekit.inversion.rest import (
     residual_fringes,
     rest_frames,
     rest_summary,
+    sensor_residual,
     steps_linear,
     unknown_warning,
 )
@@ -349,6 +350,7 @@ class _Run:
         self.rest_light: np.ndarray | None = None
         self.rest_unknown: np.ndarray | None = None  # (P,) pixels it is not known at
         self.rest_ab: np.ndarray | None = None  # (P, 2) the rest steps' residual retarder
+        self.rest_info: dict | None = None  # the summary of a sensor file's residual
         self.rest_channel: int | None = None  # the colour channel it was read in
         self.channel = MonoChannel()  # the channel a mono stream's colour frames are read in
         self.partial = 0  # phase steps at the end that made no whole state
@@ -415,8 +417,8 @@ class _Run:
         check_rest_method(self.rest, self.method, self.cal)
         if self.rest is not None and self.rest.are_steps(self.method):
             self.rest_ab, self.rest_unknown = self.rest.retarder(shape, optics.law, self.cal)
-        elif self.rest is None and self.cal is not None and self.method == "phase":
-            self.rest_ab = self.cal.residual_ab(shape)  # a phase sensor file's, or None
+        elif self.rest is None:  # a phase sensor file's residual, if any
+            self.rest_ab, self.rest_info = sensor_residual(self.cal, self.method, shape, optics.law)
             self.rest_unknown = np.zeros(shape[0] * shape[1], bool)
         elif self.rest is not None:
             if self.method == "mono" and grey(img).ndim == 3:
@@ -508,7 +510,8 @@ class _Run:
             "frames_per_state": PHASE_STEPS if self.method == "phase" else 1,
             "reference": rest_summary(
                 self.rest, self.rest_light, self.rest_unknown, self._residual_fringes()
-            ),
+            )
+            or self.rest_info,
             "frames_read": self.read,
             "frames_solved": solved,
             "frames_dropped": int(self.src.dropped),

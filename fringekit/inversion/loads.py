@@ -426,9 +426,9 @@ def _check_refine(refine, residual_ab) -> None:
     """``--refine fem`` renders the FEM without the rest's residual retarder: refused."""
     if refine == "fem" and residual_ab is not None:
         raise ConfigError(
-            "--refine fem with a residual retarder (a phase --reference, or "
-            "--residual-steps) is not allowed: the full-FEM image it renders holds no "
-            "residual; leave out one or the other"
+            "--refine fem with a residual retarder (a phase --reference, --residual-steps "
+            "or a phase sensor file's) is not allowed: the full-FEM image it renders holds "
+            "no residual; leave out --refine, or the rest"
         )
 
 

@@ -34,7 +34,7 @@ KNOWN = [(-3.0, 2.5, 0.6, 0.0, 2.0), (3.0, 1.0, 0.0, 0.9, 3.0), (0.5, -3.5, -1.0
 TEST = [(-2.5, -1.0, 0.6, -0.3, 3.0), (3.0, 2.5, -0.4, 0.5, 2.2)]
 
 
-def _truth(lib) -> CalibratedSensor:
+def sensor_truth(lib) -> CalibratedSensor:
     rr, cc = np.mgrid[0:PX, 0:PX]
     u, v = (cc - 31.5) / 32, (rr - 31.5) / 32
     light = 1.0 - 0.15 * (u**2 + v**2) + 0.05 * u  # 30 % darker in the corners
@@ -69,6 +69,32 @@ def _write(folder, lib, truth) -> None:
     write_image(folder / "test.png", sensor_frame(lib, truth, TEST, bit_depth=16))
 
 
+def check_fitted(got: CalibratedSensor, truth: CalibratedSensor) -> None:
+    """The scales within 1e-3, gamma 3e-3, pitch 1e-4 (relative), rotation 0.02 deg,
+    origin 0.05 px and black level 2e-5 of the truth, each error within 3 of its stated
+    1-sigma (frames of the library's own model)."""
+    checks = {
+        "modulus_scale": (got.modulus_scale, truth.modulus_scale, 1e-3 * truth.modulus_scale),
+        "fringe_scale": (got.fringe_scale, truth.fringe_scale, 1e-3 * truth.fringe_scale),
+        "gamma": (got.gamma, truth.gamma, 3e-3),
+        "pixel_mm": (got.pixel_mm, truth.pixel_mm, 1e-4 * truth.pixel_mm),
+        "rotation_deg": (got.rotation_deg, truth.rotation_deg, 0.02),
+        "origin_px": (math.dist(got.origin_px, truth.origin_px), 0.0, 0.05),
+    }
+    for name, (value, want, tol) in checks.items():
+        assert abs(value - want) <= tol, (name, value, want)
+        assert abs(value - want) <= 3 * got.sd[name] + 1e-12, (name, value - want, got.sd[name])
+    assert abs(got.black[0] - truth.black[0]) < 2e-5
+
+
+def contact_errors(table: dict, want: np.ndarray):
+    """Per true contact (rows of ``want``: x_mm, y_mm, Fx_N, Fy_N, Fz_N), the position
+    error (mm) and the largest load error (N) of the nearest contact read."""
+    got = np.column_stack([table[k] for k in ("x_mm", "y_mm", "Fx_N", "Fy_N", "Fz_N")])
+    got = got[[int(np.argmin(np.hypot(*(got[:, :2] - w[:2]).T))) for w in want]]
+    return np.hypot(*(got[:, :2] - want[:, :2]).T), np.abs(got[:, 2:] - want[:, 2:]).max(1)
+
+
 @pytest.fixture(scope="module")
 def lib(tiny_library):
     """The tiny library as it is on disk (a test of the fast tier rebuilds it in place,
@@ -80,7 +106,7 @@ def lib(tiny_library):
 def calibrated(lib, tmp_path_factory):
     """The frames, and the sensor file the command wrote from them."""
     d = tmp_path_factory.mktemp("sensor")
-    truth = _truth(lib)
+    truth = sensor_truth(lib)
     _write(d, lib, truth)
     argv = ["sensor", "calibrate", "--library", str(lib.folder), "--quiet"]
     argv += ["--reference", str(d / "rest.png"), "--dark", str(d / "dark.png")]
@@ -96,18 +122,7 @@ def test_calibration_returns_the_true_sensor_within_its_stated_sd(calibrated):
     1e-4 (16-bit frames of the library's own model)."""
     d, truth, got = calibrated
     assert (d / "sensor.png").is_file()
-    checks = {
-        "modulus_scale": (got.modulus_scale, truth.modulus_scale, 1e-3 * truth.modulus_scale),
-        "fringe_scale": (got.fringe_scale, truth.fringe_scale, 1e-3 * truth.fringe_scale),
-        "gamma": (got.gamma, truth.gamma, 3e-3),
-        "pixel_mm": (got.pixel_mm, truth.pixel_mm, 1e-4 * truth.pixel_mm),
-        "rotation_deg": (got.rotation_deg, truth.rotation_deg, 0.02),
-        "origin_px": (math.dist(got.origin_px, truth.origin_px), 0.0, 0.05),
-    }
-    for name, (value, want, tol) in checks.items():
-        assert abs(value - want) <= tol, (name, value, want)
-        assert abs(value - want) <= 3 * got.sd[name] + 1e-12, (name, value - want, got.sd[name])
-    assert abs(got.black[0] - 0.03) < 2e-5
+    check_fitted(got, truth)
     light = np.abs(got.illumination - truth.illumination).max()
     assert light < 0.01 and got.report["warnings"] == []
     assert np.abs(got.rest - truth.rest).max() < 1e-4
@@ -142,9 +157,7 @@ def test_invert_and_track_read_true_loads_through_the_sensor_file(calibrated, li
     want = np.array(TEST)
 
     def errors(table):
-        got = np.column_stack([table[k] for k in ("x_mm", "y_mm", "Fx_N", "Fy_N", "Fz_N")])
-        got = got[[int(np.argmin(np.hypot(*(got[:, :2] - w[:2]).T))) for w in want]]
-        return np.hypot(*(got[:, :2] - want[:, :2]).T), np.abs(got[:, 2:] - want[:, 2:]).max(1)
+        return contact_errors(table, want)
 
     pos, load = errors(fringekit.invert(d / "test.png", lib, sensor=sensor).table())
     assert np.all(pos < 0.02) and np.all(load < 0.01 * want[:, 4]), (pos, load)
@@ -222,7 +235,7 @@ def test_bad_calibration_inputs_are_one_line_each_and_write_nothing(lib, tmp_pat
     """A KNOWN.csv naming a missing image, loads beyond the library, rest and known frames
     of different sizes, an --out over a file that is not a sensor file, and a sensor file
     used with another library: exit 2, one line naming the input, nothing written."""
-    truth = _truth(lib)
+    truth = sensor_truth(lib)
     write_image(tmp_path / "rest.png", sensor_frame(lib, truth, [], bit_depth=16))
     write_image(tmp_path / "small.png", np.zeros((32, 32), np.uint16))
     write_image(tmp_path / "k.png", sensor_frame(lib, truth, [KNOWN[0]], bit_depth=16))
@@ -253,26 +266,33 @@ def test_bad_calibration_inputs_are_one_line_each_and_write_nothing(lib, tmp_pat
     assert not (tmp_path / "inv").exists()
 
 
-def test_predict_library_with_a_sensor_file_gives_its_camera_frame(lib, tmp_path):
-    """``predict --library --sensor`` writes the frame the calibrated camera records:
-    the same as the calibration's forward model (sensor_frame) to one count of 8 bits,
-    with the sensor's rotation, offset, scales, light, rest frame and response."""
-    truth = replace(_truth(lib), report={"exposure_gain": [0.7]})
-    truth.save(tmp_path / "sensor.json")
+def predict_with_sensor(lib, truth: CalibratedSensor, folder):
+    """``predict --library --sensor`` of the TEST contacts on the tiny sensor (full
+    stick), through ``truth`` saved as ``folder/sensor.json``; the output folder."""
+    truth.save(folder / "sensor.json")
     cfg = sensor_config(**TINY)
     cfg["contact"]["friction"] = "stick"
     proto = cfg["indenter"][0]
     cfg["indenter"] = [
         dict(proto, x_mm=x, y_mm=y, load_N=[fz], shear_N=[[fx, fy]]) for x, y, fx, fy, fz in TEST
     ]
-    (tmp_path / "case.toml").write_text(to_toml(cfg))
-    argv = ["predict", str(tmp_path / "case.toml"), "--library", str(lib.folder)]
-    argv += ["--sensor", str(tmp_path / "sensor.json"), "--out", str(tmp_path / "out"), "--quiet"]
+    (folder / "case.toml").write_text(to_toml(cfg))
+    argv = ["predict", str(folder / "case.toml"), "--library", str(lib.folder)]
+    argv += ["--sensor", str(folder / "sensor.json"), "--out", str(folder / "out"), "--quiet"]
     assert main(argv) == 0
-    got = read_pixels(tmp_path / "out" / "state_01" / "camera.png").astype(int)
+    return folder / "out"
+
+
+def test_predict_library_with_a_sensor_file_gives_its_camera_frame(lib, tmp_path):
+    """``predict --library --sensor`` writes the frame the calibrated camera records:
+    the same as the calibration's forward model (sensor_frame) to one count of 8 bits,
+    with the sensor's rotation, offset, scales, light, rest frame and response."""
+    truth = replace(sensor_truth(lib), report={"exposure_gain": [0.7]})
+    out = predict_with_sensor(lib, truth, tmp_path)
+    got = read_pixels(out / "state_01" / "camera.png").astype(int)
     want = sensor_frame(lib, truth, TEST, gain=0.7, bit_depth=8).astype(int)
     assert got.shape == (PX, PX) and np.abs(got - want).max() <= 1
-    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    summary = json.loads((out / "summary.json").read_text())
     assert summary["calibrated_sensor"]["modulus_scale"] == 1.15
 
 
@@ -288,7 +308,7 @@ def test_sensor_init_writes_a_file_that_reads_frames_as_without_one(lib, tmp_pat
         assert main([*argv, "--out", str(tmp_path / "s.json")]) == 0
     s = load_sensor(tmp_path / "s.json")
     assert not s.calibrated and s.grid_options() == (0.25, (31.5, 31.5))
-    write_image(tmp_path / "f.png", sensor_frame(lib, _truth(lib), TEST[:1], bit_depth=8))
+    write_image(tmp_path / "f.png", sensor_frame(lib, sensor_truth(lib), TEST[:1], bit_depth=8))
     plain = read_measurement([tmp_path / "f.png"], "mono", "mono")
     through = read_measurement([tmp_path / "f.png"], "mono", "mono", s)
     assert np.array_equal(plain.linear, through.linear)

@@ -8,18 +8,24 @@ track and predict --library use it; the bad inputs are one line each."""
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import replace
 
 import numpy as np
 import pytest
-from library_fixtures import TINY, sensor_config
-from test_sensor_calibrate import KNOWN, PIXEL_MM, PX, TEST
+from test_sensor_calibrate import (
+    KNOWN,
+    PIXEL_MM,
+    PX,
+    TEST,
+    check_fitted,
+    contact_errors,
+    predict_with_sensor,
+    sensor_truth,
+)
 
 import fringekit
 from fringekit.analysis import read_pixels
 from fringekit.cli.main import main
-from fringekit.config.files import load_config, to_toml
 from fringekit.config.inputs import optics_setup
 from fringekit.inversion.rest import residual_fringes
 from fringekit.library.calibrated import CalibratedSensor, coarse_map, load_sensor
@@ -35,32 +41,18 @@ GAIN = 0.45
 
 
 def _truth(lib) -> CalibratedSensor:
+    """test_sensor_calibrate's sensor (scales, response, light, geometry) read by the six
+    steps, its sheet holding a residual retarder of RESIDUAL fringe at its peak (an
+    off-centre bump, its axis turning across the field) instead of a rest light."""
+    dark = sensor_truth(lib)
     rr, cc = np.mgrid[0:PX, 0:PX]
     u, v = (cc - 31.5) / 32, (rr - 31.5) / 32
-    light = 1.0 - 0.15 * (u**2 + v**2) + 0.05 * u  # 30 % darker in the corners
-    cfg = load_config(lib.folder / "config.toml")
-    law = optics_setup(cfg).law
-    law = replace(law, f_sigma=law.f_sigma * 0.92)
+    law = dark.optics(optics_setup(dark.config)).law
     k = float(law.retardation_per_stress_length(np.array([law.wavelength_ref]))[0])
     d = RESIDUAL * 2 * np.pi * np.exp(-((u - 0.3) ** 2 + (v + 0.2) ** 2) / 0.15)
     axis = 0.6 + 0.5 * u  # twice the residual's principal direction (rad)
     ab = np.stack([d * np.cos(axis), d * np.sin(axis)], -1) / (2 * k)
-    return CalibratedSensor(
-        cfg,
-        lib.manifest["manifest_sha256"],
-        "phase",
-        (PX, PX),
-        PIXEL_MM * 0.99,
-        (31.5 + 2.4, 31.5 - 1.6),
-        2.0,
-        1.15,
-        0.92,
-        2.2,
-        (0.03,),
-        coarse_map(light / light.mean()),
-        None,
-        residual=coarse_map(ab),
-    )
+    return replace(dark, method="phase", rest=None, residual=coarse_map(ab))
 
 
 def _six(folder, name: str, lib, truth, contacts) -> list:
@@ -98,37 +90,19 @@ def calibrated(lib, tmp_path_factory):
 
 @pytest.mark.slow
 def test_phase_calibration_returns_the_sensor_and_its_residual_retarder(calibrated):
-    """Scales to 1e-3, the response, pitch, origin and rotation, each error within 3 of
-    its stated 1-sigma; the illumination within 1 %; the residual retarder within 0.002
-    fringe everywhere (16-bit frames of the library's own model)."""
+    """Scales to 1e-3, the response, pitch, origin, rotation and black level, each error
+    within 3 of its stated 1-sigma (``check_fitted``); the illumination within 1 %; the
+    residual retarder within 0.002 fringe everywhere (16-bit frames of the library's own
+    model)."""
     d, truth, got = calibrated
     assert (d / "sensor.png").is_file() and got.method == "phase" and got.rest is None
-    checks = {
-        "modulus_scale": (got.modulus_scale, truth.modulus_scale, 1e-3 * truth.modulus_scale),
-        "fringe_scale": (got.fringe_scale, truth.fringe_scale, 1e-3 * truth.fringe_scale),
-        "gamma": (got.gamma, truth.gamma, 3e-3),
-        "pixel_mm": (got.pixel_mm, truth.pixel_mm, 1e-4 * truth.pixel_mm),
-        "rotation_deg": (got.rotation_deg, truth.rotation_deg, 0.02),
-        "origin_px": (math.dist(got.origin_px, truth.origin_px), 0.0, 0.05),
-    }
-    for name, (value, want, tol) in checks.items():
-        assert abs(value - want) <= tol, (name, value, want)
-        assert abs(value - want) <= 3 * got.sd[name] + 1e-12, (name, value - want, got.sd[name])
-    assert abs(got.black[0] - 0.03) < 1e-3
+    check_fitted(got, truth)
     assert np.abs(got.illumination - truth.illumination).max() < 0.01
     law = got.optics(optics_setup(got.config)).law
     peak = residual_fringes(truth.residual.reshape(-1, 2), law).max()
     off = residual_fringes((got.residual - truth.residual).reshape(-1, 2), law).max()
     assert peak > 0.9 * RESIDUAL and off < 0.002, (peak, off)
     assert got.report["warnings"] == [] and got.report["residual_max_fringe"] > 0.9 * RESIDUAL
-
-
-def _errors(table, want: np.ndarray):
-    """Per true contact: the position error (mm) and the largest load error (N) of the
-    nearest contact read."""
-    got = np.column_stack([table[k] for k in ("x_mm", "y_mm", "Fx_N", "Fy_N", "Fz_N")])
-    got = got[[int(np.argmin(np.hypot(*(got[:, :2] - w[:2]).T))) for w in want]]
-    return np.hypot(*(got[:, :2] - want[:, :2]).T), np.abs(got[:, 2:] - want[:, 2:]).max(1)
 
 
 @pytest.mark.slow
@@ -140,14 +114,14 @@ def test_invert_and_track_read_phase_frames_through_the_sensor_file(calibrated, 
     sensor, want = d / "sensor.json", np.array(TEST)
     steps = [d / f"test_{k + 1}.png" for k in range(6)]
     inv = fringekit.invert(steps, lib, sensor=sensor, method="phase")
-    pos, load = _errors(inv.table(), want)
+    pos, load = contact_errors(inv.table(), want)
     assert np.all(pos < 0.02) and np.all(load < 0.01 * want[:, 4]), (pos, load)
     assert inv.summary["reference"]["residual_from"] == "the sensor file"
     with pytest.raises(fringekit.ConfigError, match="or a phase sensor file's"):
         fringekit.invert(steps, lib, sensor=sensor, method="phase", refine="fem")
     try:
         plain = fringekit.invert(steps, lib, pixel_mm=PIXEL_MM, method="phase").table()
-        pos, load = _errors(plain, want)
+        pos, load = contact_errors(plain, want)
         assert np.any(pos > 0.05) or np.any(load > 0.03 * want[:, 4]), (pos, load)
     except fringekit.InvertError:
         pass  # refused: as good a "no" as a wrong answer flagged
@@ -158,7 +132,7 @@ def test_invert_and_track_read_phase_frames_through_the_sensor_file(calibrated, 
             (frames / f"s{i}_{k + 1}.png").write_bytes(p.read_bytes())
     t = fringekit.track(frames, lib, sensor=sensor, method="phase")
     table = t.table()
-    pos, load = _errors({k: v[table["frame"] == 1] for k, v in table.items()}, want)
+    pos, load = contact_errors({k: v[table["frame"] == 1] for k, v in table.items()}, want)
     assert np.all(pos < 0.02) and np.all(load < 0.01 * want[:, 4]), (pos, load)
     assert t.summary["reference"]["residual_from"] == "the sensor file"
 
@@ -191,21 +165,11 @@ def test_predict_library_with_a_phase_sensor_writes_its_six_steps(lib, tmp_path)
     records, residual retarder included: the calibration's forward model (sensor_frame)
     to one count of 8 bits."""
     truth = replace(_truth(lib), report={"exposure_gain": [GAIN]})
-    truth.save(tmp_path / "sensor.json")
-    cfg = sensor_config(**TINY)
-    cfg["contact"]["friction"] = "stick"
-    proto = cfg["indenter"][0]
-    cfg["indenter"] = [
-        dict(proto, x_mm=x, y_mm=y, load_N=[fz], shear_N=[[fx, fy]]) for x, y, fx, fy, fz in TEST
-    ]
-    (tmp_path / "case.toml").write_text(to_toml(cfg))
-    argv = ["predict", str(tmp_path / "case.toml"), "--library", str(lib.folder)]
-    argv += ["--sensor", str(tmp_path / "sensor.json"), "--out", str(tmp_path / "out"), "--quiet"]
-    assert main(argv) == 0
+    out = predict_with_sensor(lib, truth, tmp_path)
     want = sensor_frame(lib, truth, TEST, gain=GAIN, bit_depth=8).astype(int)
     for k in range(6):
-        got = read_pixels(tmp_path / "out" / "state_01" / f"camera_step{k + 1}.png").astype(int)
+        got = read_pixels(out / "state_01" / f"camera_step{k + 1}.png").astype(int)
         assert got.shape == (PX, PX) and np.abs(got - want[..., k]).max() <= 1, k
-    assert not (tmp_path / "out" / "state_01" / "camera.png").exists()
-    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert not (out / "state_01" / "camera.png").exists()
+    summary = json.loads((out / "summary.json").read_text())
     assert summary["calibrated_sensor"]["fringe_scale"] == 0.92

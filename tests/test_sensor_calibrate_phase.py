@@ -137,9 +137,41 @@ def test_invert_and_track_read_phase_frames_through_the_sensor_file(calibrated, 
     assert t.summary["reference"]["residual_from"] == "the sensor file"
 
 
+@pytest.mark.slow
+def test_a_grey_sensor_calibrated_with_six_rest_steps_models_its_residual(lib, tmp_path):
+    """The same sensor read in the dark field, its 0.2-fringe residual given as six rest
+    steps (``--residual-steps``) instead of a rest frame: the scales and geometry come
+    back as in ``check_fitted``, the residual within 0.002 fringe, and invert reads two
+    contacts through the file within 0.02 mm and 1 % of Fz."""
+    phase = _truth(lib)
+    grey = replace(phase, method="mono")
+    rest = _six(tmp_path, "rest", lib, phase, [])
+    rows = ["image,x_mm,y_mm,Fx_N,Fy_N,Fz_N"]
+    for i, c in enumerate(KNOWN):
+        write_image(tmp_path / f"known_{i}.png", sensor_frame(lib, grey, [c], bit_depth=16))
+        rows.append(f"known_{i}.png," + ",".join(f"{x:g}" for x in c))
+    (tmp_path / "known.csv").write_text("\n".join(rows) + "\n")
+    write_image(tmp_path / "test.png", sensor_frame(lib, grey, TEST, bit_depth=16))
+    argv = ["sensor", "calibrate", "--library", str(lib.folder), "--quiet"]
+    argv += ["--residual-steps", *map(str, rest), "--known", str(tmp_path / "known.csv")]
+    argv += ["--out", str(tmp_path / "sensor.json"), "--pixel-mm", str(PIXEL_MM)]
+    assert main(argv) == 0
+    got = load_sensor(tmp_path / "sensor.json")
+    assert got.method == "mono" and got.rest is None
+    check_fitted(got, grey)
+    law = got.optics(optics_setup(got.config)).law
+    off = residual_fringes((got.residual - grey.residual).reshape(-1, 2), law).max()
+    assert off < 0.002, off
+    inv = fringekit.invert(tmp_path / "test.png", lib, sensor=tmp_path / "sensor.json")
+    pos, load = contact_errors(inv.table(), np.array(TEST))
+    assert np.all(pos < 0.02) and np.all(load < 0.01 * np.array(TEST)[:, 4]), (pos, load)
+    assert inv.summary["reference"]["residual_from"] == "the sensor file"
+
+
 def test_bad_phase_calibration_inputs_are_one_line_each_and_write_nothing(lib, tmp_path, capsys):
-    """Rest frames that are not whole six-step sets, a known frame of one file, and a
-    missing step: exit 2, one line naming the input, nothing written."""
+    """Rest frames that are not whole six-step sets, a known frame of one file, a missing
+    step, rest steps with a rest frame, and rest steps for a colour sensor: exit 2, one
+    line naming the input, nothing written."""
     truth = _truth(lib)
     rest = _six(tmp_path, "rest", lib, truth, [])
     known = _six(tmp_path, "k", lib, truth, [KNOWN[0]])
@@ -158,6 +190,17 @@ def test_bad_phase_calibration_inputs_are_one_line_each_and_write_nothing(lib, t
         err = capsys.readouterr().err.strip()
         assert words in err and "\n" not in err, err
         assert not (tmp_path / "s.json").exists() and not (tmp_path / "s.png").exists()
+    both = ["--reference", str(rest[0]), "--residual-steps", *map(str, rest)]
+    for method, words in (
+        ("mono", "--residual-steps with --reference is not allowed"),
+        ("rgb", "--residual-steps is for --method mono"),
+    ):
+        argv = [a if a != "phase" else method for a in base]
+        argv += both if method == "mono" else both[2:]
+        assert main(argv) == 2, method
+        err = capsys.readouterr().err.strip()
+        assert words in err and "\n" not in err, err
+        assert not (tmp_path / "s.json").exists()
 
 
 def test_predict_library_with_a_phase_sensor_writes_its_six_steps(lib, tmp_path):

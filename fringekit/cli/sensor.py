@@ -29,8 +29,15 @@ def add_parser(sub) -> None:
     c.add_argument(
         "--reference",
         nargs="+",
-        required=True,
+        default=None,
         help="frame(s) of the sensor at rest, same light (phase: the six steps, or sets of six)",
+    )
+    c.add_argument(
+        "--residual-steps",
+        nargs="+",
+        default=None,
+        help="(mono, instead of --reference) the six phase steps of the sensor at rest: the "
+        "sheet's residual retarder, modelled instead of a rest frame subtracted",
     )
     c.add_argument(
         "--known",
@@ -112,6 +119,7 @@ def run(args: argparse.Namespace) -> int:
         origin_px=args.origin_px,
         dark=args.dark,
         method=args.method,
+        residual_steps=args.residual_steps,
         progress=not args.quiet,
     )
     path = cal.write(out)

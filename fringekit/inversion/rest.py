@@ -521,17 +521,18 @@ def rest_summary(rest: RestFrames | None, light=None, unknown=None, fringes=None
     return out
 
 
-def sensor_residual(cal, method: str, shape, law):
-    """(residual_ab (P, 2), summary) of a phase-calibrated sensor file's residual retarder
-    (its rest steps, read at calibration) on an image of ``shape``, or (None, None): what
-    ``invert`` and ``track`` model when no rest frames are given.
+def sensor_residual(cal, shape, law):
+    """(residual_ab (P, 2), summary) of a sensor file's residual retarder (the six rest
+    steps it was calibrated with: phase, or grey with ``--residual-steps``) on an image of
+    ``shape``, or (None, None): what ``invert`` and ``track`` model when no rest frames
+    are given.
 
     Examples
     --------
-    >>> sensor_residual(None, "phase", (4, 4), None)
+    >>> sensor_residual(None, (4, 4), None)
     (None, None)
     """
-    ab = cal.residual_ab(shape) if cal is not None and method == "phase" else None
+    ab = cal.residual_ab(shape) if cal is not None else None
     if ab is None:
         return None, None
     fringes = residual_fringes(ab, law)
@@ -641,7 +642,7 @@ def take_rest(rest, method: str, measured, usable, shape, optics, cal=None, chan
     (0.2, None, [0.1], [])
     """
     if rest is None:
-        return (measured, usable, *sensor_residual(cal, method, shape, optics.law), [])
+        return (measured, usable, *sensor_residual(cal, shape, optics.law), [])
     if rest.are_steps(method):
         ab, unknown = rest.retarder(shape, optics.law, cal)
         summary = rest_summary(rest, unknown=unknown, fringes=residual_fringes(ab, optics.law))

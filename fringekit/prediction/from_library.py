@@ -159,12 +159,15 @@ def camera_linear(cfg: dict, lib, inds, cal) -> np.ndarray:
     lam = np.array([opt.law.wavelength_ref])
     if cal.method == "phase":  # the six steps, the sheet's residual retarder in series
         return _steps_linear(lib, turned, grid, opt.law, cal, six_step_arrangements(**opt.errors))
+    if cal.residual is not None:  # a grey sensor calibrated with six rest steps
+        return _steps_linear(lib, turned, grid, opt.law, cal, [arr])
     q = synthesise(lib, turned, grid, opt.law, lam).q
     return intensity(q[:, :, 0], arr)[..., None]
 
 
 def _steps_linear(lib, inds, grid, law, cal, arrangements) -> np.ndarray:
-    """The six steps' linear intensities (rows, cols, 6) of ``inds`` (the image's axes) with
+    """The linear intensities (rows, cols, A) through A ``arrangements`` (the six steps, or
+    the dark field) of ``inds`` (the image's axes) with
     the calibrated sensor's residual retarder added to every ray's slabs in equal parts
     (a stress frozen evenly through the sheet, as the inverse's model holds it), every
     ray integrated slab by slab."""

@@ -39,7 +39,12 @@ from fringekit.config.inputs import optics_setup
 from fringekit.errors import ConfigError
 from fringekit.inversion.detect import detect, noise_sd
 from fringekit.inversion.fit import subsample
-from fringekit.inversion.rest import residual_fringes, steps_retarder
+from fringekit.inversion.rest import (
+    PHASE_STEPS,
+    RESIDUAL_STEPS,
+    residual_fringes,
+    steps_retarder,
+)
 from fringekit.inversion.verdict import WARN_RESIDUAL
 from fringekit.library.calibrated import (
     CalibratedSensor,
@@ -77,13 +82,37 @@ def _peek(path) -> np.ndarray:
     return read_frame(path, "--reference").data
 
 
+def _rest_options(reference, residual_steps) -> list:
+    """The rest frames' paths: ``reference``'s or ``residual_steps``' (one of the two, or
+    one :class:`~fringekit.errors.ConfigError` line)."""
+    refs, steps = as_paths(reference), as_paths(residual_steps)
+    if refs and steps:
+        raise ConfigError(
+            f"{RESIDUAL_STEPS} with --reference is not allowed: the rest frame holds the "
+            "residual's light, which the model makes from the steps; give one of them"
+        )
+    if not (refs or steps):
+        raise ConfigError("--reference: give at least one frame of the sensor at rest")
+    return refs or steps
+
+
+def _grey_only(method: str) -> None:
+    """Six rest steps for a grey sensor only (as ``invert --residual-steps``)."""
+    if method != "mono":
+        raise ConfigError(
+            f"{RESIDUAL_STEPS} is for --method mono (with --method phase give the six rest "
+            "steps as --reference); got --method " + method
+        )
+
+
 def _black(dark, rest: np.ndarray, method: str, shape) -> tuple[np.ndarray, np.ndarray, str]:
     """(black (C,), its 1-sigma (C,), where it came from)."""
     if dark:
         d, _ = read_frames(dark, method, "--dark", shape)
         flat = d.reshape(-1, d.shape[-1])
         return flat.mean(0), flat.std(0) / math.sqrt(len(flat)), "dark frames"
-    flat = rest.reshape(-1, 1 if method == "phase" else rest.shape[-1])  # phase: one camera
+    steps = rest.shape[-1] == PHASE_STEPS  # six steps: one camera
+    flat = rest.reshape(-1, 1 if steps else rest.shape[-1])
     low = np.percentile(flat, 0.1, axis=0)
     return low, flat.std(0) / math.sqrt(len(flat)), "the rest frames' darkest pixels (no --dark)"
 
@@ -98,7 +127,9 @@ def _starts(base, frames, rest, black, gamma0: float) -> list[np.ndarray]:
         unknown = np.isnan(fr.loads[:, 0])
         found = []
         if unknown.any():
-            d = linearise(fr.raw, black, gamma0) - linearise(rest, black, gamma0)
+            d = linearise(fr.raw, black, gamma0)
+            if rest.shape[-1] == d.shape[-1]:  # not rest steps of a grey sensor
+                d = d - linearise(rest, black, gamma0)
             m = replace(base, measured=d.reshape(rows * cols, -1), usable=fr.usable)
             m = subsample(m, 2)
             found = [tuple(v) for v in detect(m, noise_sd(m))]
@@ -182,6 +213,7 @@ def calibrate_sensor(
     origin_px=None,
     dark=None,
     method: str | None = None,
+    residual_steps=None,
     progress: bool = False,
     echo=print,
 ) -> CalibratedSensor:
@@ -207,6 +239,12 @@ def calibrate_sensor(
         Frames with the light off (the black level).
     method : {"rgb", "mono", "phase"}, optional
         Default rgb for colour frames, mono for grey (phase is given, never guessed).
+    residual_steps : path or sequence of paths, optional
+        For mono, instead of ``reference``: the six phase steps of the sensor at rest (or
+        several sets of six), in the grey image's light, read as the sheet's residual
+        retarder (as for phase) and put into the model of every frame instead of a rest
+        frame subtracted: for a sheet whose residual birefringence is beyond what the
+        subtraction serves (about 0.05 fringe).
     progress : bool
         One line per step through ``echo``.
 
@@ -252,14 +290,16 @@ def calibrate_sensor(
         raise ConfigError(
             f"--pixel-mm {pixel_mm} is not allowed; give the nominal pitch on the sheet (mm, > 0)"
         )
-    refs, darks = as_paths(reference), as_paths(dark)
-    if not refs:
-        raise ConfigError("--reference: give at least one frame of the sensor at rest")
+    refs = _rest_options(reference, residual_steps)
     method = _method(method, _peek(refs[0]))
     if method == "phase":
         rest, rest_sat = read_steps(refs, "--reference")
+    elif residual_steps is not None:
+        _grey_only(method)
+        rest, rest_sat = read_steps(refs, RESIDUAL_STEPS)
     else:
         rest, rest_sat = read_frames(refs, method, "--reference")
+    darks = as_paths(dark)
     shape = rest.shape[:2]
     origin_px = (
         tuple(origin_px) if origin_px is not None else ((shape[0] - 1) / 2, (shape[1] - 1) / 2)
@@ -382,10 +422,11 @@ def _line(fit: KnownFit, geo, seconds: float) -> str:
 
 def _rest_maps(cfg, method, fit: KnownFit, rest, rest_sat, black) -> dict:
     """The sensor file's maps of the sheet at rest, on the coarse grid, at the fitted
-    response: the rest light (rgb, mono) or the residual retarder at the fitted fringe
-    value (phase), with its retardation (fringes) and the pixels it is not read at."""
+    response: the rest light (rgb, mono) or the residual retarder of six rest steps at the
+    fitted fringe value (phase, and mono with ``residual_steps``), with its retardation
+    (fringes) and the pixels it is not read at."""
     lin = linearise(rest, black, fit.gamma)
-    if method != "phase":
+    if rest.shape[-1] != PHASE_STEPS:  # the rest light, subtracted
         return {"rest": coarse_map(lin), "residual": None, "report": {}}
     law = optics_setup(cfg).law
     law = replace(law, f_sigma=law.f_sigma * fit.fringe_scale)

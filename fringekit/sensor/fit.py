@@ -17,11 +17,12 @@ rescales the linear intensities, does not lower the cost by itself. The pixels w
 contact circles (widened) are left out, as ``invert`` leaves them out, and the mask is
 held fixed during a fit.
 
-For the six phase steps (C = 6) the rest is not subtracted (lin_rest = 0): the rest steps,
+For the six phase steps (C = 6), and for a grey sensor given six rest steps
+(``residual_steps``), the rest is not subtracted (lin_rest = 0): the rest steps,
 linearised at the gamma being tried, give the sheet's residual retarder
 (:func:`~fringekit.inversion.rest.steps_retarder`, at the fringe value being tried), which
-M_f holds in series with the loads' retardation; the six steps share L and o_f (one
-light, one exposure), as ``invert`` gives them one gain and offset.
+M_f holds in series with the loads' retardation; the six steps of a known frame share L
+and o_f (one light, one exposure), as ``invert`` gives them one gain and offset.
 
 The loads are known; the contacts' positions in the image are fitted (with a known
 position, the start). The 1-sigma of the fitted values are those of a linear
@@ -47,7 +48,7 @@ from scipy.optimize import least_squares
 
 from fringekit.inversion.fit import EXACT_MM, subsample
 from fringekit.inversion.model import ImageModel
-from fringekit.inversion.rest import steps_retarder
+from fringekit.inversion.rest import PHASE_STEPS, steps_retarder
 from fringekit.inversion.uncertainty import correlation_area, model_sd, parameter_sd
 from fringekit.library.calibrated import linearise
 from fringekit.library.store import LoadedIndenter
@@ -145,7 +146,8 @@ class _Problem:
         rr, cc = np.meshgrid(*(np.arange(0, n, stride) for n in (rows, cols)), indexing="ij")
         self.basis = illumination_basis((rows, cols), rr.ravel(), cc.ravel())
         self.rest = rest[pick].reshape(-1, rest.shape[-1])
-        self.steps = rest[pick] if base.method == "phase" else None  # the rest's six steps
+        # six rest steps (phase, or a grey sensor's --residual-steps): the residual retarder
+        self.steps = rest[pick] if rest.shape[-1] == PHASE_STEPS else None
         if self.steps is not None:  # where the residual is not read: held fixed
             _, unknown = steps_retarder(linearise(self.steps, self.black, 1.0), None, base.law)
             self.models = [replace(m, usable=m.usable & ~unknown) for m in self.models]
@@ -268,7 +270,8 @@ def fit_known(base: ImageModel, frames, rest, black, starts, scales=None) -> Kno
     base : ImageModel
         The library, optics and pixel grid of the frames (measured and usable unused).
     frames : list of :class:`~fringekit.sensor.frames.KnownFrame`
-    rest : (rows, cols, C) stored values of the sheet at rest
+    rest : (rows, cols, C) stored values of the sheet at rest, or (rows, cols, 6) its six
+        phase steps (read as the residual retarder)
     black : (C,) black level
     starts : list of (n_f, 2) start positions (mm, image axes about the grid's origin)
     scales : (k, s, gamma, rotation_deg), optional

@@ -418,7 +418,7 @@ class _Run:
         if self.rest is not None and self.rest.are_steps(self.method):
             self.rest_ab, self.rest_unknown = self.rest.retarder(shape, optics.law, self.cal)
         elif self.rest is None:  # a phase sensor file's residual, if any
-            self.rest_ab, self.rest_info = sensor_residual(self.cal, self.method, shape, optics.law)
+            self.rest_ab, self.rest_info = sensor_residual(self.cal, shape, optics.law)
             self.rest_unknown = np.zeros(shape[0] * shape[1], bool)
         elif self.rest is not None:
             if self.method == "mono" and grey(img).ndim == 3:

@@ -2,6 +2,7 @@
 
 Usage: python bench/sensor.py [--pixels 128] [--noise 0.003] [--seed 0] [--library DIR]
        [--residual-fringe 0.3] [--refine] [--refine-frames N] [--reuse] [--phase]
+       [--residual-steps]
        [--max-seconds S] [--work DIR] [--json FILE]
        (--work default: bench/out/sensor, ignored by git; --reuse: the frames of an earlier
        run in the work folder, not rendered again)
@@ -30,6 +31,10 @@ read (a) without calibration (the nominal pitch) and (b) with the sensor file: p
 tangential load is at least 0.1 N), against the invert issue's targets (Fz 3 %,
 tangential 10 % and 5 deg, position 0.05 mm), and with ``--refine`` (c) with the sensor
 file and ``--refine fem`` (one to four FEM solves per frame: about half an hour).
+
+``--residual-steps`` calibrates the grey frames with the six phase steps of the rest
+(through the true plates, residual and camera, at 16 bits) instead of the rest frame:
+the residual retarder modelled, not subtracted.
 
 ``--phase`` runs instead the six-step method: the six phase steps of the rest, the three
 known frames and the six test frames (the same FEM solves, the true plates, residual,
@@ -320,7 +325,7 @@ def run_phase(lib, work: Path, args, tests) -> dict:
     for name, contacts in frames:
         print(f"phase steps of {name}: FEM ...", flush=True)
         sheet = sheet_intensity(contacts, work, p, phase=True)
-        for k, img in enumerate(phase_steps(sheet, args.pixels, rng, args.noise)):
+        for k, img in enumerate(phase_steps(sheet, args.pixels, rng, args.noise), strict=True):
             write_image(d / f"{name}_step{k + 1}.png", img)
     rows = ["image,x_mm,y_mm,Fx_N,Fy_N,Fz_N"]
     for i, c in enumerate(KNOWN):
@@ -434,6 +439,11 @@ def main(argv=None) -> None:
         help="instead of the dark-field calibration: the six-step method's, (d) and (e)",
     )
     ap.add_argument("--max-seconds", type=float, default=600.0, help="per phase inverse")
+    ap.add_argument(
+        "--residual-steps",
+        action="store_true",
+        help="calibrate the grey frames with six rest steps instead of the rest frame",
+    )
     ap.add_argument("--work", default="bench/out/sensor")
     ap.add_argument("--json", default=None)
     args = ap.parse_args(argv)
@@ -458,8 +468,16 @@ def main(argv=None) -> None:
     if args.phase:
         return _report(run_phase(lib, work, args, tests), args.json)
     t0 = time.perf_counter()
+    rest = {"reference": d / "rest.png"}
+    if args.residual_steps:  # six rest steps through the true camera, not the rest frame
+        sheet = sheet_intensity([], work, p, phase=True)
+        rng = np.random.default_rng(args.seed + 2)
+        steps = [d / f"rest_step{k + 1}.png" for k in range(6)]
+        for path, img in zip(steps, phase_steps(sheet, args.pixels, rng, args.noise), strict=True):
+            write_image(path, img)
+        rest = {"reference": None, "residual_steps": steps}
     cal = fringekit.calibrate_sensor(
-        lib, d / "rest.png", d / "known.csv", pixel_mm=p, dark=d / "dark.png", progress=True
+        lib, known=d / "known.csv", pixel_mm=p, dark=d / "dark.png", progress=True, **rest
     )
     t_cal = time.perf_counter() - t0
     path = cal.write(work / "sensor.json")

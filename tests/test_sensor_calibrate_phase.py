@@ -180,7 +180,7 @@ def test_bad_phase_calibration_inputs_are_one_line_each_and_write_nothing(lib, t
     base += ["--method", "phase", "--known", str(tmp_path / "known.csv")]
     base += ["--out", str(tmp_path / "s.json")]
     cases = [
-        (rest[:4], ";".join(p.name for p in known), "--reference: --method phase reads the six"),
+        (rest[:4], ";".join(p.name for p in known), "--reference: give the six phase steps"),
         (rest, known[0].name, "give six files joined by ';' (the phase steps)"),
         (rest, ";".join(["gone.png"] + [p.name for p in known[1:]]), "'gone.png' not found"),
     ]

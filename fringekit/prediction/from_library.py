@@ -166,11 +166,10 @@ def camera_linear(cfg: dict, lib, inds, cal) -> np.ndarray:
 
 
 def _steps_linear(lib, inds, grid, law, cal, arrangements) -> np.ndarray:
-    """The linear intensities (rows, cols, A) through A ``arrangements`` (the six steps, or
-    the dark field) of ``inds`` (the image's axes) with
-    the calibrated sensor's residual retarder added to every ray's slabs in equal parts
-    (a stress frozen evenly through the sheet, as the inverse's model holds it), every
-    ray integrated slab by slab."""
+    """The linear intensities (rows, cols, A) of ``inds`` (the image's axes) through A
+    ``arrangements`` (the six steps, or the dark field), the calibrated sensor's residual
+    retarder added to every ray's slabs in equal parts (a stress frozen evenly through
+    the sheet, as the inverse's model holds it), every ray integrated slab by slab."""
     xy = grid.xy()
     ab, _ = superpose(lib, inds, xy)
     res = cal.residual_ab(cal.shape)

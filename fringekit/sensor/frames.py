@@ -105,8 +105,8 @@ def read_steps(paths, option: str, shape=None) -> tuple[np.ndarray, np.ndarray]:
     paths = list(paths)
     if not paths or len(paths) % PHASE_STEPS:
         raise ConfigError(
-            f"{option}: --method phase reads the six phase steps of each frame (or several "
-            f"sets of six); got {len(paths)} frame(s)"
+            f"{option}: give the six phase steps (or several sets of six, step by step); "
+            f"got {len(paths)} frame(s)"
         )
     steps, sats = [], []
     for k in range(PHASE_STEPS):  # each step over the sets, all of one size

@@ -417,7 +417,7 @@ class _Run:
         check_rest_method(self.rest, self.method, self.cal)
         if self.rest is not None and self.rest.are_steps(self.method):
             self.rest_ab, self.rest_unknown = self.rest.retarder(shape, optics.law, self.cal)
-        elif self.rest is None:  # a phase sensor file's residual, if any
+        elif self.rest is None:  # a sensor file's residual retarder, if it has one
             self.rest_ab, self.rest_info = sensor_residual(self.cal, shape, optics.law)
             self.rest_unknown = np.zeros(shape[0] * shape[1], bool)
         elif self.rest is not None:

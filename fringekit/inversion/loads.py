@@ -427,7 +427,7 @@ def _check_refine(refine, residual_ab) -> None:
     if refine == "fem" and residual_ab is not None:
         raise ConfigError(
             "--refine fem with a residual retarder (a phase --reference, --residual-steps "
-            "or a phase sensor file's) is not allowed: the full-FEM image it renders holds "
+            "or a sensor file's) is not allowed: the full-FEM image it renders holds "
             "no residual; leave out --refine, or the rest"
         )
 

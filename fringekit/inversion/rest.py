@@ -597,8 +597,8 @@ def take_rest(rest, method: str, measured, usable, shape, optics, cal=None, chan
     Parameters
     ----------
     rest : RestFrames or None
-        The frames of the sensor at rest (None: the measurement as it is, with a phase
-        sensor file's residual retarder when ``cal`` holds one). Dark-field frames (rgb,
+        The frames of the sensor at rest (None: the measurement as it is, with the sensor
+        file's residual retarder when ``cal`` holds one). Dark-field frames (rgb,
         mono), whose light is taken off; or six-step frames (phase, and any method's
         ``--residual-steps``: ``rest.option``), read as the sheet's residual retarder
         (through ``cal``'s response).

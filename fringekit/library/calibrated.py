@@ -19,11 +19,12 @@ applies it:
   scales the load's light by cos d_r and leaves a cross term up to (sin d_r) / 2 of
   the full-scale light (d_r the residual retardation;
   :mod:`fringekit.inversion.rest` gives the formula), so the subtraction holds only
-  where the residual is small. For the six phase steps the residual retarder itself is
-  calibrated (``residual``: the summed slab pair of a stress frozen evenly through the
-  sheet, at the sensor's fringe value) and put into the model in series with the loads'
-  retardation, as ``invert --method phase --reference`` does with rest steps
-  (:meth:`~fringekit.inversion.rest.RestFrames.retarder`); no rest light is subtracted;
+  where the residual is small. With six rest steps (the phase method's rest, or a grey
+  sensor's ``--residual-steps``) the residual retarder itself is calibrated
+  (``residual``: the summed slab pair of a stress frozen evenly through the sheet, at the
+  sensor's fringe value) and put into the model in series with the loads' retardation,
+  as ``invert``'s rest steps are (:meth:`~fringekit.inversion.rest.RestFrames.retarder`);
+  no rest light is subtracted;
 - **the geometry**: the pixel pitch on the sheet, the pixel of the sheet's origin and the
   rotation of the sheet's axes in the image (positive: the sheet's x axis turned
   counter-clockwise from the image's rows). The image is fitted in its own axes and the
@@ -135,7 +136,7 @@ class CalibratedSensor:
     report : dict
         How the calibration went (frames, residuals, warnings).
     residual : (h, w, 2) array or None
-        The phase method's residual retarder of the sheet at rest on a coarse grid: the
+        The residual retarder of the sheet at rest (six rest steps) on a coarse grid: the
         summed slab pair ((sigma_xx - sigma_yy) dz, 2 sigma_xy dz) through the thickness
         (Pa m) at this sheet's fringe value (:meth:`residual_ab`).
 

@@ -416,6 +416,19 @@ def _report(result: dict, json_path) -> None:
         Path(json_path).write_text(json.dumps(result, indent=2))
 
 
+def rest_option(work: Path, d: Path, args) -> dict:
+    """``calibrate_sensor``'s rest: the rest frame, or with ``--residual-steps`` the six
+    rest steps through the true plates, residual and camera (16 bits), written to ``d``."""
+    if not args.residual_steps:
+        return {"reference": d / "rest.png"}
+    sheet = sheet_intensity([], work, FIELD_MM / args.pixels, phase=True)
+    rng = np.random.default_rng(args.seed + 2)
+    steps = [d / f"rest_step{k + 1}.png" for k in range(6)]
+    for path, img in zip(steps, phase_steps(sheet, args.pixels, rng, args.noise), strict=True):
+        write_image(path, img)
+    return {"reference": None, "residual_steps": steps}
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--pixels", type=int, default=128)
@@ -468,14 +481,7 @@ def main(argv=None) -> None:
     if args.phase:
         return _report(run_phase(lib, work, args, tests), args.json)
     t0 = time.perf_counter()
-    rest = {"reference": d / "rest.png"}
-    if args.residual_steps:  # six rest steps through the true camera, not the rest frame
-        sheet = sheet_intensity([], work, p, phase=True)
-        rng = np.random.default_rng(args.seed + 2)
-        steps = [d / f"rest_step{k + 1}.png" for k in range(6)]
-        for path, img in zip(steps, phase_steps(sheet, args.pixels, rng, args.noise), strict=True):
-            write_image(path, img)
-        rest = {"reference": None, "residual_steps": steps}
+    rest = rest_option(work, d, args)
     cal = fringekit.calibrate_sensor(
         lib, known=d / "known.csv", pixel_mm=p, dark=d / "dark.png", progress=True, **rest
     )

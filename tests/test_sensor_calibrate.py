@@ -61,6 +61,12 @@ def _write(folder, lib, truth) -> None:
     """Rest, dark, known and test frames of ``truth`` (16 bit) and KNOWN.csv."""
     write_image(folder / "rest.png", sensor_frame(lib, truth, [], bit_depth=16))
     write_image(folder / "dark.png", np.full((PX, PX), round(0.03 * 65535), np.uint16))
+    write_known_and_test(folder, lib, truth)
+
+
+def write_known_and_test(folder, lib, truth) -> None:
+    """The known frames of ``truth`` (16 bit, one KNOWN contact each) with KNOWN.csv, and
+    the test frame of the TEST contacts."""
     rows = ["image,x_mm,y_mm,Fx_N,Fy_N,Fz_N"]
     for i, c in enumerate(KNOWN):
         write_image(folder / f"known_{i}.png", sensor_frame(lib, truth, [c], bit_depth=16))

@@ -21,6 +21,7 @@ from test_sensor_calibrate import (
     contact_errors,
     predict_with_sensor,
     sensor_truth,
+    write_known_and_test,
 )
 
 import fringekit
@@ -146,12 +147,7 @@ def test_a_grey_sensor_calibrated_with_six_rest_steps_models_its_residual(lib, t
     phase = _truth(lib)
     grey = replace(phase, method="mono")
     rest = _six(tmp_path, "rest", lib, phase, [])
-    rows = ["image,x_mm,y_mm,Fx_N,Fy_N,Fz_N"]
-    for i, c in enumerate(KNOWN):
-        write_image(tmp_path / f"known_{i}.png", sensor_frame(lib, grey, [c], bit_depth=16))
-        rows.append(f"known_{i}.png," + ",".join(f"{x:g}" for x in c))
-    (tmp_path / "known.csv").write_text("\n".join(rows) + "\n")
-    write_image(tmp_path / "test.png", sensor_frame(lib, grey, TEST, bit_depth=16))
+    write_known_and_test(tmp_path, lib, grey)
     argv = ["sensor", "calibrate", "--library", str(lib.folder), "--quiet"]
     argv += ["--residual-steps", *map(str, rest), "--known", str(tmp_path / "known.csv")]
     argv += ["--out", str(tmp_path / "sensor.json"), "--pixel-mm", str(PIXEL_MM)]

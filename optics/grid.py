@@ -13,7 +13,7 @@ this mapping lives.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.ndimage import binary_dilation
@@ -173,6 +173,35 @@ class RaySamples:
             index=np.arange(self.n_pixels),
             mirror=np.zeros(self.n_pixels, bool),
         )
+
+    def frozen(self, ab: np.ndarray | None = None, turn: float = 0.0) -> RaySamples:
+        """The samples per pixel (:meth:`per_pixel`) with every slab's angle turned by
+        ``turn`` (rad; into axes turned by -turn) and a stress frozen evenly through the
+        layer added: ``ab`` (P, 2) its slab pair summed through the thickness,
+        ((sigma_xx - sigma_yy) dz, 2 sigma_xy dz) in the turned axes (Pa m), None for
+        none. The stress components add slab by slab (a = ds cos 2 theta, b = ds sin 2
+        theta), as a residual birefringence frozen into the sheet composes with a load's
+        (``fringekit.inversion.model.ImageModel.residual_ab``).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from fringekit.optics import PixelGrid, UniformStress, sample_rays
+        >>> field = UniformStress(np.diag([1e5, 0.0, 0.0]), z0=0.0, z1=2e-3)
+        >>> rays = sample_rays(field, PixelGrid((1, 2), 1e-3), n_samples=4)
+        >>> more = rays.frozen(np.array([[0.0, 200.0], [-200.0, 0.0]]), turn=np.pi / 4)
+        >>> np.round(more.ds[:, 0]).tolist()  # Pa: 1e5 at 45 deg, plus 1e5 at 45 or at 90 deg
+        [200000.0, 141421.0]
+        """
+        pp = self.per_pixel()
+        two = 2.0 * (pp.theta + turn)
+        a, b = pp.ds * np.cos(two), pp.ds * np.sin(two)
+        if ab is not None:
+            t = pp.dz.sum(axis=1)
+            per = np.asarray(ab, float) / np.where(t > 0, t, np.inf)[:, None]  # Pa
+            a, b = a + per[:, :1] * (pp.dz > 0), b + per[:, 1:] * (pp.dz > 0)
+        ds, theta = principal_from_components(a, b)
+        return replace(pp, ds=ds, theta=theta)
 
 
 def _fold(field, xy: np.ndarray, pixel_size: float):

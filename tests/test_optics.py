@@ -397,3 +397,33 @@ def test_branch_ambiguity_marks_every_terrace_and_nothing_under_an_exact_guide()
     flagged = off.branch_ambiguous()
     assert wrong.sum() > 20 and flagged[wrong].mean() > 0.65
     assert flagged.sum() < 4 * wrong.sum() and not flagged[patch < 0.05].any()
+
+
+def test_frozen_stress_and_turned_axes_add_as_stress_tensors():
+    """RaySamples.frozen: a stress frozen evenly through the layer adds to the sampled
+    one as a tensor would (a uniform slab of the two stresses summed gives the same ds and
+    angle), and turning the samples by t reads a stress in axes turned by -t (the same
+    tensor rotated by t); zero and no turn change nothing."""
+    from fringekit.optics import sample_rays
+
+    t_mm, n = 2e-3, 5
+    load = np.array([[1.2e5, 3.0e4, 0.0], [3.0e4, -2.0e4, 0.0], [0.0, 0.0, -1e5]])
+    grid = PixelGrid((2, 3), 1e-3)
+    rays = sample_rays(UniformStress(load, z0=0.0, z1=t_mm), grid, n_samples=n)
+    rng = np.random.default_rng(3)
+    ab = rng.normal(0.0, 80.0, (grid.n_pixels, 2))  # Pa m: up to ~0.1 MPa through 2 mm
+    turn = 0.4
+    got = rays.frozen(ab, turn)
+    c, s = np.cos(turn), np.sin(turn)
+    rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    for p in range(grid.n_pixels):
+        a, b = ab[p] / t_mm
+        frozen = np.array([[a / 2, b / 2, 0.0], [b / 2, -a / 2, 0.0], [0.0, 0.0, 0.0]])
+        want = sample_rays(
+            UniformStress(rot @ load @ rot.T + frozen, z0=0.0, z1=t_mm), grid, n_samples=n
+        ).per_pixel()
+        assert np.allclose(got.ds[p], want.ds[p], rtol=1e-12, atol=1e-6)
+        assert np.allclose(got.theta[p], want.theta[p], atol=1e-12)
+    same = rays.frozen()
+    plain = rays.per_pixel()
+    assert np.allclose(same.ds, plain.ds) and np.allclose(same.theta, plain.theta)

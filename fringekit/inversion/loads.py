@@ -337,7 +337,7 @@ def invert(
     if meas.note:
         warnings.append(meas.note)
     measured, usable, residual_ab, rest_info = _with_rest(
-        rest, refine, method, meas.channel, meas.linear, meas.usable, shape, optics, cal, warnings
+        rest, method, meas.channel, meas.linear, meas.usable, shape, optics, cal, warnings
     )
     check_memory(
         detection_bytes(shape, pixel_mm),
@@ -422,27 +422,16 @@ def _result_line(res: InvertResult, seconds: float) -> str:
     return f"invert: {len(res.params)} indenter(s), {what}, {seconds:.1f} s"
 
 
-def _check_refine(refine, residual_ab) -> None:
-    """``--refine fem`` renders the FEM without the rest's residual retarder: refused."""
-    if refine == "fem" and residual_ab is not None:
-        raise ConfigError(
-            "--refine fem with a residual retarder (a phase --reference, --residual-steps "
-            "or a sensor file's) is not allowed: the full-FEM image it renders holds "
-            "no residual; leave out --refine, or the rest"
-        )
-
-
-def _with_rest(rest, refine, method, channel, measured, usable, shape, optics, cal, warnings):
+def _with_rest(rest, method, channel, measured, usable, shape, optics, cal, warnings):
     """(measured, usable, residual_ab, summary) with the rest taken into account
     (:func:`~fringekit.inversion.rest.take_rest`), its warnings added to ``warnings``;
-    ``--residual-steps`` with phase, and a residual with ``--refine fem``, refused.
+    ``--residual-steps`` with phase refused.
     ``channel``: the colour channel a mono colour photograph is read in (the rest frames
     are read in it too)."""
     check_rest_method(rest, method, cal)
     measured, usable, residual_ab, info, more = take_rest(
         rest, method, measured, usable, shape, optics, cal, channel
     )
-    _check_refine(refine, residual_ab)
     warnings += more
     return measured, usable, residual_ab, info
 

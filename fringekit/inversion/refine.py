@@ -101,12 +101,35 @@ def _sheet_grid(model: ImageModel, rotation_deg: float) -> tuple[PixelGrid, np.n
     return grid, np.array([rows, cols])
 
 
+def _residual_on(model: ImageModel, grid: PixelGrid, where, turn: float):
+    """The model's residual retarder (:attr:`ImageModel.residual_ab`, the image's axes)
+    on the render ``grid``'s pixels (P_g, 2) (its own pixels when ``where`` is None; else
+    the grid lies in the sheet's axes, turned by ``turn`` rad, and each of its pixels
+    takes the residual where it lies in the image, bilinear, the edge's beyond); None
+    without a residual."""
+    if model.residual_ab is None:
+        return None
+    if where is None:
+        return np.asarray(model.residual_ab, float)
+    sx, sy = grid.xy().T
+    x = math.cos(turn) * sx - math.sin(turn) * sy
+    y = math.sin(turn) * sx + math.cos(turn) * sy
+    at = np.array(model.grid.xy_to_pixel(x, y))
+    cube = np.asarray(model.residual_ab, float).reshape(*model.grid.shape, 2)
+    return np.stack(
+        [ndimage.map_coordinates(cube[..., k], at, order=1, mode="nearest") for k in (0, 1)], -1
+    )
+
+
 def fem_image(model: ImageModel, cfg: dict, params, diameters, friction, optics, sensor=None):
     """(intensities (P, C) before gain and offset, valid (P,)) of the full-FEM state of
     ``params`` (n, 5) (the image's axes) on ``model``'s pixels through its optics;
     ``sensor``: the calibrated sensor (its rotation turns the indenters into the sheet's
     axes, its scales set the sheet's modulus and fringe value), ``optics`` the sensor's
-    optics (fringe value scaled). Invalid pixels (contact zones, off the sheet) are 0.
+    optics (fringe value scaled). The FEM's stresses are taken in the image's axes (a
+    phase-stepped polariscope turns with the camera), and the model's residual retarder
+    (a rest's or a sensor file's) is frozen into the sheet as the library's model holds
+    it. Invalid pixels (contact zones, off the sheet) are 0.
 
     Raises
     ------
@@ -114,6 +137,7 @@ def fem_image(model: ImageModel, cfg: dict, params, diameters, friction, optics,
         When the solver does not reach the loads (its message).
     """
     rot = 0.0 if sensor is None else sensor.rotation_deg
+    turn = math.radians(rot)
     sheet = np.asarray(params, float).reshape(-1, 5)
     fcfg = copy.deepcopy(cfg)
     if sensor is not None:
@@ -124,7 +148,10 @@ def fem_image(model: ImageModel, cfg: dict, params, diameters, friction, optics,
     if failure:
         raise RuntimeError(failure)
     grid, where = _sheet_grid(model, rot)
-    q, valid = path_quaternions(sols[-1], fcfg, replace(optics, grid=grid), model.wavelengths)
+    frozen = _residual_on(model, grid, where, turn)
+    q, valid = path_quaternions(
+        sols[-1], fcfg, replace(optics, grid=grid), model.wavelengths, frozen=frozen, turn=turn
+    )
     img = np.where(valid[:, None], model.polariscope(q), 0.0)
     if where is None:
         return img, valid

@@ -51,9 +51,19 @@ __all__ = [
 
 
 def _integrate(
-    sol, cfg: dict, optics: OpticsSetup, wavelengths, *, progress: bool = False, samples=None
+    sol,
+    cfg: dict,
+    optics: OpticsSetup,
+    wavelengths,
+    *,
+    progress: bool = False,
+    samples=None,
+    frozen=None,
+    turn: float = 0.0,
 ):
-    """Sample (once) and integrate the sheet, and the PC first when configured.
+    """Sample (once) and integrate the sheet, and the PC first when configured; with
+    ``frozen`` or ``turn``, fresh samples are turned and the sheet's take the frozen
+    stress (:meth:`~fringekit.optics.RaySamples.frozen`).
 
     Returns (q (P, W, 4), simple (P,), valid (P,), samples) with ``samples`` reusable
     for other wavelengths.
@@ -68,16 +78,28 @@ def _integrate(
             field = FEMStressField(sol, region="substrate")
             n_pc = o["substrate_samples_per_ray"]
             samples.insert(0, sample_rays(field, optics.grid, n_pc, **kw))
+        if frozen is not None or turn:
+            samples = [r.frozen(None, turn) for r in samples[:-1]] + [
+                samples[-1].frozen(frozen, turn)
+            ]
     laws = [optics.substrate_law, optics.law] if pc else [optics.law]
     q, simple, valid = integrate_layers(samples, laws, wavelengths)
     return q, simple, valid, samples
 
 
-def path_quaternions(sol, cfg: dict, optics: OpticsSetup, wavelengths) -> tuple:
+def path_quaternions(
+    sol, cfg: dict, optics: OpticsSetup, wavelengths, *, frozen=None, turn: float = 0.0
+) -> tuple:
     """(q (P, W, 4), valid (P,)) of every pixel of ``optics.grid``'s ray through the solved
     sheet (and the PC first, when the config puts it in the light path) at ``wavelengths``
-    (m): the quaternions :func:`mono_map` and the white light start from."""
-    q, _, valid, _ = _integrate(sol, cfg, optics, wavelengths)
+    (m): the quaternions :func:`mono_map` and the white light start from.
+
+    ``turn`` (rad): the stresses' angles taken in axes turned by -turn (a camera turned
+    against the sheet); ``frozen`` (P, 2): a residual birefringence frozen evenly through
+    the sheet, its slab pair summed through the thickness (Pa m) in those axes, composed
+    with the loads' stress slab by slab (:meth:`~fringekit.optics.RaySamples.frozen`).
+    """
+    q, _, valid, _ = _integrate(sol, cfg, optics, wavelengths, frozen=frozen, turn=turn)
     return q, valid
 
 

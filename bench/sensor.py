@@ -41,7 +41,9 @@ known frames and the six test frames (the same FEM solves, the true plates, resi
 geometry and camera, at 16 bits), calibrated by ``sensor calibrate --method phase`` (the
 rest steps read as the residual retarder), and the test frames read (d) without
 calibration (the nominal pitch, no rest) and (e) through the sensor file (each inverse
-within ``--max-seconds``, default 600).
+within ``--max-seconds``, default 600); with ``--refine``, (f) the first
+``--refine-frames`` through the sensor file with ``--refine fem`` (its residual retarder
+frozen into the FEM's sheet).
 """
 
 from __future__ import annotations
@@ -344,6 +346,8 @@ def run_phase(lib, work: Path, args, tests) -> dict:
     kw = {"steps": True, "max_seconds": args.max_seconds}
     dd, t_d = read_tests(lib, d, tests, pixel_mm=p, **kw)
     e, t_e = read_tests(lib, d, tests, sensor=path, **kw)
+    few = tests[: args.refine_frames]
+    f, t_f = read_tests(lib, d, few, sensor=path, refine="fem", **kw) if args.refine else (None, 0)
     return {
         "pixels": args.pixels,
         "noise": args.noise,
@@ -355,11 +359,13 @@ def run_phase(lib, work: Path, args, tests) -> dict:
         "warnings": cal.sensor.report["warnings"],
         "d_phase_uncalibrated": {"summary": summary(dd), "frames": dd},
         "e_phase_calibrated": {"summary": summary(e), "frames": e},
+        "f_phase_refine_fem": None if f is None else {"summary": summary(f), "frames": f},
         "times_s": {
             "fem_and_render": t_render,
             "calibrate": t_cal,
             "invert_d": t_d,
             "invert_e": t_e,
+            "invert_f": t_f,
         },
         "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
     }
@@ -409,8 +415,9 @@ def _report(result: dict, json_path) -> None:
     for k, v in result["fitted"].items():
         print(f"{k}: {v}")
     print("warnings:", result["warnings"])
-    for name in ("d_phase_uncalibrated", "e_phase_calibrated"):
-        print(name, json.dumps(result[name]["summary"]))
+    for name in ("d_phase_uncalibrated", "e_phase_calibrated", "f_phase_refine_fem"):
+        if result[name] is not None:
+            print(name, json.dumps(result[name]["summary"]))
     print(json.dumps(result["times_s"]), f"peak memory {result['peak_mb']:.0f} MB")
     if json_path:
         Path(json_path).write_text(json.dumps(result, indent=2))

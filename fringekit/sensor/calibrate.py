@@ -55,7 +55,7 @@ from fringekit.library.calibrated import (
 from fringekit.library.store import Library, load_library
 from fringekit.output.folders import as_paths, atomic_write
 from fringekit.sensor.figure import calibration_figure
-from fringekit.sensor.fit import KnownFit, fit_known, illumination_basis
+from fringekit.sensor.fit import UNDETERMINED_SD, KnownFit, fit_known, illumination_basis
 from fringekit.sensor.frames import read_frame, read_frames, read_known, read_steps
 from fringekit.sensor.geometry import sheet_geometry
 from fringekit.sensor.render import image_model
@@ -459,6 +459,12 @@ def _assemble(lib, cfg, method, shape, fit, geo, rest, black, black_sd, black_fr
         f"the {name.replace('_', ' ')} ended on a bound of the fit ({getattr(fit, name):.4g}): "
         "the known frames do not determine it; check their loads, the pitch and the rest frame"
         for name in fit.at_bound
+    ]
+    warnings += [
+        f"the {name.replace('_', ' ')} is not determined by the known frames "
+        f"({getattr(fit, name):.4g} +- {fit.sd[name]:.2g}, over {UNDETERMINED_SD:.0%} of it); "
+        "known frames over a wider range of loads, or six phase steps, determine it better"
+        for name in fit.undetermined()
     ]
     sd = {
         **{k: fit.sd[k] for k in ("modulus_scale", "fringe_scale", "gamma")},

@@ -56,6 +56,7 @@ from fringekit.library.store import LoadedIndenter
 __all__ = [
     "ILLUMINATION_DEGREE",
     "KnownFit",
+    "UNDETERMINED_SD",
     "direction_floor",
     "fit_known",
     "illumination_basis",
@@ -93,6 +94,13 @@ def illumination_basis(shape, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     return full[:, pick]
 
 
+#: A fitted scale (or the gamma) whose 1-sigma is above this fraction of its value is
+#: reported as not determined by the known frames (the grey bench with six rest steps
+#: left the modulus scale at 37 % and the gamma at 16 %; the six-step calibration of the
+#: same sensor gives 5 % and 3 %).
+UNDETERMINED_SD = 0.1
+
+
 @dataclass(frozen=True)
 class KnownFit:
     """The joint fit of the known frames.
@@ -127,6 +135,26 @@ class KnownFit:
     measured: list
     grid_shape: tuple
     at_bound: tuple = ()
+
+    def undetermined(self, limit: float = UNDETERMINED_SD) -> tuple:
+        """The scales and response whose stated 1-sigma exceeds ``limit`` of their value
+        (not on a bound: those are :attr:`at_bound`): the known frames leave them open.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> fit = KnownFit(1.07, 0.925, 2.10, 2.2, {"modulus_scale": 0.40,
+        ...     "fringe_scale": 0.027, "gamma": 0.33}, [], [], np.zeros((1, 1)),
+        ...     np.zeros((1, 1, 1)), np.zeros(1), [], [], (1, 1))
+        >>> fit.undetermined()  # the grey bench with six rest steps: 37 % and 16 %
+        ('modulus_scale', 'gamma')
+        """
+        return tuple(
+            name
+            for name in ("modulus_scale", "fringe_scale", "gamma")
+            if name not in self.at_bound
+            and not self.sd[name] <= limit * abs(getattr(self, name))  # NaN counts
+        )
 
 
 class _Problem:

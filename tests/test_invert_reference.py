@@ -151,10 +151,9 @@ def test_a_grey_image_reads_the_sheet_s_residual_from_six_rest_steps(
 def test_a_bad_reference_is_one_line_and_writes_nothing(
     tiny_library, glare_image, phase_steps, tmp_path, capsys
 ):
-    """Rest frames of another size, five phase rest steps, ``--refine fem`` with a phase
-    rest or with ``--residual-steps``, and ``--residual-steps`` with phase, with rgb, three
-    of them, with ``--reference`` or with a calibrated sensor's rest map: each refused in
-    one line naming the option; no output folder is made."""
+    """Rest frames of another size, five phase rest steps, and ``--residual-steps`` with
+    phase, with rgb, three of them, with ``--reference`` or with a calibrated sensor's rest
+    map: each refused in one line naming the option; no output folder is made."""
     lit, _ = glare_image
     steps, rest = phase_steps
     small = tmp_path / "small.png"
@@ -170,12 +169,6 @@ def test_a_bad_reference_is_one_line_and_writes_nothing(
     for images, extra, words in (
         ([lit], ["--reference", str(small)], ["--reference", "small.png", f"{PX} x {PX - 2}"]),
         (steps, ["--reference", *map(str, rest[:5])], ["--reference", "six phase steps", "got 5"]),
-        (steps, ["--reference", *map(str, rest), "--refine", "fem"], ["--refine fem", "residual"]),
-        (
-            [lit],
-            ["--residual-steps", *map(str, rest), "--refine", "fem"],
-            ["--refine fem", "residual"],
-        ),
         ([colour], ["--residual-steps", *map(str, rest)], ["--residual-steps", "rgb"]),
         (steps, ["--residual-steps", *map(str, rest)], ["--residual-steps", "--method phase"]),
         ([lit], ["--residual-steps", *map(str, rest[:3])], ["--residual-steps", "got 3"]),

@@ -198,8 +198,8 @@ class RaySamples:
         a, b = pp.ds * np.cos(two), pp.ds * np.sin(two)
         if ab is not None:
             t = pp.dz.sum(axis=1)
-            per = np.asarray(ab, float) / np.where(t > 0, t, np.inf)[:, None]  # Pa
-            a, b = a + per[:, :1] * (pp.dz > 0), b + per[:, 1:] * (pp.dz > 0)
+            per = np.asarray(ab, float) / np.where(t > 0, t, np.inf)[:, None]  # Pa; 0 off
+            a, b = a + per[:, :1], b + per[:, 1:]
         ds, theta = principal_from_components(a, b)
         return replace(pp, ds=ds, theta=theta)
 

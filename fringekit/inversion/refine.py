@@ -84,15 +84,18 @@ def fem_config(cfg: dict, params: np.ndarray, diameters, friction: str) -> dict:
     return out
 
 
+def _turned(x: np.ndarray, y: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
+    """Points (x, y) turned by ``t`` (rad, counter-clockwise) about the origin."""
+    c, s = math.cos(t), math.sin(t)
+    return c * x - s * y, s * x + c * y
+
+
 def _sheet_grid(model: ImageModel, rotation_deg: float) -> tuple[PixelGrid, np.ndarray]:
     """The grid the FEM is rendered on (the model's, or for a turned image one in the
     sheet's axes covering it) and the model's pixels in its (row, col) (2, P)."""
     if rotation_deg == 0.0:
         return model.grid, None
-    t = math.radians(rotation_deg)
-    xy = model.xy
-    sx = math.cos(t) * xy[:, 0] + math.sin(t) * xy[:, 1]
-    sy = -math.sin(t) * xy[:, 0] + math.cos(t) * xy[:, 1]
+    sx, sy = _turned(*model.xy.T, -math.radians(rotation_deg))
     p = model.grid.pixel_size
     lo, hi = np.array([sx.min(), sy.min()]) - 2 * p, np.array([sx.max(), sy.max()]) + 2 * p
     n = np.ceil((hi - lo) / p).astype(int) + 1
@@ -111,10 +114,7 @@ def _residual_on(model: ImageModel, grid: PixelGrid, where, turn: float):
         return None
     if where is None:
         return np.asarray(model.residual_ab, float)
-    sx, sy = grid.xy().T
-    x = math.cos(turn) * sx - math.sin(turn) * sy
-    y = math.sin(turn) * sx + math.cos(turn) * sy
-    at = np.array(model.grid.xy_to_pixel(x, y))
+    at = np.array(model.grid.xy_to_pixel(*_turned(*grid.xy().T, turn)))
     cube = np.asarray(model.residual_ab, float).reshape(*model.grid.shape, 2)
     return np.stack(
         [ndimage.map_coordinates(cube[..., k], at, order=1, mode="nearest") for k in (0, 1)], -1

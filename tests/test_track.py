@@ -94,6 +94,36 @@ def test_a_still_contact_under_noise_keeps_its_jacobian(tiny_library, tmp_path, 
         assert np.all(np.abs(f.params[0] - still[0][0]) <= 2 * f.sd[0]), f.index
 
 
+def test_a_frame_already_at_its_minimum_costs_one_evaluation(tiny_library, tmp_path, monkeypatch):
+    """The same 16-bit frame four times: from the second warm frame on, the fit starts at
+    the minimum, and the fall of the cost its linear model predicts for the next step is
+    below GAIN_TOL noise variances, so the frame takes one evaluation of the image (the
+    step is not evaluated only to confirm it: that took every frame's second)."""
+    from fringekit.tracking import warm
+
+    calls, frame = [], [0]
+    keep = warm.ChordFit.residual
+
+    def residual(self, fixed, p, diam):
+        calls.append(frame[0])
+        return keep(self, fixed, p, diam)
+
+    monkeypatch.setattr(warm.ChordFit, "residual", residual)
+    still = [[(-1.0, 0.5, 2.5, 0.3, 0.0)]] * 4
+    library_frames(tiny_library, still, tmp_path, pixels=PX, pixel_mm=PIXEL_MM, bit_depth=16)
+    t = track(
+        tmp_path,
+        tiny_library,
+        pixel_mm=PIXEL_MM,
+        on_frame=lambda f, img: frame.__setitem__(0, f.index + 1),
+    )
+    assert all(f.events == () for f in t.frames[1:])
+    assert [calls.count(k) for k in (2, 3)] == [1, 1]
+    assert np.all(
+        np.abs(t.frames[-1].params[0] - still[0][0]) <= 1e-3 * np.array([1, 1, 2.5, 2.5, 2.5])
+    )
+
+
 @pytest.mark.slow
 def test_a_warm_jacobian_reuses_the_fields_of_its_point(tiny_library, tmp_path, monkeypatch):
     """The chord fit's Jacobian, made at a point it has just evaluated, takes the

@@ -65,33 +65,44 @@ def test_a_library_stream_is_tracked_back_to_its_loads(tiny_library, tmp_path):
     assert t.summary["frames_solved"] == 6 and t.summary["contacts"] == [1, 2]
 
 
+#: The contact of the still streams (x, y mm, Fz, Fx, Fy N).
+STILL = (-1.0, 0.5, 2.5, 0.3, 0.0)
+
+
+def _still_stream(library, folder, monkeypatch, method: str, n: int, **frames):
+    """``n`` frames of one contact that does not move, tracked with the chord fit's
+    ``method`` wrapped to count its calls: (the track, the index of the frame being solved
+    at each call; with a list of the contacts refreshed, one entry per contact)."""
+    from fringekit.tracking import warm
+
+    calls, frame = [], [0]
+    keep = getattr(warm.ChordFit, method)
+
+    def counted(self, fixed, p, diam, *which):
+        calls.extend([frame[0]] * (len(np.atleast_1d(which[0])) if which else 1))
+        return keep(self, fixed, p, diam, *which)
+
+    monkeypatch.setattr(warm.ChordFit, method, counted)
+    library_frames(library, [[STILL]] * n, folder, pixels=PX, pixel_mm=PIXEL_MM, **frames)
+    t = track(
+        folder,
+        library,
+        pixel_mm=PIXEL_MM,
+        on_frame=lambda f, img: frame.__setitem__(0, f.index + 1),
+    )
+    return t, calls
+
+
 def test_a_still_contact_under_noise_keeps_its_jacobian(tiny_library, tmp_path, monkeypatch):
     """Frames of a contact that does not move, each with its own camera noise: once the
     first warm frame has made the Jacobian, no frame makes it again (a step that changes
     the cost by less than a noise variance ends the fit; remaking every column for such
     a rise took the track bench's warm frame from 46 to 133 ms)."""
-    from fringekit.tracking import warm
-
-    made, frame = [], [0]
-    keep = warm.ChordFit.refresh
-
-    def refresh(self, fixed, p, diam, which):
-        made.extend([frame[0]] * len(np.atleast_1d(which)))
-        return keep(self, fixed, p, diam, which)
-
-    monkeypatch.setattr(warm.ChordFit, "refresh", refresh)
-    still = [[(-1.0, 0.5, 2.5, 0.3, 0.0)]] * 7
-    library_frames(tiny_library, still, tmp_path, pixels=PX, pixel_mm=PIXEL_MM, noise=0.01)
-    t = track(
-        tmp_path,
-        tiny_library,
-        pixel_mm=PIXEL_MM,
-        on_frame=lambda f, img: frame.__setitem__(0, f.index + 1),
-    )
+    t, made = _still_stream(tiny_library, tmp_path, monkeypatch, "refresh", 7, noise=0.01)
     assert all(f.events == () for f in t.frames[1:])  # warm fits only
     assert [k for k in made if k > 1] == []
     for f in t.frames:  # what the noise leaves: within two stated sd
-        assert np.all(np.abs(f.params[0] - still[0][0]) <= 2 * f.sd[0]), f.index
+        assert np.all(np.abs(f.params[0] - STILL) <= 2 * f.sd[0]), f.index
 
 
 def test_a_frame_already_at_its_minimum_costs_one_evaluation(tiny_library, tmp_path, monkeypatch):
@@ -99,29 +110,10 @@ def test_a_frame_already_at_its_minimum_costs_one_evaluation(tiny_library, tmp_p
     the minimum, and the fall of the cost its linear model predicts for the next step is
     below GAIN_TOL noise variances, so the frame takes one evaluation of the image (the
     step is not evaluated only to confirm it: that took every frame's second)."""
-    from fringekit.tracking import warm
-
-    calls, frame = [], [0]
-    keep = warm.ChordFit.residual
-
-    def residual(self, fixed, p, diam):
-        calls.append(frame[0])
-        return keep(self, fixed, p, diam)
-
-    monkeypatch.setattr(warm.ChordFit, "residual", residual)
-    still = [[(-1.0, 0.5, 2.5, 0.3, 0.0)]] * 4
-    library_frames(tiny_library, still, tmp_path, pixels=PX, pixel_mm=PIXEL_MM, bit_depth=16)
-    t = track(
-        tmp_path,
-        tiny_library,
-        pixel_mm=PIXEL_MM,
-        on_frame=lambda f, img: frame.__setitem__(0, f.index + 1),
-    )
+    t, calls = _still_stream(tiny_library, tmp_path, monkeypatch, "residual", 4, bit_depth=16)
     assert all(f.events == () for f in t.frames[1:])
     assert [calls.count(k) for k in (2, 3)] == [1, 1]
-    assert np.all(
-        np.abs(t.frames[-1].params[0] - still[0][0]) <= 1e-3 * np.array([1, 1, 2.5, 2.5, 2.5])
-    )
+    assert np.all(np.abs(t.frames[-1].params[0] - STILL) <= 1e-3 * np.array([1, 1, 2.5, 2.5, 2.5]))
 
 
 @pytest.mark.slow

@@ -448,6 +448,40 @@ def _raise_in_frame(monkeypatch, index: int, exc: BaseException) -> None:
     monkeypatch.setattr(Tracker, "step", raising)
 
 
+@pytest.mark.slow
+def test_a_first_frame_the_whole_inverse_refuses_is_recorded_not_read_as_empty(
+    tiny_library, tmp_path, monkeypatch
+):
+    """A first frame that the quick start leaves unexplained goes to the whole inverse;
+    when that refuses it, the frame is a refused one with the inverse's reason (it used
+    to come back as a frame without contacts, nothing said), and the next frame starts
+    afresh. Each start's stages are timed in the frame's ``times_s``."""
+    import fringekit.tracking.tracker as tracker_module
+
+    library_frames(
+        tiny_library, [_moving(k) for k in range(2)], tmp_path, pixels=PX, pixel_mm=PIXEL_MM
+    )
+    whole = tracker_module.invert_image
+    calls = []
+
+    def inverse(full, **kw):
+        calls.append(kw)
+        if len(calls) == 1:
+            raise InvertError("the library cannot explain this image: stand-in")
+        return whole(full, **kw)
+
+    monkeypatch.setattr(tracker_module, "quick_start", lambda *a: (None, None))
+    monkeypatch.setattr(tracker_module, "invert_image", inverse)
+    t = track(tmp_path, tiny_library, pixel_mm=PIXEL_MM)
+    assert t.summary["frames_refused"] == [
+        {"frame": 0, "reason": "the library cannot explain this image: stand-in"}
+    ]
+    (f,) = t.frames
+    assert f.index == 1 and f.events == ("start",) and len(f.ids) == 2
+    assert {"quick_start_s", "inverse_s", "start_s"} <= set(f.times_s)
+    assert np.allclose(_matched(f, _moving(1))[:, :2], f.params[:, :2], atol=0.05)
+
+
 @pytest.mark.parametrize("left_out", [0, pytest.param(1, marks=pytest.mark.slow)])
 def test_a_frame_the_library_cannot_explain_is_drawn_without_contacts(
     tiny_library, tmp_path, monkeypatch, left_out

@@ -136,7 +136,12 @@ class Tracker:
     def step(self, measured, usable, nodata, index: int, time_s: float) -> TrackedFrame:
         """The contacts of one frame: linear intensities ``measured`` (P, C), ``usable``
         and ``nodata`` (P,) bool, as :class:`ImageModel` holds them. BLAS runs on one
-        thread: the frame's products are small and the rays use the cores already."""
+        thread: the frame's products are small and the rays use the cores already.
+
+        Raises :class:`~fringekit.inversion.verdict.InvertError` when no contact is
+        tracked yet and the frame shows fringes that the whole inverse cannot explain
+        (:func:`~fringekit.tracking.track` records it in ``frames_refused`` and starts
+        afresh at the next frame)."""
         with single_blas_thread():
             return self._step(measured, usable, nodata, index, time_s)
 
@@ -155,7 +160,7 @@ class Tracker:
         self.index = index
         converged = True
         if not self.diam:
-            self._start(full, events)
+            self._start(full, events, times)
             times["start_s"] = time.perf_counter() - t0
         elif gap > MAX_GAP:  # the contacts moved unseen: look for them again
             suspect = np.ones(len(self.diam), bool)
@@ -189,20 +194,26 @@ class Tracker:
         self.index = None
         self.rejected = []
 
-    def _start(self, full: ImageModel, events: list) -> None:
+    def _start(self, full: ImageModel, events: list, times: dict) -> None:
         """No contact tracked: look for them (:func:`~fringekit.tracking.start.quick_start`);
-        when that leaves one unexplained, the whole inverse (``invert``'s)."""
+        when that leaves one unexplained, the whole inverse (``invert``'s), whose refusal
+        (:class:`~fringekit.inversion.verdict.InvertError`: fringes the library cannot
+        explain) is the frame's. ``times`` gets the seconds of each that ran
+        (``quick_start_s``, ``inverse_s``)."""
         half = subsample(full, 2)
         cand = detect(half, self.noise)
         if not len(cand):
             return
+        t0 = time.perf_counter()
         cand = match_candidates(half, cand)
         p, diam = quick_start(full, cand, self.stride, self.noise)
+        times["quick_start_s"] = time.perf_counter() - t0
         if p is None:
+            t0 = time.perf_counter()
             try:
                 res = invert_image(full, noise=self.noise)
-            except InvertError:
-                return
+            finally:
+                times["inverse_s"] = time.perf_counter() - t0
             p, diam = res.params.ravel(), list(res.diameters)
         if not diam:
             return

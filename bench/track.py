@@ -3,7 +3,7 @@ identity; the default) or FEM-rendered (accuracy).
 
 Usage: python bench/track.py [--sequence library|fem] [--frames 200] [--pixels 256]
        [--methods mono rgb phase] [--stride 4] [--noise 0.005] [--invert-every 50]
-       [--library DIR] [--work DIR] [--json FILE] [--show]
+       [--cold-starts 0] [--library DIR] [--work DIR] [--json FILE] [--show]
        (--work default: bench/out/track, ignored by git)
 
 ``--sequence fem`` (sequence (a) of the tracking issue, on the coarse sensor, whose
@@ -41,7 +41,10 @@ position in mm), identity swaps, and missed and spurious contacts per frame, and
 frames by which the touch and the lift were read late; and, on every INVERT_EVERY-th
 frame (0: none), the offline ``invert``'s errors against the truth beside the tracker's
 on the same frames (the issue's target: tracked within 1.5 times offline) and its time
-per image. ``--json`` writes it all, with the peak memory. ``--show`` tracks with the
+per image; and on COLD_STARTS frames spread over the stream after the first, the
+tracker started cold on that frame alone (as after a restart): its time, the quick
+start's and the whole inverse's share, and its contacts and errors, or why it was
+refused. ``--json`` writes it all, with the peak memory. ``--show`` tracks with the
 live window's drawing (``track --show``) done in full off-screen in its own process, as
 the window does it: its cost to the solver, and the redraws it made.
 """
@@ -299,6 +302,38 @@ def _library_frames(lib, truths: list[dict], method: str, args, work: Path) -> P
     return folder
 
 
+def cold_starts(lib, folder: Path, truths, count: int, pixel_mm: float, method, level, stride):
+    """The tracker started cold on ``count`` frames spread evenly over the stream after
+    its first (each frame a stream of its own, as after a restart): per frame the time,
+    the quick start's and the whole inverse's share, the contacts found, missed and
+    spurious, the largest errors, or the reason it was refused."""
+    out = []
+    for k in np.linspace(0, len(truths) - 1, count + 1)[1:].round().astype(int):
+        one = folder.parent / "cold-starts" / f"{folder.name}-{k:04d}"
+        shutil.rmtree(one, ignore_errors=True)
+        one.mkdir(parents=True)
+        for f in folder.glob(f"frame_{k:04d}*.png"):  # one image, or six steps
+            shutil.copy(f, one / f.name)
+        t0 = time.perf_counter()
+        t = track(one, lib, pixel_mm=pixel_mm, method=method, stride=stride)
+        row = {"frame": int(k), "time_s": time.perf_counter() - t0}
+        if t.summary["frames_refused"]:
+            row["refused"] = t.summary["frames_refused"][0]["reason"]
+        if t.frames:
+            f = t.frames[0]
+            row.update(
+                {k2: f.times_s[k2] for k2 in ("quick_start_s", "inverse_s") if k2 in f.times_s}
+            )
+            s = _score_frame(f, truths[k], level, {})
+            row.update(found=len(f.ids), missed=s["missed"], spurious=s["spurious"])
+            for key in QUANTITIES:
+                vals = [abs(e[key]) for e in s["errors"] if e[key] is not None]
+                row[f"max_{key}"] = max(vals) if vals else None
+        print(f"{method} cold start on frame {k}: {json.dumps(row)}", flush=True)
+        out.append(row)
+    return out
+
+
 def run(lib, method: str, args, work: Path) -> dict:
     pixel_mm = FIELD_MM / args.pixels
     if args.sequence == "fem":
@@ -349,6 +384,9 @@ def run(lib, method: str, args, work: Path) -> dict:
         "show": None if view is None else {"redraws": view.sent, "error": view.error},
         **score(tr, truths, level),
         "offline_invert": inverted,
+        "cold_starts": cold_starts(
+            lib, folder, truths, args.cold_starts, pixel_mm, method, level, args.stride
+        ),
     }
 
 
@@ -363,6 +401,12 @@ def main(argv=None) -> None:
     ap.add_argument("--stride", type=int, default=4)
     ap.add_argument("--noise", type=float, default=0.005)
     ap.add_argument("--invert-every", type=int, default=50)
+    ap.add_argument(
+        "--cold-starts",
+        type=int,
+        default=0,
+        help="start the tracker cold on this many frames spread over the stream (each alone)",
+    )
     ap.add_argument("--library", default=None)
     ap.add_argument("--work", default="bench/out/track")
     ap.add_argument("--json", default=None)

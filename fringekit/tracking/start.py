@@ -2,10 +2,12 @@
 and the residual near each contact that decides whether a fit is kept.
 
 :func:`quick_start` is the tracker's start: ``invert``'s detection and start scan, then
-one robust joint fit and one basin search on every ``stride``-th pixel, and the contacts
-left after dropping the insignificant ones fitted again. ``invert``
+one robust joint fit and one basin search on every ``stride``-th pixel, the contacts
+left after dropping the insignificant ones fitted again, and the residual searched for
+contacts detection missed. ``invert``
 (:func:`fringekit.inversion.fit.invert_image`) adds a far-field fit, more basin searches,
-model selection and a second start, on every 2nd pixel, and takes 4-5 times longer. The
+merges of flagged pairs and second starts, on every 2nd pixel, and takes 4-20 times
+longer. The
 quick answer is kept only where it explains the frame to the camera's noise; elsewhere
 the tracker runs the whole inverse. :func:`settle_new` searches the axes about a contact
 found in a later frame whose fit leaves it far worse explained than its neighbours.

@@ -272,9 +272,9 @@ def test_a_frame_is_solved_on_one_blas_thread(tiny_library, tmp_path, monkeypatc
 def test_the_quick_start_finds_a_contact_detection_missed_in_the_residual(tiny_library):
     """A first frame of two contacts 10 mm apart whose detection gave one candidate: the
     quick start looks for fringes in the residual of the contact it fitted, and comes
-    back with both (it used to return the one, which explained its own surroundings, and
-    the other was taken as a touch a frame later, or, where two contacts' fringes merge,
-    leave the frame to the whole inverse: 215-307 s a frame on the track bench)."""
+    back with both (it used to give up, leaving the frame to the whole inverse: 215-461 s
+    a frame on the track bench, where two contacts' fringes merge and detection gives
+    them one candidate)."""
     from fringekit.inversion.model import unpack
     from fringekit.tracking.start import quick_start
     from fringekit.tracking.synthetic import blank_model

@@ -48,7 +48,7 @@ from fringekit.inversion.detect import detect, noise_sd
 from fringekit.inversion.hop import hop, search_after_drop
 from fringekit.inversion.match import match_candidates
 from fringekit.inversion.model import N_PARAMS, ImageModel, range_penalty, unpack
-from fringekit.inversion.selection import prune
+from fringekit.inversion.selection import prune, residual_candidates
 from fringekit.inversion.start import scan_start
 from fringekit.inversion.uncertainty import model_sd, parameter_sd, stated_sd
 from fringekit.inversion.verdict import (
@@ -407,15 +407,9 @@ def select_indenters(
         p2, diam2, kept = prune(p, sd, diam, model.lib)
         gone = np.setdiff1d(np.arange(len(diam)), kept)
         dropped = np.concatenate([dropped, _axes(p, gone), anchors[gone]])  # fitted, detected
-        fitted_img, _, _, outside = fine.fitted(unpack(p2, diam2))
-        resid = replace(fine, measured=np.where(outside[:, None], fine.measured - fitted_img, 0.0))
         # a dropped candidate's residual peak is not detected again: on the coarse bench
         # one at the image's edge was added, fitted to 0.3 N and dropped twice
-        taken = np.concatenate([_axes(p2), dropped])
-        if matched:  # a residual peak beside a fitted axis is looked for beyond it
-            new = match_candidates(fine, detect(resid, noise, exclude=dropped), taken)
-        else:
-            new = detect(resid, noise, exclude=taken)
+        new = residual_candidates(fine, p2, diam2, noise, dropped, matched)
         found = f"{len(diam) - len(diam2)} dropped, {len(new)} added"
         if budget.spent(f"model selection, round {round_ + 1}", found):
             break

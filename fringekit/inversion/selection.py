@@ -3,17 +3,22 @@
 An indenter is kept when its normal load is significant (above 3 sd, and from
 :data:`MIN_LOAD_FRACTION` of the library's first load unless it is tracked already), and
 no stronger one sits closer to it than their spheres allow (:func:`sphere_gaps`). The fit
-itself is :mod:`fringekit.inversion.fit`'s.
+itself is :mod:`fringekit.inversion.fit`'s. Indenters not yet fitted are looked for in
+the residual of those that are (:func:`residual_candidates`).
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
-from fringekit.inversion.model import N_PARAMS
+from fringekit.inversion.detect import detect
+from fringekit.inversion.match import match_candidates
+from fringekit.inversion.model import N_PARAMS, ImageModel, unpack
 from fringekit.inversion.verdict import at_library_edge
 
-__all__ = ["MIN_LOAD_FRACTION", "prune", "sphere_gaps"]
+__all__ = ["MIN_LOAD_FRACTION", "prune", "residual_candidates", "sphere_gaps"]
 
 #: A new indenter is kept from this fraction of the library's first (smallest non-zero) load.
 MIN_LOAD_FRACTION = 0.5
@@ -72,3 +77,30 @@ def prune(
             kept.append(int(i))
     kept.sort()
     return q[kept].ravel(), [diam[i] for i in kept], kept
+
+
+def residual_candidates(
+    fine: ImageModel, p: np.ndarray, diam, noise: float, dropped, matched: bool
+) -> np.ndarray:
+    """Candidates (k, 2) (mm) where the residual of the indenters ``p`` (n * 5,) with
+    diameters ``diam`` (m) keeps fringes: detection on the image less their fitted
+    model (zero inside their contact circles), beyond a sphere diameter of every fitted
+    axis and of the ``dropped`` ones (m, 2) (mm).
+
+    ``matched``: the residual's peaks are detected beyond the dropped axes only and
+    matched to one-indenter images on ``fine``'s own image
+    (:func:`~fringekit.inversion.match.match_candidates`), none landing within a sphere
+    diameter of a fitted or dropped axis: a residual peak beside a fitted axis is looked
+    for beyond it. Otherwise the peaks near any of them are dropped.
+
+    Examples
+    --------
+    See :func:`fringekit.inversion.fit.select_indenters` and
+    :func:`fringekit.tracking.start.quick_start`, which look for more indenters so.
+    """
+    fitted, _, _, outside = fine.fitted(unpack(p, diam))
+    resid = replace(fine, measured=np.where(outside[:, None], fine.measured - fitted, 0.0))
+    taken = np.concatenate([np.reshape(p, (-1, N_PARAMS))[:, :2], np.reshape(dropped, (-1, 2))])
+    if matched:
+        return match_candidates(fine, detect(resid, noise, exclude=dropped), taken)
+    return detect(resid, noise, exclude=taken)

@@ -19,7 +19,6 @@ from dataclasses import replace
 
 import numpy as np
 
-from fringekit.inversion.detect import detect
 from fringekit.inversion.fit import (
     EXACT_MM,
     WINDOW_MM,
@@ -28,9 +27,8 @@ from fringekit.inversion.fit import (
     subsample,
 )
 from fringekit.inversion.hop import hop, hop_to
-from fringekit.inversion.match import match_candidates
 from fringekit.inversion.model import N_PARAMS, ImageModel, unpack
-from fringekit.inversion.selection import prune
+from fringekit.inversion.selection import prune, residual_candidates
 from fringekit.inversion.uncertainty import parameter_sd
 from fringekit.inversion.verdict import window_rms
 from fringekit.tracking.warm import ChordFit
@@ -137,6 +135,7 @@ def quick_start(full: ImageModel, cand: np.ndarray, stride: int, noise: float):
     See :class:`fringekit.tracking.Tracker`, whose first frame starts here.
     """
     sub = replace(subsample(full, stride), exact=EXACT_MM * 1e-3)
+    half = subsample(full, 2)  # where the residual is searched, as invert's model selection
     p, diam = start_params(sub, cand)
     p = fit_indenters(sub, p, diam, noise).x
     p, _ = hop(sub, p, diam, noise)
@@ -148,7 +147,7 @@ def quick_start(full: ImageModel, cand: np.ndarray, stride: int, noise: float):
             return None, None
         flagged = _flagged(sub, p, diam, noise)
         last = round_ == QUICK_ROUNDS
-        new = np.zeros((0, 2)) if last else _residual_candidates(full, p, diam, noise, dropped)
+        new = np.zeros((0, 2)) if last else residual_candidates(half, p, diam, noise, dropped, True)
         if not flagged.any() and not len(new):
             return p, diam
         if last:
@@ -191,17 +190,6 @@ def _flagged(sub: ImageModel, p: np.ndarray, diam: list, noise: float) -> np.nda
     amp = float(np.mean(np.abs(gains)))
     limit = min(QUICK_RESIDUAL, QUICK_NOISE * noise / amp) if amp > 0 else 0.0
     return ~(near_residual(fixed, p, r, gains) <= limit)
-
-
-def _residual_candidates(full: ImageModel, p, diam, noise: float, dropped) -> np.ndarray:
-    """Candidates (k, 2) (mm) where the residual of the contacts ``p`` keeps fringes
-    (every 2nd pixel, as ``invert``'s model selection looks): detected beyond a sphere
-    diameter of every fitted and dropped axis, then matched to one-indenter images."""
-    half = subsample(full, 2)
-    fitted, _, _, outside = half.fitted(unpack(p, diam))
-    resid = replace(half, measured=np.where(outside[:, None], half.measured - fitted, 0.0))
-    taken = np.concatenate([p.reshape(-1, N_PARAMS)[:, :2], dropped])
-    return match_candidates(half, detect(resid, noise, exclude=dropped), taken)
 
 
 #: A contact found in a redetection whose residual is this many times the held contacts'

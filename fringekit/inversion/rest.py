@@ -38,6 +38,7 @@ from scipy import ndimage
 from fringekit.analysis import normalise, read_pixels, six_step
 from fringekit.errors import ConfigError, InputError, SourceError
 from fringekit.inversion.read import (
+    clipped_black,
     frame_measurement,
     pixel_arrays,
     sensor_linear,
@@ -121,7 +122,9 @@ def checked_pixels(img: np.ndarray, where: str) -> np.ndarray:
     return np.ascontiguousarray(img)
 
 
-def frame_linear(raw: np.ndarray, method: str, camera: str, name: str, cal=None, channel=None):
+def frame_linear(
+    raw: np.ndarray, method: str, camera: str, name: str, cal=None, channel=None, fitted=False
+):
     """One decoded frame as the model sees it.
 
     Parameters
@@ -141,13 +144,17 @@ def frame_linear(raw: np.ndarray, method: str, camera: str, name: str, cal=None,
         from the normalised frame and its name (a stream's
         :class:`~fringekit.tracking.channel.MonoChannel`); default the frame's own
         strongest, its channels checked to agree.
+    fitted : bool
+        The frame is one the model is fitted to (a stream's), not a rest frame whose light
+        is subtracted: its colour pixels with a channel clipped at black are unusable too
+        (:func:`~fringekit.inversion.read.clipped_black`), as ``invert``'s are.
 
     Returns
     -------
     measured : (P, C) array
         Linear intensities, P = rows * cols pixels, C = 3 (rgb) or 1 (mono).
     usable : (P,) bool array
-        Neither saturated nor no-data.
+        Neither saturated nor no-data (nor, ``fitted``, clipped at black).
     nodata : (P,) bool array
     note : str
         Which channel of a colour frame the mono method reads ("" for rgb).
@@ -163,6 +170,8 @@ def frame_linear(raw: np.ndarray, method: str, camera: str, name: str, cal=None,
     if callable(channel):
         channel = channel(frame.data, name) if method == "mono" else None
     lin, data, sat, note = frame_measurement(frame, method, camera, cal, channel)
+    if fitted:
+        sat = sat | clipped_black(data, method)
     return (*pixel_arrays(lin, data, sat), note)
 
 

@@ -458,7 +458,7 @@ class _Run:
         else:
             camera = self.optics.camera.sensitivities
             measured, usable, nodata, note = frame_linear(
-                raw.image, self.method, camera, raw.name, self.cal, self.channel
+                raw.image, self.method, camera, raw.name, self.cal, self.channel, fitted=True
             )
             if self.channel.switched:  # the noise was measured in another channel
                 self.tracker.noise, self.channel.switched = None, False

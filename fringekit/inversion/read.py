@@ -52,8 +52,10 @@ def sensor_linear(raw: np.ndarray, sensor) -> np.ndarray | None:
     return sensor.correct(sensor.linear(raw))
 
 
-def frame_measurement(frame, method: str, camera_name: str, sensor=None, channel=None):
-    """(linear (rows, cols, C), raw (rows, cols, C), saturated (rows, cols), note) of one
+def frame_measurement(
+    frame, method: str, camera_name: str, sensor=None, channel=None, fitted=False
+):
+    """(linear (rows, cols, C), raw (rows, cols, C), unusable (rows, cols), note) of one
     :class:`~fringekit.analysis.Frame` read by ``method`` ``"rgb"`` or ``"mono"``: the
     colour image sRGB-decoded for the CIE observer, or its grey channel (the note says
     which channel of a colour photograph of monochromatic light is read; one whose channels
@@ -61,7 +63,10 @@ def frame_measurement(frame, method: str, camera_name: str, sensor=None, channel
     :class:`~fringekit.library.calibrated.CalibratedSensor`; when it is calibrated, its
     response, rest frame and illumination give the linear intensities instead.
     ``channel``: for mono, the colour channel (0-2) a colour frame is read in, chosen by
-    the caller (a stream's, held from frame to frame); no note, no check."""
+    the caller (a stream's, held from frame to frame); no note, no check. The unusable
+    pixels are the saturated ones and, when the model is ``fitted`` to the frame
+    (``invert``'s image, a stream's frames; not a rest frame, whose light is subtracted),
+    the colour pixels clipped at black (:func:`clipped_black`)."""
     name = frame.source
     if method == "rgb" and frame.data.ndim != 3:
         raise ConfigError(f"--method rgb needs a colour image; {name} is grey")
@@ -74,7 +79,8 @@ def frame_measurement(frame, method: str, camera_name: str, sensor=None, channel
     lin = sensor_linear(raw, sensor)
     if lin is None:
         lin = _decode(frame, camera_name, True).reshape(raw.shape) if method == "rgb" else raw
-    return lin, raw, frame.saturated, note
+    unusable = frame.saturated | clipped_black(raw, method) if fitted else frame.saturated
+    return lin, raw, unusable, note
 
 
 def clipped_black(raw: np.ndarray, method: str) -> np.ndarray:
@@ -222,8 +228,7 @@ def read_measurement(paths, method: str | None, camera_name: str, sensor=None) -
         lin = raw if lin is None else lin
     else:
         frame = load_image(paths[0])
-        lin, raw, sat, note = frame_measurement(frame, method, camera_name, sensor)
-        sat = sat | clipped_black(raw, method)
+        lin, raw, sat, note = frame_measurement(frame, method, camera_name, sensor, fitted=True)
         if method == "mono" and frame.data.ndim == 3:
             channel = strongest_channel(frame.data)
     linear, usable, nodata = pixel_arrays(lin, raw, sat)

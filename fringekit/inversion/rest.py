@@ -38,7 +38,6 @@ from scipy import ndimage
 from fringekit.analysis import normalise, read_pixels, six_step
 from fringekit.errors import ConfigError, InputError, SourceError
 from fringekit.inversion.read import (
-    clipped_black,
     frame_measurement,
     pixel_arrays,
     sensor_linear,
@@ -169,9 +168,7 @@ def frame_linear(
     frame = normalise(grey(raw), source=name)
     if callable(channel):
         channel = channel(frame.data, name) if method == "mono" else None
-    lin, data, sat, note = frame_measurement(frame, method, camera, cal, channel)
-    if fitted:
-        sat = sat | clipped_black(data, method)
+    lin, data, sat, note = frame_measurement(frame, method, camera, cal, channel, fitted)
     return (*pixel_arrays(lin, data, sat), note)
 
 

@@ -56,6 +56,8 @@ QUICK_RESIDUAL = 0.11
 #: share. A model's own misfit (an FEM image, a photograph) is above this, and such a
 #: frame is started by the whole inverse.
 QUICK_NOISE = 3.0
+#: Rounds of the quick start that look for contacts in the residual of those fitted.
+QUICK_ROUNDS = 2
 
 
 def near_residual(fixed: ImageModel, p: np.ndarray, r: np.ndarray, gains: np.ndarray) -> np.ndarray:
@@ -160,10 +162,6 @@ def quick_start(full: ImageModel, cand: np.ndarray, stride: int, noise: float):
         if not len(new) and not moved:  # nothing new, nothing moved: the same fit again
             break
     return None, None
-
-
-#: Rounds of the quick start that look for contacts in the residual of those fitted.
-QUICK_ROUNDS = 2
 
 
 def _fit_and_prune(sub: ImageModel, p: np.ndarray, diam: list, noise: float):

@@ -1,11 +1,12 @@
 """Colour pixels clipped at black: a dark-field colour outside the camera's gamut has a
 channel below zero in the model, which the camera stores as 0; such pixels are left out of
-the images the model is fitted to (``invert``'s and a stream's frames), not out of a rest
-frame, whose light is subtracted."""
+the images the model is fitted to (``invert``'s and a stream's frames, ``sensor
+calibrate``'s known-load frames), not out of a rest frame, whose light is subtracted."""
 
 from __future__ import annotations
 
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 from library_fixtures import TINY, sensor_config
@@ -15,6 +16,7 @@ from fringekit.inversion.model import unpack
 from fringekit.inversion.read import read_measurement
 from fringekit.inversion.rest import frame_linear
 from fringekit.optics import write_image
+from fringekit.sensor.frames import read_frames, read_known
 from fringekit.tracking import library_frames
 from fringekit.tracking.start import near_residual
 from fringekit.tracking.synthetic import blank_model
@@ -35,6 +37,29 @@ def test_a_colour_pixel_with_a_channel_at_zero_is_not_fitted_a_grey_one_is(tmp_p
     grey[1, 2] = 0  # a dark fringe's minimum: the model's own 0
     write_image(tmp_path / "grey.png", grey)
     assert read_measurement([tmp_path / "grey.png"], "mono", "CIE1931").usable.all()
+
+
+def test_sensor_calibrate_leaves_clipped_colour_pixels_out_of_its_known_frames(tmp_path):
+    """Each known-load frame leaves its clipped pixel out of the fit; one frame averaged
+    from both files leaves out a pixel clipped in either (their mean, 60, is not a
+    measurement); the same files read as a rest frame keep both."""
+    a = np.full((4, 5, 3), 120, np.uint8)
+    b = a.copy()
+    a[1, 2, 0] = 0  # red clipped in the first file only
+    b[3, 4, 2] = 0  # blue clipped in the second only
+    write_image(tmp_path / "a.png", a)
+    write_image(tmp_path / "b.png", b)
+    (tmp_path / "KNOWN.csv").write_text(
+        "image,x_mm,y_mm,Fx_N,Fy_N,Fz_N\na.png,0,0,0,0,2\nb.png,0,0,0,0,2\n"
+    )
+    lib = SimpleNamespace(diameters_mm=[3.5], max_load_N=8.0, max_ratio=0.4)
+    known = read_known(tmp_path / "KNOWN.csv", "rgb", lib, (4, 5))
+    assert [np.flatnonzero(~k.usable).tolist() for k in known] == [[1 * 5 + 2], [3 * 5 + 4]]
+    both = [tmp_path / "a.png", tmp_path / "b.png"]
+    _, bad = read_frames(both, "rgb", "--known image", fitted=True)
+    assert np.flatnonzero(bad).tolist() == [1 * 5 + 2, 3 * 5 + 4]
+    _, bad = read_frames(both, "rgb", "--reference")
+    assert not bad.any()
 
 
 def test_a_black_rest_frame_stays_known_a_fitted_frame_leaves_it_out():

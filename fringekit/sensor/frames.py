@@ -38,7 +38,8 @@ class KnownFrame:
     path : Path
         The image (phase: its first step).
     raw : (rows, cols, C) stored values in [0, 1]
-    usable : (rows * cols,) bool — not saturated
+    usable : (rows * cols,) bool — not saturated and, for ``rgb``, no channel clipped
+        at black in any of its files (:func:`~fringekit.inversion.read.clipped_black`)
     loads : (n, 5) x_mm, y_mm (NaN where the position is not known), Fx_N, Fy_N, Fz_N,
         in the sheet's axes
     diameters_mm : (n,) sphere diameters
@@ -60,24 +61,32 @@ def read_frame(path, option: str):
         raise ConfigError(f"{option} {path}: cannot be read ({exc})") from None
 
 
-def _read(path, method: str, option: str) -> tuple[np.ndarray, np.ndarray]:
-    """(raw (rows, cols, C), saturated (rows, cols)) of one image file."""
+def _read(path, method: str, option: str, fitted: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(raw (rows, cols, C), unusable (rows, cols)) of one image file: saturated, or
+    ``fitted`` and clipped at black (:func:`~fringekit.inversion.read.frame_measurement`)."""
     frame = read_frame(path, option)
     if method == "phase":  # one step: grey, a colour one as the mean of its channels
         raw, sat = steps_measurement([frame])
         return raw.astype(float), sat
-    _, raw, sat, _ = frame_measurement(frame, method, "none")  # stored values only
-    return raw.astype(float), sat
+    # stored values only
+    _, raw, bad, _ = frame_measurement(frame, method, "none", fitted=fitted)
+    return raw.astype(float), bad
 
 
-def read_frames(paths, method: str, option: str, shape=None) -> tuple[np.ndarray, np.ndarray]:
+def read_frames(
+    paths, method: str, option: str, shape=None, fitted: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
     """The mean (rows, cols, C) of one or more frames of one size, and where any is
-    saturated (rows * cols,); ``shape``: the size they must have (named in the error)."""
+    saturated (rows * cols,); ``shape``: the size they must have (named in the error).
+    ``fitted``: frames the model is fitted to (the known-load ones), where a colour pixel
+    clipped at black in any frame is left out too: the model may go below the 0 stored
+    there (:func:`~fringekit.inversion.read.clipped_black`); not the rest and dark
+    frames, whose light is subtracted."""
     if not paths:
         raise ConfigError(f"{option}: give at least one image")
     frames, sats = [], []
     for p in paths:
-        raw, sat = _read(p, method, option)
+        raw, sat = _read(p, method, option, fitted)
         want = (shape or frames[0].shape[:2]) if frames else shape
         if want is not None and raw.shape[:2] != tuple(want):
             raise ConfigError(
@@ -169,7 +178,7 @@ def read_known(path, method: str, lib, shape) -> list[KnownFrame]:
         if method == "phase":
             raw, sat = read_steps(files, "--known image", shape)
         else:
-            raw, sat = read_frames(files, method, "--known image", shape)
+            raw, sat = read_frames(files, method, "--known image", shape, fitted=True)
         a = np.array(contacts, float)
         out.append(KnownFrame(files[0], raw, ~sat, a[:, :5], a[:, 5]))
     return out

@@ -135,7 +135,7 @@ def increment_schedule(
     >>> increment_schedule(ind, E=4e6, h=3e-3, friction=0.0)
     (3,)
     >>> increment_schedule(ind, E=4e6, h=3e-3, friction=float("inf"))
-    (13,)
+    (15,)
     """
     L, T = _loads(indenters)
     S = len(L) - 1

@@ -58,14 +58,13 @@ log = logging.getLogger("fringekit.fea")
 FIRST_DEPTH = 0.1
 #: with friction, an increment raises no indenter's normal load by more than this factor
 #: (see _friction_cap)
-FRICTION_STEP = 1.5
+FRICTION_STEP = 1.25
 #: with friction, an increment changes no indenter's tangential load by more than this
 #: fraction of its normal load (see friction_limit)
 TANGENT_STEP = 0.1
-#: with friction the first increment from the unloaded sheet carries this fraction of the
-#: state's load (or depth): its anchors come from the sphere's straight approach to the
-#: flat sheet (see first_fraction)
-FRICTION_FIRST = 0.01
+#: with friction the first increment from the unloaded sheet ends at this fraction of
+#: FIRST_DEPTH: its anchors come from the sphere's straight approach to the flat sheet
+FRICTION_FIRST = 0.3
 
 
 class SolverError(ComputeError):
@@ -375,17 +374,14 @@ def friction_limit(
     A point that comes into contact is anchored where the Newton iterates first carry it
     across the contact condition (:func:`fea.contact.first_touch_anchors`), along
     straight steps: the larger the increment, the further that path is from the
-    loading's. The normal loads therefore rise by at most :data:`FRICTION_STEP` (1.5
-    times) per increment, and the tangential loads change by at most
-    :data:`TANGENT_STEP` of the normal load (the patch's leading edge touches anew as it
-    shifts); the first increment from the unloaded sheet is 1 % of the load
-    (:func:`first_fraction`), which matters more. On the coarse test block (2 N under
-    full stick in 1, 4, 16 and 32 states, then 0.6 N tangential) the indenter's
-    tangential displacement then spreads 0.43 %, as with doubling increments (0.31 % for
-    both at a penetration tolerance of 0.003), and the normal path's nodal stresses of
-    one state and eight differ by 0.5 % (1.0 % doubling, 0.2 % at 1.25 times for 50 %
-    more Newton iterations). With a first increment of 17 % of the load and 1.25 times
-    (the rule before 2026-11-29) the displacement spread 1.5 % and lay 2.5 % higher.
+    loading's. The normal loads therefore rise by at most :data:`FRICTION_STEP` per
+    increment (the contact radius by about 8 %, a ~ F^(1/3)), and the tangential loads
+    change by at most :data:`TANGENT_STEP` of the normal load (the patch's leading edge
+    touches anew as it shifts); the first increment from the unloaded sheet is short too
+    (:func:`first_fraction`). On the coarse test block, 3 N in 1, 4, 8 and 16 load states
+    then gives depths within 0.16 % of each other (2 % with the doubling increments
+    alone); 2 N then 0.6 N tangential in one state against four gave tangential
+    displacements 2.6 % apart without the tangential limit.
 
     Parameters
     ----------
@@ -404,10 +400,10 @@ def friction_limit(
 
     Examples
     --------
-    From 2 N towards 8 N in state 1, the next increment stops at 3 N:
+    From 2 N towards 8 N in state 1, the next increment stops at 2.5 N:
 
     >>> friction_limit([2.0], [8.0], 0.25, 1)
-    0.375
+    0.3125
     """
     a, b = np.asarray(loads_from, float), np.asarray(loads_to, float)
     t = np.inf
@@ -430,21 +426,9 @@ def first_fraction(loads, radii, E: float, h: float, friction: float) -> float:
     damped steps). The first increment therefore stops where the bonded-layer formula
     predicts a depth of 0.1 sheet thickness (F ~ d^1.5); the increments then double.
     8 N in one state on the coarse test block: 24 Newton iterations instead of 28.
-
-    With friction it carries :data:`FRICTION_FIRST` (1 %) of the state's load (of its
-    depth, where the depth is prescribed), so that every state of a path, the first
-    included, starts alike. The points it brings into contact are
-    anchored along the sphere's straight approach to the flat sheet, at their unloaded
-    lateral positions, whereas on a real loading path the sheet has moved inwards by
-    the time the growing contact reaches them, and they lock that motion in. On the
-    coarse test block at 0.34 N the surface inside the contact then sits 2-2.6 um
-    further inwards after many small increments than after one, while paths of 14 and
-    88 increments agree to 0.2 um, as do first increments of 2 % and 6 % followed by
-    doubling ones. Under 0.6 N of shear after 2 N, a first increment of 17 % of the load
-    (0.03 sheet thickness deep, the rule before 2026-11-29) gave a tangential
-    displacement 2.5 % larger than 1 %. Re-anchoring that increment's points where a
-    self-similar growth of the contact would have carried them, and solving it again,
-    converges too slowly to pay (each pass moves the anchors by only 15 % less).
+    With friction it stops at :data:`FRICTION_FIRST` of that depth: the points it brings
+    into contact are anchored along the sphere's straight approach to the flat sheet,
+    which the sheet's own motion departs from as the contact grows.
 
     Parameters
     ----------
@@ -461,7 +445,7 @@ def first_fraction(loads, radii, E: float, h: float, friction: float) -> float:
 
     Returns
     -------
-    float in [0.05, 1], or :data:`FRICTION_FIRST` with friction.
+    float in [0.05, 1].
 
     Examples
     --------
@@ -470,11 +454,9 @@ def first_fraction(loads, radii, E: float, h: float, friction: float) -> float:
     >>> round(first_fraction([8.0], [1.75e-3], 4e6, 3e-3, 0.0), 3)
     0.31
     >>> round(first_fraction([8.0], [1.75e-3], 4e6, 3e-3, float("inf")), 3)
-    0.01
+    0.051
     """
-    if friction > 0:
-        return FRICTION_FIRST
-    first = FIRST_DEPTH * h
+    first = FIRST_DEPTH * h * (FRICTION_FIRST if friction > 0 else 1.0)
     frac = 1.0
     for load, radius in zip(loads, radii, strict=True):
         if load > 0:

@@ -46,9 +46,7 @@ log = logging.getLogger("fringekit.fea")
 #: 2: every entry holds its key and the inputs it was hashed from.
 #: 3: under friction a point sticks where it first touches (fea.contact.first_touch_anchors).
 #: 4: the contact radius is the edge fitted to the open gap (fea.contact_edge), with its sd.
-#: 5: under friction the first increment from the unloaded sheet is 1 % of the load
-#: (fea.solver.first_fraction), and the increments may double.
-STORE_VERSION = 5
+STORE_VERSION = 4
 
 _IND_ARRAYS = ("centre", "force", "points", "pressure")
 _IND_SCALARS = ("radius", "depth", "contact_radius", "max_penetration", "contact_radius_sd")

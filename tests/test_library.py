@@ -127,10 +127,6 @@ def _set_format_2(m):
     m["format"] = "fringekit-library/2"
 
 
-def _set_format_3(m):
-    m["format"] = "fringekit-library/3"
-
-
 #: Edits of manifest.json -> words of the one-line refusal.
 MANIFEST_EDITS = {
     "top load": (_set_top_load, ["manifest.json", "checksum", "edited"]),
@@ -142,10 +138,6 @@ MANIFEST_EDITS = {
     "format 2": (
         _set_format_2,
         ["fringekit-library/2", "load steps", "rebuild it: fringekit library build"],
-    ),
-    "format 3": (
-        _set_format_3,
-        ["fringekit-library/3", "first contact", "rebuild it: fringekit library build"],
     ),
 }
 

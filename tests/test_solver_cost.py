@@ -184,8 +184,7 @@ def test_increments_on_the_way_skip_multiplier_updates_when_frictionless(small_m
 @pytest.mark.parametrize("friction", [0.0, math.inf])
 def test_the_estimate_knows_the_increments_the_solver_takes(small_meshes, friction):
     """The cost estimate steps the load as the solver does (first increment, doubling,
-    and with friction a first increment of 1 % and no normal load rising more than 1.5x
-    per increment): the same
+    and with friction no normal load rising more than 1.25x per increment): the same
     increments per state, frictionless and under full stick, on a path of two states."""
     mesh = small_meshes["quarter"]
     ind = [Indenter(normal_force=(1.0, 2.5))]
@@ -194,5 +193,5 @@ def test_the_estimate_knows_the_increments_the_solver_takes(small_meshes, fricti
     est = estimate_solve(mesh.n_dofs, ind, E=SHEET_DEFAULT.E, h=3e-3, contact=contact)
     assert stats.cutbacks == 0
     assert sum(est.increments) == stats.increments
-    assert est.increments[1] == (3 if friction else 1)  # 1 -> 2.5 N: 1.5^2 < 2.5 < 1.5^3
+    assert est.increments[1] == (5 if friction else 1)  # 1 -> 2.5 N: 1.25^4 < 2.5 < 1.25^5
     assert est.seconds > 0 and f"{stats.increments} increment(s)" in est.text()

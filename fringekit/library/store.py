@@ -53,19 +53,14 @@ __all__ = [
 #: 2: the manifest holds a checksum of its own (1: of the field files only).
 #: 3: under friction a point sticks where it first touches (fea.contact), so the
 #: stick fields of earlier libraries depend on the load steps they were built with.
-#: 4: under friction the first load step from the unloaded sheet is 1 % of the load
-#: (fea.solver.first_fraction): the larger one before locked the sheet's first contact
-#: where it was before loading.
 #: Older formats are refused with the command that rebuilds the library.
-FORMAT = "fringekit-library/4"
+FORMAT = "fringekit-library/3"
 #: Earlier formats -> why they are refused.
 _OLD_FORMATS = {
     "fringekit-library/1": "its manifest.json has no checksum of its own, so edits to it "
     "go unnoticed",
     "fringekit-library/2": "its stick fields anchored each point where it was at the start "
     "of a load step, so they depend on the load steps (up to 2 % in load)",
-    "fringekit-library/3": "its stick fields locked the first contact where the sheet was "
-    "before loading (2.5 % in the tangential compliance on the test block)",
 }
 #: The arrays of a field file (module docstring).
 FIELD_KEYS = ("AB", "valid", "contact_radius_m", "centre_m", "force_N")

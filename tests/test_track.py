@@ -918,11 +918,19 @@ def test_a_zero_length_video_and_another_sensor_are_refused(tiny_library, tmp_pa
 
 @pytest.mark.slow
 def test_invert_agrees_with_the_first_frame_of_track(tiny_library, tmp_path):
+    """The tracker's first frame is its quick start, or invert's whole inverse when that
+    does not explain the frame: the same answer (to 1e-9) in the second case, and within
+    half their stated 1-sigma in the first (with a stick library stepped otherwise, the
+    quick start was kept 9 um and 8 mN from invert, whose sd were 43 um and 0.13 N)."""
     library_frames(tiny_library, [_moving(0)], tmp_path, pixels=PX, pixel_mm=PIXEL_MM, noise=0.003)
     inv = fringekit.invert(tmp_path / "frame_0000.png", tiny_library, pixel_mm=PIXEL_MM)
     t = track(tmp_path, tiny_library, pixel_mm=PIXEL_MM)
     a, b = inv.result.params, t.frames[0].params
-    np.testing.assert_allclose(a[np.argsort(a[:, 0])], b[np.argsort(b[:, 0])], atol=1e-9)
+    order_a, order_b = np.argsort(a[:, 0]), np.argsort(b[:, 0])
+    sd = inv.result.sd[order_a]
+    whole = "inverse_s" in t.frames[0].times_s  # the quick start was not kept
+    assert np.all(np.abs(a[order_a] - b[order_b]) <= (1e-9 if whole else 0.5 * sd))
+    assert np.all(np.abs(t.frames[0].sd[order_b] - sd) <= 0.05 * sd)
 
 
 @pytest.mark.slow

@@ -27,6 +27,7 @@ from fringekit.library.calibrated import CalibratedSensor, coarse_map, fine_map
 from fringekit.optics import write_image
 from fringekit.tracking import TRACK_COLUMNS, library_frames, open_source, track, write_video
 from fringekit.tracking.figure import OverlayPainter
+from fringekit.tracking.ids import heirs
 from fringekit.tracking.run import FrameSpool
 from fringekit.tracking.tracker import Tracker
 
@@ -243,6 +244,28 @@ def test_a_touch_a_release_and_a_crossing_keep_their_ids(tiny_library, tmp_path)
     assert touched == [f"touch {next(iter(seen['A']))}"]
     assert "touch" in " ".join(t.frames[3].events)
     assert released == [(5, f"release {next(iter(seen['B']))}")]
+
+
+def test_where_two_tracked_contacts_meet_the_one_kept_takes_the_id_of_the_one_there():
+    """A lifted contact whose fit slid 5.8 mm onto a sliding neighbour's rings, and was
+    kept as the stronger of the two, takes the neighbour's id (a stepping of the tests'
+    stick library gave the lifted contact's id to the sliding one, and the sliding one a
+    new id a frame later); two contacts that met where each was stay as they were, a
+    contact found in this frame gives no id, and each dropped one's id goes once."""
+    clash = np.array([[np.inf, -3.4, -3.0], [-3.4, np.inf, -3.1], [-3.0, -3.1, np.inf]])
+    before = [[-2.2, 0.0], [-5.0, 5.0], [np.nan, np.nan]]
+    now = [[-2.2, 0.8], [-2.2, 0.75], [-2.0, 0.7]]
+    assert heirs(clash[:2, :2], [0], [1], before[:2], now[:2]) == {1: 0}
+    # the one kept stayed and the other came to it: no one's id changes
+    assert heirs(clash[:2, :2], [1], [0], before[:2], now[:2]) == {}
+    # a dropped contact found in this frame has no id to give
+    assert heirs(clash, [2], [0, 1], before, now) == {}
+    # one id, given once: to the nearest of two kept that met it
+    kept_two = [[-2.2, 0.0], [-5.0, 5.0], [-4.0, 4.0]]
+    assert heirs(clash, [0], [1, 2], kept_two, [[-2.2, 0.8], [-2.2, 0.75], [-2.2, 0.2]]) == {2: 0}
+    # contacts apart do not meet
+    apart = np.array([[np.inf, 2.0], [2.0, np.inf]])
+    assert heirs(apart, [0], [1], before[:2], now[:2]) == {}
 
 
 @pytest.mark.slow

@@ -14,7 +14,7 @@ from scipy.optimize import linear_sum_assignment
 
 from fringekit.inversion.model import N_PARAMS
 
-__all__ = ["assign", "twins", "velocity"]
+__all__ = ["assign", "heirs", "previous_axes", "twins", "velocity"]
 
 
 def assign(old_mm, new_mm, gate_mm: float = np.inf, allowed=None):
@@ -130,4 +130,88 @@ def twins(gaps, dropped, kept, new) -> dict:
         near = [j for j in kept if new[j] and j not in out and gaps[i, j] < 0]
         if near:
             out[near[0]] = int(i)
+    return out
+
+
+def heirs(gaps, dropped, kept, before_mm, now_mm) -> dict:
+    """Two tracked contacts that met in this frame, the one kept lying where the dropped
+    one was: the kept one takes the dropped one's id. When a lifted contact's fit slides
+    onto a neighbour's rings, the two clash and the stronger is kept (the rule of
+    :func:`~fringekit.inversion.selection.prune`); the one kept is then the neighbour,
+    whatever fit reached it, and its id is the one whose contact was there a frame before.
+
+    Parameters
+    ----------
+    gaps : (n, n) array
+        Distance between the contacts' axes less their spheres' radii (mm; below 0 for
+        two closer than their spheres allow).
+    dropped, kept : sequences of int
+        The contacts dropped and kept.
+    before_mm : (n, 2) array
+        Each contact's position (mm) in the frame before; NaN for one found in this frame.
+    now_mm : (n, 2) array
+        Each contact's position (mm) now.
+
+    Returns
+    -------
+    dict
+        Kept contact -> the dropped one whose id it takes: a dropped contact it met
+        whose position a frame before lies nearer to it than its own did; the nearest
+        such pairs first, each id given once.
+
+    Examples
+    --------
+    Contact 1, lifted at (-5, 5), slid onto contact 0's rings at (-2.2, 0.75) and was
+    kept as the stronger of the two:
+
+    >>> import numpy as np
+    >>> gaps = np.array([[np.inf, -3.4], [-3.4, np.inf]])
+    >>> heirs(gaps, [0], [1], [[-2.2, 0.0], [-5.0, 5.0]], [[-2.2, 0.8], [-2.2, 0.75]])
+    {1: 0}
+    """
+    before = np.reshape(np.asarray(before_mm, float), (-1, 2))
+    now = np.reshape(np.asarray(now_mm, float), (-1, 2))
+    pairs = []
+    for j in kept:  # a handful of contacts
+        own = np.hypot(*(before[j] - now[j]))
+        for i in dropped:
+            d = np.hypot(*(before[i] - now[j]))
+            if gaps[i, j] < 0 and d < own:  # (False where either is NaN)
+                pairs.append((d, int(j), int(i)))
+    out: dict = {}
+    for _, j, i in sorted(pairs):  # nearest first, each id given once
+        if j not in out and i not in out.values():
+            out[j] = i
+    return out
+
+
+def previous_axes(p_before, ids_before, ids) -> np.ndarray:
+    """Each contact's axis in the frame before, found by its id.
+
+    Parameters
+    ----------
+    p_before : (m * 5,) array
+        The parameters of the frame before: x, y (mm), Fz, Fx, Fy (N) per contact.
+    ids_before : (m,) int array
+        Their ids.
+    ids : (n,) int array
+        The ids of the contacts now.
+
+    Returns
+    -------
+    (n, 2) array
+        The axis (mm) each had; NaN for a contact found in this frame.
+
+    Examples
+    --------
+    >>> previous_axes([1.0, 2.0, 3.0, 0.0, 0.0], [7], [8, 7]).tolist()
+    [[nan, nan], [1.0, 2.0]]
+    """
+    q = np.reshape(np.asarray(p_before, float), (-1, N_PARAMS))
+    before = np.asarray(ids_before, int)
+    out = np.full((len(ids), 2), np.nan)
+    for k, i in enumerate(ids):  # a handful of contacts
+        j = np.flatnonzero(before[: len(q)] == i)
+        if len(j):
+            out[k] = q[j[0], :2]
     return out

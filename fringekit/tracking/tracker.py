@@ -59,7 +59,7 @@ from fringekit.inversion.selection import MIN_LOAD_FRACTION, prune, sphere_gaps
 from fringekit.inversion.uncertainty import model_sd, stated_sd
 from fringekit.inversion.verdict import WARN_RESIDUAL, InvertError, at_library_edge, window_rms
 from fringekit.tracking.frame import TrackedFrame
-from fringekit.tracking.ids import assign, twins, velocity
+from fringekit.tracking.ids import assign, heirs, previous_axes, twins, velocity
 from fringekit.tracking.start import near_residual, quick_start, settle_new
 from fringekit.tracking.warm import ChordFit
 
@@ -131,6 +131,7 @@ class Tracker:
         self.area_age = 0
         self.index: int | None = None  # the last frame's
         self.p_before = np.zeros(0)  # the parameters of the frame before
+        self.ids_before = np.zeros(0, int)  # and their ids
         self.rejected: list[list] = []  # [frame, x, y mm, residual there] (REJECTED_FRAMES)
 
     def step(self, measured, usable, nodata, index: int, time_s: float) -> TrackedFrame:
@@ -155,7 +156,7 @@ class Tracker:
         events: list[str] = []
         times: dict = {}
         before = (self.p.copy(), self.ids.copy())
-        self.p_before = before[0]
+        self.p_before, self.ids_before = before
         gap = index - self.index if self.index is not None else 1
         self.index = index
         converged = True
@@ -429,8 +430,11 @@ class Tracker:
         """Contacts whose normal load is no longer significant (or that met a stronger
         one) are released, their ids retired. A contact found in this frame that a
         contact already tracked met keeps the tracked one's id and history: they are one
-        contact, seen twice by a search after dropped frames. A contact found in this
-        frame is kept from ``floor`` of the library's first load (the rule of
+        contact, seen twice by a search after dropped frames. Of two tracked contacts
+        that met, the one kept takes the other's id when the other was nearer to where
+        it is now (:func:`~fringekit.tracking.ids.heirs`: a lifted contact's fit that slid
+        onto a neighbour's rings is the neighbour). A contact found in this frame is kept
+        from ``floor`` of the library's first load (the rule of
         :func:`~fringekit.inversion.selection.prune`): a touch's check in its own frame
         takes TOUCH_FRACTION. Below it the library interpolates between no load and its
         first load, and a light contact's rings cannot be told from a misfit of the model
@@ -442,18 +446,24 @@ class Tracker:
         if len(kept) == len(self.diam):
             return False
         dropped = np.setdiff1d(np.arange(len(self.diam)), kept)
-        pairs = twins(sphere_gaps(self.p, self.diam), dropped, kept, new)
-        ids, hist = self.ids.copy(), list(self.history)
+        gaps = sphere_gaps(self.p, self.diam)
+        pairs = twins(gaps, dropped, kept, new)
+        was = previous_axes(self.p_before, self.ids_before, self.ids)  # NaN for new ones
+        left = [i for i in dropped if i not in pairs.values()]
+        met = heirs(gaps, left, kept, was, self._axes())
+        ids, hist, gone = self.ids.copy(), list(self.history), self.ids.copy()
         for j, i in pairs.items():  # the tracked contact lives on in its twin
             events.remove(f"touch {int(ids[j])}")
             ids[j], hist[j] = self.ids[i], hist[i]
+        for j, i in met.items():  # the contact kept is the one that was there
+            ids[j], hist[j], gone[i] = self.ids[i], hist[i], self.ids[j]
         for i in dropped:
             if new[i]:  # found and dropped in one frame: never a contact
                 events.remove(f"touch {int(self.ids[i])}")
                 x, y = self.p[i * N_PARAMS : i * N_PARAMS + 2]
                 self.rejected.append([int(self.index or 0), x, y, None])
             elif i not in pairs.values():
-                events.append(f"release {int(self.ids[i])}")
+                events.append(f"release {int(gone[i])}")
         self.ids = ids[kept]
         self._reset(p, diam)
         self.history = [hist[i] for i in kept]

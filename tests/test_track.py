@@ -489,10 +489,10 @@ def _raise_in_frame(monkeypatch, index: int, exc: BaseException) -> None:
     """``Tracker.step`` raises ``exc`` in frame ``index`` and solves every other frame."""
     step = Tracker.step
 
-    def raising(self, measured, usable, nodata, frame_index, time_s):
+    def raising(self, measured, usable, nodata, frame_index, time_s, censored=None):
         if frame_index == index:
             raise exc
-        return step(self, measured, usable, nodata, frame_index, time_s)
+        return step(self, measured, usable, nodata, frame_index, time_s, censored)
 
     monkeypatch.setattr(Tracker, "step", raising)
 

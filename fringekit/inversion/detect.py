@@ -75,11 +75,15 @@ def detection_bytes(shape: tuple[int, int], pixel_mm: float) -> float:
 
 def noise_sd(model: ImageModel) -> float:
     """Noise sd of the measured image (Immerkaer's estimator, the channels' median), at
-    least the quantisation noise of 8 bits."""
+    least the quantisation noise of 8 bits; a channel's censored pixels (clipped at
+    black, without noise) are left out of its estimate."""
     rows, cols = model.grid.shape
     img = model.measured.reshape(rows, cols, -1)
-    use = model.usable.reshape(rows, cols)
-    sig = [image_noise(img[..., c], use) for c in range(img.shape[-1])]
+    use = np.broadcast_to(model.usable[:, None], model.measured.shape)
+    if model.censored is not None:
+        use = use & ~model.censored
+    use = use.reshape(img.shape)
+    sig = [image_noise(img[..., c], use[..., c]) for c in range(img.shape[-1])]
     return float(max(np.median(sig), 1.0 / (255 * np.sqrt(12))))
 
 

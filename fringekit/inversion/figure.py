@@ -32,7 +32,7 @@ def fit_figure(path, model, res) -> None:
     else:  # no indenter, or positions only (a time budget spent at detection)
         fitted = np.full_like(model.measured, np.median(model.measured))
         outside = np.ones(len(model.measured), bool)
-    resid = np.where((model.usable & outside)[:, None], model.measured - fitted, np.nan)
+    resid = np.where((model.usable & outside)[:, None], model.misfit(fitted), np.nan)
     origin = tuple(float(v) for v in model.grid.xy_to_pixel(0.0, 0.0))
     ext = sensor_extent(model.grid.shape, model.grid.pixel_size, origin)
     fig = Figure(figsize=(13, 4.6), dpi=100)

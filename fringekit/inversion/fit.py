@@ -138,6 +138,7 @@ def subsample(model: ImageModel, k: int) -> ImageModel:
     nodata = None if model.nodata is None else model.nodata[pick]
     corr = None if model.correction is None else model.correction[pick]
     resid = None if model.residual_ab is None else model.residual_ab[pick]
+    censored = None if model.censored is None else model.censored[pick]
     return replace(
         model,
         grid=grid,
@@ -146,6 +147,7 @@ def subsample(model: ImageModel, k: int) -> ImageModel:
         nodata=nodata,
         correction=corr,
         residual_ab=resid,
+        censored=censored,
     )
 
 

@@ -224,7 +224,7 @@ def _scan(model: ImageModel, p, diam, k: int, gains, offs, f_scale, centres, tab
                 tots.append(others[None] + ab)
                 rows += [[cx, cy, fz, ft * np.cos(a), ft * np.sin(a)] for a in dirs]
     lin, table = retarder_lookup(sub, np.concatenate(tots), table)
-    costs = robust_cost(sub.measured[None] - (gains * lin + offs), f_scale, axis=(1, 2))
+    costs = robust_cost(sub.misfit(gains * lin + offs), f_scale, axis=(1, 2))
     return costs[1:], np.array(rows[1:]), float(costs[0]), table
 
 
@@ -270,7 +270,7 @@ def _refine(fine: ImageModel, p, diam, k, starts, gains, offs, f_scale):
         ind = unpack(v, diam[k : k + 1])[0]
         trial = inds[:k] + [ind] + inds[k + 1 :]
         lin = sub.intensities(others + lib.slabs(ind, xy)[0], trial)
-        r = (sub.measured - (gains * lin + offs)).ravel()
+        r = sub.misfit(gains * lin + offs).ravel()
         return np.concatenate([r, range_penalty(v, lib.max_ratio, f_scale)[0]])
 
     t = lib.max_ratio * lib.max_load_N

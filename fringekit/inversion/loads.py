@@ -350,7 +350,7 @@ def invert(
     grid = pixel_grid(shape, pixel_mm, origin_px)
     wl = {k: cfg["optics"][k] for k in ("light", "white_light_wavelengths")}
     model = ImageModel.build(lib, grid, method, measured, usable, optics, nodata=meas.nodata, **wl)
-    model = replace(model, residual_ab=residual_ab)
+    model = replace(model, residual_ab=residual_ab, censored=meas.censored)
     say(
         f"invert: {method}, {shape[0]} x {shape[1]} px, library {lib.folder} "
         f"({len(lib.load_N) - 1} loads x {len(lib.shear_ratio)} ratios)"

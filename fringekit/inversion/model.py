@@ -135,6 +135,10 @@ class ImageModel:
         composes with the loads' retardation as a retarder in the sheet does
         (:meth:`background`; six rest steps: a phase ``--reference``, or
         ``--residual-steps``); None: no residual
+    censored : (P, C) bool array or None — colour channels the camera stored at its
+        black (:func:`~fringekit.inversion.read.clipped_black`): there the light is at
+        most the measured level, and the model, which goes on below the camera's gamut, is
+        compared as the camera clips it (:meth:`misfit`); None: every channel measured
     """
 
     lib: Library
@@ -152,6 +156,7 @@ class ImageModel:
     points: np.ndarray | None = None
     correction: np.ndarray | None = None
     residual_ab: np.ndarray | None = None
+    censored: np.ndarray | None = None
 
     @classmethod
     def build(
@@ -207,6 +212,7 @@ class ImageModel:
             points=self.xy[pixels],
             correction=pick(self.correction),
             residual_ab=pick(self.residual_ab),
+            censored=pick(self.censored),
         )
 
     @cached_property
@@ -325,9 +331,33 @@ class ImageModel:
         if self.correction is not None:
             model = model + self.correction
         fitted, _, _ = self.project(model, use)
-        res = self.measured - fitted
+        res = self.misfit(fitted)
         res[~use] = 0.0
         return res.ravel()
+
+    def misfit(self, fitted: np.ndarray) -> np.ndarray:
+        """Measured less ``fitted`` (..., P, C), the model as the camera records it: on a
+        :attr:`censored` channel the camera stored its black, so a model at or below
+        the measured level there fits it exactly (a censored observation: J. Tobin,
+        "Estimation of relationships for limited dependent variables", Econometrica 26,
+        1958), and one above it misfits by the difference.
+
+        Examples
+        --------
+        A channel stored at black (measured 0) misfits a model above it only:
+
+        >>> import numpy as np
+        >>> m = ImageModel(None, None, "rgb", np.zeros((2, 1)), np.ones(2, bool), None,
+        ...                {}, [[0]], censored=np.array([[True], [False]]))
+        >>> m.misfit(np.array([[-0.1], [-0.1]])).ravel().tolist()
+        [0.0, 0.1]
+        >>> m.misfit(np.array([[0.2], [0.2]])).ravel().tolist()
+        [-0.2, -0.2]
+        """
+        res = self.measured - fitted
+        if self.censored is None:
+            return res
+        return np.where(self.censored, np.minimum(res, 0.0), res)
 
     def outside_contacts(self, indenters) -> np.ndarray:
         xy = self.xy
@@ -345,11 +375,14 @@ class ImageModel:
 
         The straight-line fit in closed form (:func:`line_fit`); a model without contrast
         on ``use`` (all one value) has no gain: the offset is the measured mean, the
-        gain 0.
+        gain 0. Pixels with a :attr:`censored` channel are left out of it: their light is
+        bounded, not measured.
         """
         fitted = np.empty_like(model)
         gains = np.zeros(model.shape[1])
         offs = np.zeros(model.shape[1])
+        if self.censored is not None:  # a channel at black bounds the light, no more
+            use = use & ~self.censored.any(axis=1)
         mu, du = model[use], self.measured[use]
         for g in self.groups:  # one, or three colour channels
             gain, off, _ = line_fit(mu[:, g], du[:, g])

@@ -18,6 +18,7 @@ from fringekit.optics import PixelGrid
 
 __all__ = [
     "Measurement",
+    "censored_channels",
     "clipped_black",
     "frame_measurement",
     "pixel_arrays",
@@ -64,9 +65,11 @@ def frame_measurement(
     response, rest frame and illumination give the linear intensities instead.
     ``channel``: for mono, the colour channel (0-2) a colour frame is read in, chosen by
     the caller (a stream's, held from frame to frame); no note, no check. The unusable
-    pixels are the saturated ones and, when the model is ``fitted`` to the frame
-    (``invert``'s image, a stream's frames; not a rest frame, whose light is subtracted),
-    the colour pixels clipped at black (:func:`clipped_black`)."""
+    pixels are the saturated ones and, when a model is ``fitted`` to the frame pixel by
+    pixel without censoring (``sensor calibrate``'s known frames; not a rest frame, whose
+    light is subtracted), the colour pixels clipped at black (:func:`clipped_black`).
+    ``invert`` and ``track`` keep those and censor the channels instead
+    (:func:`censored_channels`)."""
     name = frame.source
     if method == "rgb" and frame.data.ndim != 3:
         raise ConfigError(f"--method rgb needs a colour image; {name} is grey")
@@ -79,13 +82,14 @@ def frame_measurement(
     lin = sensor_linear(raw, sensor)
     if lin is None:
         lin = _decode(frame, camera_name, True).reshape(raw.shape) if method == "rgb" else raw
-    unusable = frame.saturated | clipped_black(raw, method) if fitted else frame.saturated
+    black = clipped_black(raw, method).any(axis=2)
+    unusable = frame.saturated | black if fitted else frame.saturated
     return lin, raw, unusable, note
 
 
 def clipped_black(raw: np.ndarray, method: str) -> np.ndarray:
-    """(rows, cols) bool: the pixels of a colour image (``method`` rgb) with a channel at
-    the bottom of its range, none for the other methods.
+    """(rows, cols, C) bool: the channels of a colour image (``method`` rgb) at the bottom
+    of their range, none for the other methods.
 
     A dark-field colour fringe outside the camera's gamut (the deep blues and purples of
     the first orders) has a channel below zero once its spectrum is turned into the
@@ -95,6 +99,9 @@ def clipped_black(raw: np.ndarray, method: str) -> np.ndarray:
     full scale), and two contacts' residuals at the true loads were 3.1 times the
     noise's share; without those pixels 1.0-1.35 times, as in grey. A grey or phase
     intensity is never below zero in the model, so a pixel at 0 is the model's 0 there.
+    ``invert`` and ``track`` compare the model with such a channel as the camera clips it
+    (:meth:`~fringekit.inversion.model.ImageModel.misfit`); ``sensor calibrate`` leaves
+    the pixel out of its known frames (:func:`frame_measurement`, ``fitted``).
 
     Parameters
     ----------
@@ -106,12 +113,12 @@ def clipped_black(raw: np.ndarray, method: str) -> np.ndarray:
     --------
     >>> import numpy as np
     >>> raw = np.array([[[0.0, 0.3, 0.5], [0.2, 0.3, 0.5]]])
-    >>> clipped_black(raw, "rgb").tolist(), clipped_black(raw[..., :1], "mono").tolist()
-    ([[True, False]], [[False, False]])
+    >>> clipped_black(raw, "rgb")[..., 0].tolist(), clipped_black(raw[..., :1], "mono").any()
+    ([[True, False]], np.False_)
     """
     if method != "rgb":
-        return np.zeros(raw.shape[:2], bool)
-    return np.any(raw <= 0.0, axis=2)
+        return np.zeros(raw.shape, bool)
+    return raw <= 0.0
 
 
 def steps_measurement(frames) -> tuple[np.ndarray, np.ndarray]:
@@ -162,8 +169,7 @@ class Measurement:
     linear : (P, C) float array
         Linear intensity, P = rows * cols; C = 6 (phase), 3 (rgb) or 1 (mono).
     usable : (P,) bool array
-        Pixels neither saturated nor at the no-data fill level, nor (rgb) with a channel
-        clipped at black (:func:`clipped_black`).
+        Pixels neither saturated nor at the no-data fill level.
     nodata : (P,) bool array
         Pixels at the no-data fill level.
     shape : tuple of int
@@ -172,6 +178,10 @@ class Measurement:
         Which channel of a colour photograph of monochromatic light mono reads (or "").
     channel : int or None
         That channel (0-2), for the rest frames to be read in it; None otherwise.
+    censored : (P, C) bool array or None
+        The colour channels clipped at black (:func:`clipped_black`), which bound the
+        light rather than measure it (:attr:`~fringekit.inversion.model.ImageModel.censored`);
+        None when there is none.
 
     Examples
     --------
@@ -188,13 +198,14 @@ class Measurement:
     shape: tuple
     note: str = ""
     channel: int | None = None
+    censored: np.ndarray | None = None
 
 
 def read_measurement(paths, method: str | None, camera_name: str, sensor=None) -> Measurement:
     """The :class:`Measurement` of the image files: usable pixels are neither saturated nor
-    at the no-data fill level, nor (rgb) clipped at black; the note says which channel of a
-    colour photograph of monochromatic light the mono method reads (one whose channels
-    disagree is refused).
+    at the no-data fill level, and (rgb) channels clipped at black are censored; the note
+    says which channel of a colour photograph of monochromatic light the mono method reads
+    (one whose channels disagree is refused).
     ``sensor``: a :class:`~fringekit.library.calibrated.CalibratedSensor` whose response,
     rest frame and illumination are applied (its image size and method are checked by
     the caller).
@@ -221,18 +232,35 @@ def read_measurement(paths, method: str | None, camera_name: str, sensor=None) -
     want = 6 if method == "phase" else 1
     if len(paths) != want:
         raise ConfigError(f"--method {method} takes {want} image(s); got {len(paths)}")
-    channel = None
+    channel, censored = None, None
     if method == "phase":
         raw, sat = steps_measurement(load_six_step(paths))
         lin, note = sensor_linear(raw, sensor), ""
         lin = raw if lin is None else lin
     else:
         frame = load_image(paths[0])
-        lin, raw, sat, note = frame_measurement(frame, method, camera_name, sensor, fitted=True)
+        lin, raw, sat, note = frame_measurement(frame, method, camera_name, sensor)
         if method == "mono" and frame.data.ndim == 3:
             channel = strongest_channel(frame.data)
+        censored = censored_channels(raw, method)
     linear, usable, nodata = pixel_arrays(lin, raw, sat)
-    return Measurement(method, linear, usable, nodata, raw.shape[:2], note, channel)
+    return Measurement(method, linear, usable, nodata, raw.shape[:2], note, channel, censored)
+
+
+def censored_channels(raw: np.ndarray, method: str) -> np.ndarray | None:
+    """(P, C) bool: the channels of stored values ``raw`` (rows, cols, C) clipped at black
+    (:func:`clipped_black`), P = rows * cols; None when there is none.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> censored_channels(np.array([[[0.0, 0.3, 0.5], [0.2, 0.3, 0.5]]]), "rgb").tolist()
+    [[True, False, False], [False, False, False]]
+    >>> censored_channels(np.zeros((2, 2, 1)), "mono") is None
+    True
+    """
+    black = clipped_black(raw, method)
+    return black.reshape(-1, black.shape[2]) if black.any() else None
 
 
 def sensor_config(images) -> tuple[dict | None, str | None]:

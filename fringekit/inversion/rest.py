@@ -121,9 +121,7 @@ def checked_pixels(img: np.ndarray, where: str) -> np.ndarray:
     return np.ascontiguousarray(img)
 
 
-def frame_linear(
-    raw: np.ndarray, method: str, camera: str, name: str, cal=None, channel=None, fitted=False
-):
+def frame_linear(raw: np.ndarray, method: str, camera: str, name: str, cal=None, channel=None):
     """One decoded frame as the model sees it.
 
     Parameters
@@ -143,17 +141,13 @@ def frame_linear(
         from the normalised frame and its name (a stream's
         :class:`~fringekit.tracking.channel.MonoChannel`); default the frame's own
         strongest, its channels checked to agree.
-    fitted : bool
-        The frame is one the model is fitted to (a stream's), not a rest frame whose light
-        is subtracted: its colour pixels with a channel clipped at black are unusable too
-        (:func:`~fringekit.inversion.read.clipped_black`), as ``invert``'s are.
-
     Returns
     -------
     measured : (P, C) array
         Linear intensities, P = rows * cols pixels, C = 3 (rgb) or 1 (mono).
     usable : (P,) bool array
-        Neither saturated nor no-data (nor, ``fitted``, clipped at black).
+        Neither saturated nor no-data (a colour channel clipped at black is the
+        caller's to censor: :func:`~fringekit.inversion.read.censored_channels`).
     nodata : (P,) bool array
     note : str
         Which channel of a colour frame the mono method reads ("" for rgb).
@@ -168,7 +162,7 @@ def frame_linear(
     frame = normalise(grey(raw), source=name)
     if callable(channel):
         channel = channel(frame.data, name) if method == "mono" else None
-    lin, data, sat, note = frame_measurement(frame, method, camera, cal, channel, fitted)
+    lin, data, sat, note = frame_measurement(frame, method, camera, cal, channel)
     return (*pixel_arrays(lin, data, sat), note)
 
 

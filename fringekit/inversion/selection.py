@@ -99,7 +99,9 @@ def residual_candidates(
     :func:`fringekit.tracking.start.quick_start`, which look for more indenters so.
     """
     fitted, _, _, outside = fine.fitted(unpack(p, diam))
-    resid = replace(fine, measured=np.where(outside[:, None], fine.measured - fitted, 0.0))
+    resid = replace(
+        fine, measured=np.where(outside[:, None], fine.misfit(fitted), 0.0), censored=None
+    )
     taken = np.concatenate([np.reshape(p, (-1, N_PARAMS))[:, :2], np.reshape(dropped, (-1, 2))])
     if matched:
         return match_candidates(fine, detect(resid, noise, exclude=dropped), taken)

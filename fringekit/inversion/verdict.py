@@ -109,7 +109,7 @@ def fit_verdict(fine, p: np.ndarray, diam, radius_mm: float):
     """
     fitted, gains, offs, outside = fine.fitted(unpack(p, diam))
     use = fine.usable & outside
-    r = fine.measured - fitted
+    r = fine.misfit(fitted)
     amp = float(np.mean(np.abs(gains)))
     rms = window_rms(r, use, fine.xy * 1e3, np.reshape(p, (-1, 5)), amp, radius_mm)
     if amp == 0.0:  # a model without fringes on the pixels fitted explains nothing

@@ -31,6 +31,7 @@ from fringekit.analysis import normalise
 from fringekit.config.files import load_config
 from fringekit.config.inputs import optics_setup
 from fringekit.errors import ConfigError, SourceError
+from fringekit.inversion.read import censored_channels
 from fringekit.inversion.rest import (
     PHASE_STEPS,
     bright_rest_warning,
@@ -455,11 +456,14 @@ class _Run:
             measured, usable, nodata, note = steps_linear(
                 [s.image for s in steps], [s.name for s in steps], self.cal
             )
+            censored = None  # (a grey model never goes below zero)
         else:
             camera = self.optics.camera.sensitivities
             measured, usable, nodata, note = frame_linear(
-                raw.image, self.method, camera, raw.name, self.cal, self.channel, fitted=True
+                raw.image, self.method, camera, raw.name, self.cal, self.channel
             )
+            image = np.asarray(raw.image)
+            censored = censored_channels(image.reshape(*image.shape[:2], -1), self.method)
             if self.channel.switched:  # the noise was measured in another channel
                 self.tracker.noise, self.channel.switched = None, False
         if self.rest_ab is not None:  # phase: the residual is in the model
@@ -469,7 +473,7 @@ class _Run:
             measured, usable = measured - self.rest_light, usable & ~self.rest_unknown
         if note and note not in self.notes:
             self.notes.append(note)
-        return self.tracker.step(measured, usable, nodata, raw.index, raw.time_s)
+        return self.tracker.step(measured, usable, nodata, raw.index, raw.time_s, censored)
 
     def summary(self, where: str) -> dict:
         solved = len(self.frames)

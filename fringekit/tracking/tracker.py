@@ -31,7 +31,9 @@ the frame), and then per frame:
 3. **Identity.** Each contact keeps the id it got at its touch until its release: the
    parameters of a contact are one block of the fit, carried from frame to frame, so
    two contacts that pass each other keep their blocks (two spheres' axes stay a
-   diameter apart, and a frame moves them far less).
+   diameter apart, and a frame moves them far less). When two blocks meet on one
+   contact (a lifted contact's fit sliding onto a neighbour's rings), the one kept takes
+   the id of the contact that was there (:func:`~fringekit.tracking.ids.heirs`).
 """
 
 from __future__ import annotations
@@ -134,21 +136,22 @@ class Tracker:
         self.ids_before = np.zeros(0, int)  # and their ids
         self.rejected: list[list] = []  # [frame, x, y mm, residual there] (REJECTED_FRAMES)
 
-    def step(self, measured, usable, nodata, index: int, time_s: float) -> TrackedFrame:
+    def step(self, measured, usable, nodata, index, time_s, censored=None) -> TrackedFrame:
         """The contacts of one frame: linear intensities ``measured`` (P, C), ``usable``
-        and ``nodata`` (P,) bool, as :class:`ImageModel` holds them. BLAS runs on one
-        thread: the frame's products are small and the rays use the cores already.
+        and ``nodata`` (P,) bool and ``censored`` (P, C) bool or None, as
+        :class:`ImageModel` holds them. BLAS runs on one thread: the frame's products are
+        small and the rays use the cores already.
 
         Raises :class:`~fringekit.inversion.verdict.InvertError` when no contact is
         tracked yet and the frame shows fringes that the whole inverse cannot explain
         (:func:`~fringekit.tracking.track` records it in ``frames_refused`` and starts
         afresh at the next frame)."""
         with single_blas_thread():
-            return self._step(measured, usable, nodata, index, time_s)
+            pixels = {"measured": measured, "usable": usable, "nodata": nodata}
+            return self._step(replace(self.blank, **pixels, censored=censored), index, time_s)
 
-    def _step(self, measured, usable, nodata, index: int, time_s: float) -> TrackedFrame:
+    def _step(self, full: ImageModel, index: int, time_s: float) -> TrackedFrame:
         t0 = time.perf_counter()
-        full = replace(self.blank, measured=measured, usable=usable, nodata=nodata)
         sub = replace(subsample(full, self.stride), exact=EXACT_MM * 1e-3)
         if self.noise is None:
             self.noise = noise_sd(full)
@@ -449,8 +452,7 @@ class Tracker:
         gaps = sphere_gaps(self.p, self.diam)
         pairs = twins(gaps, dropped, kept, new)
         was = previous_axes(self.p_before, self.ids_before, self.ids)  # NaN for new ones
-        left = [i for i in dropped if i not in pairs.values()]
-        met = heirs(gaps, left, kept, was, self._axes())
+        met = heirs(gaps, [i for i in dropped if i not in pairs.values()], kept, was, self._axes())
         ids, hist, gone = self.ids.copy(), list(self.history), self.ids.copy()
         for j, i in pairs.items():  # the tracked contact lives on in its twin
             events.remove(f"touch {int(ids[j])}")
@@ -483,7 +485,9 @@ class Tracker:
         the 3 N touch of ``bench/track.py``, rejected at 0.2 N, was read 3 frames late)."""
         img = r[: fixed.measured.size].reshape(fixed.measured.shape)
         floor = self._floor(rms)
-        new = detect(replace(fixed, measured=img, keep=None), floor, exclude=self._axes())
+        new = detect(
+            replace(fixed, measured=img, keep=None, censored=None), floor, exclude=self._axes()
+        )
         xy = fixed.xy * 1e3
         lo, hi = xy.min(axis=0) + BORDER_MM, xy.max(axis=0) - BORDER_MM
         new = new[np.all((new >= lo) & (new <= hi), axis=1)] if len(new) else new

@@ -177,7 +177,7 @@ class ChordFit:
         ab = fixed.with_background(ab)
         use = fixed.usable & fixed.keep
         fitted, gains, _ = fixed.project(fixed.intensities(ab, inds), use)
-        res = fixed.measured - fitted
+        res = fixed.misfit(fitted)
         res[~use] = 0.0
         pen, _ = range_penalty(p, fixed.lib.max_ratio, 3.0 * self.noise)
         return np.concatenate([res.ravel(), pen]), gains

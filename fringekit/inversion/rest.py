@@ -141,6 +141,7 @@ def frame_linear(raw: np.ndarray, method: str, camera: str, name: str, cal=None,
         from the normalised frame and its name (a stream's
         :class:`~fringekit.tracking.channel.MonoChannel`); default the frame's own
         strongest, its channels checked to agree.
+
     Returns
     -------
     measured : (P, C) array

@@ -449,16 +449,18 @@ def test_the_basin_search_turns_a_wrong_tangential_load_back(test_library):
 
 
 def test_a_fit_started_between_two_candidates_finds_the_contact_they_shared(tiny_library):
-    """fringekit.inversion.hop.hop_to: one contact of a two-contact frame held 0.42 mm off
-    with its 0.3 N tangential load lost (where the whole inverse left it when detection
-    split that contact into two candidates 1.7 mm either side, with the substrate meshed
-    more coarsely) comes back to the truth from a start midway between the candidates'
-    axes; the other contact is held; a start where no contact is changes nothing. The
-    search after a drop (``search_after_drop``) starts there from the model selection's
-    record, and searches nothing when the dropped candidate was far from both."""
+    """fringekit.inversion.hop.hop_to: one contact of a two-contact frame left in a false
+    minimum about 0.4 mm off with its 0.3 N tangential load lost (where the whole inverse
+    left it when detection split that contact into two candidates 1.7 mm either side,
+    with the substrate meshed more coarsely; the minimum is found on this library by a
+    local fit from there, the basin being the library's) comes back to the truth from a
+    start midway between the candidates' axes; the other contact is held; a start where
+    no contact is changes nothing. The search after a drop (``search_after_drop``) starts
+    there from the model selection's record, and searches nothing when the dropped
+    candidate was far from both."""
     from library_fixtures import TINY
 
-    from fringekit.inversion.fit import EXACT_MM, subsample
+    from fringekit.inversion.fit import EXACT_MM, fit_indenters, subsample
     from fringekit.inversion.hop import hop_to, search_after_drop
 
     inds = [
@@ -469,8 +471,11 @@ def test_a_fit_started_between_two_candidates_finds_the_contact_they_shared(tiny
     fine = replace(subsample(model, 2), exact=EXACT_MM * 1e-3)
     truth = _truth(inds)
     start = truth.copy()
-    start[1] = [3.117, -3.576, 3.018, -0.079, -0.002]
+    start[1] = [3.117, -3.576, 3.018, -0.079, -0.002]  # where the whole inverse left it
     diam = [3.5e-3, 3.5e-3]
+    start = fit_indenters(fine, start.ravel(), diam, 1e-3, free=[1]).x.reshape(-1, 5)
+    assert np.hypot(*(start[1, :2] - truth[1, :2])) > 0.2, start[1]  # a false minimum
+    assert np.hypot(*start[1, 3:]) < 0.15, start[1]  # its tangential load lost
     got, changed = hop_to(fine, start.ravel(), diam, 1e-3, 1, [(2.875, -4.125)])
     q = got.reshape(-1, 5)
     assert changed == 1

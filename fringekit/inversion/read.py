@@ -82,9 +82,9 @@ def frame_measurement(
     lin = sensor_linear(raw, sensor)
     if lin is None:
         lin = _decode(frame, camera_name, True).reshape(raw.shape) if method == "rgb" else raw
-    black = clipped_black(raw, method).any(axis=2)
-    unusable = frame.saturated | black if fitted else frame.saturated
-    return lin, raw, unusable, note
+    if fitted:
+        return lin, raw, frame.saturated | clipped_black(raw, method).any(axis=2), note
+    return lin, raw, frame.saturated, note
 
 
 def clipped_black(raw: np.ndarray, method: str) -> np.ndarray:

@@ -85,12 +85,17 @@ def velocity(before, after, gap: int) -> np.ndarray:
     p0, ids0 = before
     p1, ids1 = after
     q0, q1 = np.reshape(p0, (-1, N_PARAMS)), np.reshape(p1, (-1, N_PARAMS))
+    rows = _rows_of(ids0, ids1)
+    had = rows >= 0
     v = np.zeros_like(q1, dtype=float)
-    for k, i in enumerate(ids1):  # a handful of contacts
-        j = np.flatnonzero(np.asarray(ids0) == i)
-        if len(j):
-            v[k] = (q1[k] - q0[j[0]]) / gap
+    v[had] = (q1[had] - q0[rows[had]]) / gap
     return v.ravel()
+
+
+def _rows_of(ids_before, ids) -> np.ndarray:
+    """(n,) int: the row of each of ``ids`` among ``ids_before``; -1 for an id new now."""
+    before = [int(i) for i in np.ravel(ids_before)]
+    return np.array([before.index(int(i)) if int(i) in before else -1 for i in ids], int)
 
 
 def twins(gaps, dropped, kept, new) -> dict:
@@ -208,10 +213,7 @@ def previous_axes(p_before, ids_before, ids) -> np.ndarray:
     [[nan, nan], [1.0, 2.0]]
     """
     q = np.reshape(np.asarray(p_before, float), (-1, N_PARAMS))
-    before = np.asarray(ids_before, int)
-    out = np.full((len(ids), 2), np.nan)
-    for k, i in enumerate(ids):  # a handful of contacts
-        j = np.flatnonzero(before[: len(q)] == i)
-        if len(j):
-            out[k] = q[j[0], :2]
+    rows = _rows_of(ids_before, ids)
+    out = np.full((len(rows), 2), np.nan)
+    out[rows >= 0] = q[rows[rows >= 0], :2]
     return out

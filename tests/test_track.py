@@ -268,6 +268,25 @@ def test_where_two_tracked_contacts_meet_the_one_kept_takes_the_id_of_the_one_th
     assert heirs(apart, [0], [1], before[:2], now[:2]) == {}
 
 
+def test_a_contact_about_to_be_dropped_is_judged_by_its_own_load_a_frame_before(monkeypatch):
+    """Whether a contact the release would drop bore a clear load a frame before (then it
+    moved too fast, and is searched for) is read by its id: the frame before may hold
+    its contacts in another order (it read the row, and so another contact's load)."""
+    from types import SimpleNamespace
+
+    from fringekit.tracking import tracker as tracker_module
+
+    lib = SimpleNamespace(load_N=np.array([0.0, 1.0, 2.0]))
+    t = Tracker(SimpleNamespace(lib=lib))
+    t.diam, t.ids = [3.5e-3] * 3, np.array([3, 5, 9])
+    t.p = np.array([[0, 0, 1.0, 0, 0], [4, 0, 0.01, 0, 0], [8, 0, 0.01, 0, 0]], float).ravel()
+    # a frame before: 5 bore 3 N, 3 bore 0.1 N, and 7 (released since) 3 N; 9 is new
+    t.p_before = np.array([[4, 0, 3.0, 0, 0], [0, 0, 0.1, 0, 0], [9, 0, 3.0, 0, 0]]).ravel()
+    t.ids_before = np.array([5, 3, 7])
+    monkeypatch.setattr(tracker_module, "prune", lambda p, sd, diam, lib, held: (p, diam, [0]))
+    assert t._lost(np.zeros((3, 5)), []).tolist() == [False, True, False]
+
+
 @pytest.mark.slow
 def test_a_frame_is_solved_on_one_blas_thread(tiny_library, tmp_path, monkeypatch):
     """The warm fit runs on one BLAS thread: OpenBLAS's threads, spinning while

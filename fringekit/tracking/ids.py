@@ -14,7 +14,7 @@ from scipy.optimize import linear_sum_assignment
 
 from fringekit.inversion.model import N_PARAMS
 
-__all__ = ["assign", "heirs", "previous_axes", "twins", "velocity"]
+__all__ = ["assign", "heirs", "previous_params", "twins", "velocity"]
 
 
 def assign(old_mm, new_mm, gate_mm: float = np.inf, allowed=None):
@@ -190,8 +190,10 @@ def heirs(gaps, dropped, kept, before_mm, now_mm) -> dict:
     return out
 
 
-def previous_axes(p_before, ids_before, ids) -> np.ndarray:
-    """Each contact's axis in the frame before, found by its id.
+def previous_params(p_before, ids_before, ids) -> np.ndarray:
+    """Each contact's parameters in the frame before, found by its id (not by its row:
+    a frame that released one contact and found another has as many rows in another
+    order).
 
     Parameters
     ----------
@@ -204,16 +206,16 @@ def previous_axes(p_before, ids_before, ids) -> np.ndarray:
 
     Returns
     -------
-    (n, 2) array
-        The axis (mm) each had; NaN for a contact found in this frame.
+    (n, 5) array
+        The parameters (mm, N) each had; NaN for a contact found in this frame.
 
     Examples
     --------
-    >>> previous_axes([1.0, 2.0, 3.0, 0.0, 0.0], [7], [8, 7]).tolist()
-    [[nan, nan], [1.0, 2.0]]
+    >>> previous_params([1.0, 2.0, 3.0, 0.0, 0.0], [7], [8, 7]).tolist()
+    [[nan, nan, nan, nan, nan], [1.0, 2.0, 3.0, 0.0, 0.0]]
     """
     q = np.reshape(np.asarray(p_before, float), (-1, N_PARAMS))
     rows = _rows_of(ids_before, ids)
-    out = np.full((len(rows), 2), np.nan)
-    out[rows >= 0] = q[rows[rows >= 0], :2]
+    out = np.full((len(rows), N_PARAMS), np.nan)
+    out[rows >= 0] = q[rows[rows >= 0]]
     return out

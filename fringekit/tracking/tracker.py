@@ -61,7 +61,7 @@ from fringekit.inversion.selection import MIN_LOAD_FRACTION, prune, sphere_gaps
 from fringekit.inversion.uncertainty import model_sd, stated_sd
 from fringekit.inversion.verdict import WARN_RESIDUAL, InvertError, at_library_edge, window_rms
 from fringekit.tracking.frame import TrackedFrame
-from fringekit.tracking.ids import assign, heirs, previous_axes, twins, velocity
+from fringekit.tracking.ids import assign, heirs, previous_params, twins, velocity
 from fringekit.tracking.start import near_residual, quick_start, settle_new
 from fringekit.tracking.warm import ChordFit
 
@@ -330,11 +330,9 @@ class Tracker:
         release level in the frame before: moved faster than the warm fit can follow,
         more likely than lifted that fast."""
         out = np.zeros(len(self.diam), bool)
-        if len(self.p_before) != len(self.p):
-            return out
         _, _, kept = prune(self.p, sd.ravel(), self.diam, self.blank.lib, self._held(events))
         gone = np.setdiff1d(np.arange(len(self.diam)), kept)
-        was = self.p_before.reshape(-1, N_PARAMS)[gone, 2]
+        was = previous_params(self.p_before, self.ids_before, self.ids)[gone, 2]  # NaN: new
         out[gone] = was > 2 * MIN_LOAD_FRACTION * self.blank.lib.load_N[1]
         return out
 
@@ -451,7 +449,7 @@ class Tracker:
         dropped = np.setdiff1d(np.arange(len(self.diam)), kept)
         gaps = sphere_gaps(self.p, self.diam)
         pairs = twins(gaps, dropped, kept, new)
-        was = previous_axes(self.p_before, self.ids_before, self.ids)  # NaN for new ones
+        was = previous_params(self.p_before, self.ids_before, self.ids)[:, :2]  # NaN: new
         met = heirs(gaps, [i for i in dropped if i not in pairs.values()], kept, was, self._axes())
         ids, hist, gone = self.ids.copy(), list(self.history), self.ids.copy()
         for j, i in pairs.items():  # the tracked contact lives on in its twin

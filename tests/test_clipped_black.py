@@ -14,12 +14,12 @@ from library_fixtures import TINY, sensor_config
 
 from fringekit.analysis import read_pixels
 from fringekit.inversion.model import unpack
+from fringekit.inversion.quick import near_residual
 from fringekit.inversion.read import censored_channels, read_measurement
 from fringekit.inversion.rest import frame_linear
 from fringekit.optics import write_image
 from fringekit.sensor.frames import read_frames, read_known
 from fringekit.tracking import library_frames
-from fringekit.tracking.start import near_residual
 from fringekit.tracking.synthetic import blank_model
 from fringekit.tracking.warm import ChordFit
 

@@ -88,6 +88,37 @@ def test_the_terminal_loads_csv_and_summary_give_one_residual(tiny_library, tmp_
     assert t["read_s"] + t["fit_s"] + t["refine_s"] <= t["total_s"], t
 
 
+def test_where_the_whole_inverse_fails_invert_keeps_the_quick_start_s_answer(
+    tiny_library, tmp_path, monkeypatch
+):
+    """An image the whole inverse refuses (or leaves flagged) is tried by the quick
+    start of a stream too, and its answer kept when it explains the image to the noise
+    (frame 50 of the track bench: the whole inverse flagged two contacts, one 1.5 N
+    off, where the quick start reads all four within 1 mN); where it does not, the
+    refusal stands as the whole inverse made it."""
+    from library_fixtures import TINY
+
+    from fringekit.inversion import quick
+
+    ind = LoadedIndenter(-1.0e-3, 0.5e-3, 3.5e-3, 0.5, -0.4, 3.0)
+    model = _model(tiny_library, "mono", [ind], cfg=sensor_config(**TINY))
+    img = Camera(sensitivities="mono").encode(model.measured.reshape(*model.grid.shape))
+    write_image(tmp_path / "one.png", no_data_fill(img, model.usable.reshape(img.shape)))
+
+    def refused(*args, **kwargs):
+        raise fringekit.InvertError("the whole inverse refused it (this test)")
+
+    monkeypatch.setattr(quick, "invert_image", refused)
+    res = fringekit.invert(tmp_path / "one.png", tiny_library, pixel_mm=0.25, method="mono")
+    assert len(res.result.params) == 1
+    scale = np.array([1, 1, 3.0, 3.0, 3.0])
+    assert np.all(np.abs(res.result.params[0] - _truth([ind])[0]) <= 2e-3 * scale), res
+    assert res.result.times_s["quick_start_s"] > 0, res.result.times_s
+    monkeypatch.setattr(quick, "quick_start", lambda *args: (None, None))
+    with pytest.raises(fringekit.InvertError, match="refused it .this test"):
+        fringekit.invert(tmp_path / "one.png", tiny_library, pixel_mm=0.25, method="mono")
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("method, n", [("mono", 2), ("phase", 2), ("rgb", 1)])
 def test_a_library_image_gives_back_its_parameters(test_library, method, n):

@@ -318,7 +318,7 @@ def test_the_quick_start_finds_a_contact_detection_missed_in_the_residual(tiny_l
     a frame on the track bench, where two contacts' fringes merge and detection gives
     them one candidate)."""
     from fringekit.inversion.model import unpack
-    from fringekit.tracking.start import quick_start
+    from fringekit.inversion.quick import quick_start
     from fringekit.tracking.synthetic import blank_model
 
     truth = np.array([[-4.0, 3.0, 2.5, 0.3, 0.0], [4.0, -3.0, 3.0, 0.0, 0.3]])
@@ -348,7 +348,7 @@ def test_a_touch_fitted_off_its_axis_is_moved_onto_it(tiny_library, off_mm):
 
     from fringekit.inversion.fit import EXACT_MM, fit_indenters, subsample
     from fringekit.inversion.model import unpack
-    from fringekit.tracking.start import settle_new
+    from fringekit.tracking.settle import settle_new
     from fringekit.tracking.synthetic import blank_model
 
     truth = np.array(

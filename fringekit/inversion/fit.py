@@ -67,6 +67,7 @@ __all__ = [
     "fit_all",
     "fit_bounds",
     "fit_indenters",
+    "finish_answer",
     "invert_image",
     "refit",
     "select_indenters",
@@ -328,7 +329,7 @@ def refit(model: ImageModel, p: np.ndarray, diam, noise: float) -> InvertResult:
     p, res, its = _refit(fine, np.asarray(p, float).ravel(), diam, noise, 0)
     budget.spent("refit")
     verdict = fit_verdict(fine, p, diam, WINDOW_MM)
-    return _finish(fine, p, diam, res, verdict, noise, its, budget)
+    return finish_answer(fine, p, diam, res, verdict, noise, its, budget)
 
 
 def invert_image(
@@ -383,7 +384,7 @@ def invert_image(
             f"range (up to {model.lib.max_load_N:g} N) fits; check the sensor, the pixel "
             "size and the method, or build a library with larger --load-N"
         )
-    return _finish(fine, p, diam, res, verdict, noise, its, budget)
+    return finish_answer(fine, p, diam, res, verdict, noise, its, budget)
 
 
 def select_indenters(
@@ -485,12 +486,19 @@ def _positions_only(pos, noise, budget: Budget) -> InvertResult:
     return InvertResult(q, sd, nan, nan, empty, empty, noise, 0, np.nan, times, budget.stopped)
 
 
-def _finish(fine, p, diam, res, verdict, noise, its, budget: Budget) -> InvertResult:
+def finish_answer(fine, p, diam, res, verdict, noise, its, budget: Budget) -> InvertResult:
     """The result of the fit ``res`` of ``p`` on ``fine`` (every 2nd pixel) with its
-    :func:`_verdict` and stated sd (:func:`stated_sd`), or refusal; an answer cut short by
-    the time ``budget`` (``budget.stopped``, the last stage) is not refused (every
+    verdict (:func:`~fringekit.inversion.verdict.fit_verdict`) and stated sd
+    (:func:`~fringekit.inversion.uncertainty.stated_sd`), or refusal; an answer cut short
+    by the time ``budget`` (``budget.stopped``, the last stage) is not refused (every
     indenter of it is flagged), and without a fit its sd are NaN; the budget times the
-    stages."""
+    stages.
+
+    Examples
+    --------
+    See :func:`invert_image`, whose answers end here, and
+    :func:`fringekit.inversion.quick.invert_or_quick`.
+    """
     lib = fine.lib
     stopped = budget.stopped
     n = len(diam)

@@ -39,8 +39,9 @@ from fringekit.errors import ConfigError
 from fringekit.inversion.budget import DEFAULT_MAX_SECONDS, Budget
 from fringekit.inversion.detect import SMOOTH_MM, detection_bytes, noise_sd
 from fringekit.inversion.figure import fit_figure
-from fringekit.inversion.fit import WINDOW_MM, InvertResult, invert_image
+from fringekit.inversion.fit import WINDOW_MM, InvertResult
 from fringekit.inversion.model import ImageModel
+from fringekit.inversion.quick import invert_or_quick
 from fringekit.inversion.read import pixel_grid, read_measurement, sensor_config
 from fringekit.inversion.refine import refine_fem
 from fringekit.inversion.rest import (
@@ -361,7 +362,7 @@ def invert(
         lo, hi = scale["pixel_mm_range"]
         say(f"invert: scale check: the fringes suggest {lo:.3g}-{hi:.3g} mm per pixel")
     t_read = time.perf_counter() - t0  # the library, the image, its noise and scale check
-    res = invert_image(model, budget=budget, noise=noise)
+    res = invert_or_quick(model, budget=budget, noise=noise)
     fit_times = res.times_s
     res, refined, more = _refine(refine, model, res, cfg, lib, optics, cal, say)
     warnings += more

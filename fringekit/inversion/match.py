@@ -20,7 +20,7 @@ that the fit drops. The match alone is no detector: in empty regions a neighbour
 fringes match a light template as well as a head matches its own (z 42-48, the heads
 21-77), so it only refines what the energy found.
 
-It serves the tracker's first frame (:func:`fringekit.tracking.start.quick_start`),
+It serves the tracker's first frame (:func:`fringekit.inversion.quick.quick_start`),
 whose answer is kept only where it explains the frame to the camera's noise, and
 ``invert``'s last retry (:func:`fringekit.inversion.fit.invert_image`), taken only when
 an indenter is still flagged, which also matches the residual's peaks beyond a sphere

@@ -96,7 +96,7 @@ def residual_candidates(
     Examples
     --------
     See :func:`fringekit.inversion.fit.select_indenters` and
-    :func:`fringekit.tracking.start.quick_start`, which look for more indenters so.
+    :func:`fringekit.inversion.quick.quick_start`, which look for more indenters so.
     """
     fitted, _, _, outside = fine.fitted(unpack(p, diam))
     resid = replace(

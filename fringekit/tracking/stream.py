@@ -210,7 +210,7 @@ def track(
     """Every contact's position and load vector through a stream of frames.
 
     The first frame with fringes is solved quickly on every ``stride``-th pixel
-    (:func:`~fringekit.tracking.start.quick_start`), or as ``invert`` solves an image when
+    (:func:`~fringekit.inversion.quick.quick_start`), or as ``invert`` solves an image when
     that does not explain it to the camera's noise; every later frame starts from the one
     before (:class:`~fringekit.tracking.tracker.Tracker`).
 

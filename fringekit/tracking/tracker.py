@@ -4,7 +4,7 @@ A frame of a stream differs little from the one before it, so the inverse need n
 from scratch (:func:`fringekit.inversion.fit.invert_image`: detection, a start scan, two
 fits, a basin search and model selection, 2-60 s for four contacts). :class:`Tracker`
 starts once, when the first contact appears (the quick start of
-:mod:`fringekit.tracking.start`, or that whole inverse when the quick one does not explain
+:mod:`fringekit.inversion.quick`, or that whole inverse when the quick one does not explain
 the frame), and then per frame:
 
 1. **Warm fit.** Every contact's x, y, Fz, Fx, Fy start at the previous frame's answer
@@ -57,12 +57,13 @@ from fringekit.inversion.fit import (
 from fringekit.inversion.hop import hop
 from fringekit.inversion.match import match_candidates
 from fringekit.inversion.model import N_PARAMS, ImageModel, unpack
+from fringekit.inversion.quick import near_residual, quick_start
 from fringekit.inversion.selection import MIN_LOAD_FRACTION, prune, sphere_gaps
 from fringekit.inversion.uncertainty import model_sd, stated_sd
 from fringekit.inversion.verdict import WARN_RESIDUAL, InvertError, at_library_edge, window_rms
 from fringekit.tracking.frame import TrackedFrame
 from fringekit.tracking.ids import assign, heirs, previous_params, twins, velocity
-from fringekit.tracking.start import near_residual, quick_start, settle_new
+from fringekit.tracking.settle import settle_new
 from fringekit.tracking.warm import ChordFit
 
 __all__ = [
@@ -199,7 +200,7 @@ class Tracker:
         self.rejected = []
 
     def _start(self, full: ImageModel, events: list, times: dict) -> None:
-        """No contact tracked: look for them (:func:`~fringekit.tracking.start.quick_start`);
+        """No contact tracked: look for them (:func:`~fringekit.inversion.quick.quick_start`);
         when that leaves one unexplained, the whole inverse (``invert``'s), whose refusal
         (:class:`~fringekit.inversion.verdict.InvertError`: fringes the library cannot
         explain) is the frame's. ``times`` gets the seconds of each that ran

@@ -24,6 +24,7 @@ import numpy as np
 
 from fringekit.inversion.fit import fit_bounds
 from fringekit.inversion.model import N_PARAMS, ImageModel, range_penalty, unpack
+from fringekit.inversion.quick import penalised_residual
 
 __all__ = ["CHORD_STEPS", "FTOL", "GAIN_TOL", "JAC_LOAD", "JAC_MOVE_MM", "STEP_TOL", "ChordFit"]
 
@@ -167,20 +168,12 @@ class ChordFit:
             self.jac += np.outer(dr - self.jac @ dp, dp / nn)
 
     def residual(self, fixed: ImageModel, p: np.ndarray, diam: list):
-        """Residuals of the image (P * C,) and of the range penalty, and the gains (C,)."""
-        inds = unpack(p, diam)
-        own = [fixed.lib.slabs(ind, fixed.xy)[0] for ind in inds]
+        """Residuals of the image (P * C,) and of the range penalty, and the gains (C,)
+        (:func:`~fringekit.inversion.quick.penalised_residual`); the contacts' fields
+        are kept for a Jacobian made at ``p``."""
+        r, gains, own = penalised_residual(fixed, p, diam, self.noise)
         self.fields.append((fixed, p.copy(), own))
-        ab = np.zeros((len(fixed.xy), fixed.lib.lattice.n_slabs, 2), np.float32)
-        for one in own:  # summed as superpose sums them
-            ab += one
-        ab = fixed.with_background(ab)
-        use = fixed.usable & fixed.keep
-        fitted, gains, _ = fixed.project(fixed.intensities(ab, inds), use)
-        res = fixed.misfit(fitted)
-        res[~use] = 0.0
-        pen, _ = range_penalty(p, fixed.lib.max_ratio, 3.0 * self.noise)
-        return np.concatenate([res.ravel(), pen]), gains
+        return r, gains
 
     def full_jacobian(self, p: np.ndarray, lib) -> np.ndarray:
         """The kept Jacobian with the range penalty's rows made at ``p``."""

@@ -64,10 +64,10 @@ from fringekit.optics import PixelGrid
 __all__ = [
     "InvertResult",
     "at_box_edge",
+    "finish_answer",
     "fit_all",
     "fit_bounds",
     "fit_indenters",
-    "finish_answer",
     "invert_image",
     "refit",
     "select_indenters",

@@ -4,12 +4,12 @@ kept only where they explain the image to the camera's noise.
 :func:`quick_start` is a stream's first frame (:class:`fringekit.tracking.Tracker`):
 ``invert``'s detection and start scan, then one robust joint fit and one basin search on
 every ``stride``-th pixel, the contacts left after dropping the insignificant ones fitted
-again, and the residual searched for contacts detection missed. ``invert``
+again, and the residual searched for contacts detection missed. The whole inverse
 (:func:`fringekit.inversion.fit.invert_image`) adds a far-field fit, more basin searches,
 merges of flagged pairs and second starts, on every 2nd pixel, and takes 4-20 times
-longer; it tries the quick start as well when its own answers leave an indenter flagged.
-The quick answer is kept only where it explains the image to the camera's noise
-(:func:`near_residual`).
+longer; ``invert`` (:func:`invert_or_quick`) tries the quick start as well when the whole
+inverse leaves an indenter flagged or refuses the image. The quick answer is kept only
+where it explains the image to the camera's noise (:func:`near_residual`).
 """
 
 from __future__ import annotations

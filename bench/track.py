@@ -306,7 +306,9 @@ def cold_starts(lib, folder: Path, truths, count: int, pixel_mm: float, method, 
     """The tracker started cold on ``count`` frames spread evenly over the stream after
     its first (each frame a stream of its own, as after a restart): per frame the time,
     the quick start's and the whole inverse's share, the contacts found, missed and
-    spurious, the largest errors, or the reason it was refused."""
+    spurious, how many of them the tracker flags not reliable (a wrong answer it states
+    as such, or one it stands behind), the largest errors, or the reason it was
+    refused."""
     out = []
     for k in np.linspace(0, len(truths) - 1, count + 1)[1:].round().astype(int):
         one = folder.parent / "cold-starts" / f"{folder.name}-{k:04d}"
@@ -326,6 +328,7 @@ def cold_starts(lib, folder: Path, truths, count: int, pixel_mm: float, method, 
             )
             s = _score_frame(f, truths[k], level, {})
             row.update(found=len(f.ids), missed=s["missed"], spurious=s["spurious"])
+            row["not_reliable"] = int(np.count_nonzero(~np.asarray(f.reliable, bool)))
             for key in QUANTITIES:
                 vals = [abs(e[key]) for e in s["errors"] if e[key] is not None]
                 row[f"max_{key}"] = max(vals) if vals else None

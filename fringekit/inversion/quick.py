@@ -146,8 +146,8 @@ def quick_start(full: ImageModel, cand: np.ndarray, stride: int, noise: float):
     Examples
     --------
     See :class:`fringekit.tracking.Tracker`, whose first frame starts here, and
-    :func:`fringekit.inversion.fit.invert_image`, which tries it on an image its own
-    fits leave flagged.
+    :func:`invert_or_quick`, which tries it on an image the whole inverse leaves flagged
+    or refuses.
     """
     sub = replace(subsample(full, stride), exact=EXACT_MM * 1e-3)
     half = subsample(full, 2)  # where the residual is searched, as invert's model selection

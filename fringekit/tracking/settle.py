@@ -15,8 +15,7 @@ import numpy as np
 
 from fringekit.inversion.hop import hop_to
 from fringekit.inversion.model import N_PARAMS, ImageModel, unpack
-from fringekit.inversion.quick import near_residual
-from fringekit.tracking.warm import ChordFit
+from fringekit.inversion.quick import near_residual, penalised_residual
 
 __all__ = ["MISFIT_TIMES", "RING_MM", "RING_POINTS", "settle_new"]
 
@@ -47,7 +46,7 @@ def settle_new(model: ImageModel, p: np.ndarray, diam: list, n_held: int, noise:
     if n_held == 0 or len(diam) == n_held:
         return 0
     fixed = replace(model, keep=model.outside_contacts(unpack(p, diam)))
-    r, gains = ChordFit(noise).residual(fixed, p, diam)  # one synthesis, as quick_start's
+    r, gains, _ = penalised_residual(fixed, p, diam, noise)  # one synthesis
     rms = near_residual(fixed, p, r, gains)
     amp = float(np.mean(np.abs(gains))) or 1.0
     level = MISFIT_TIMES * max(float(np.median(rms[:n_held])), 3 * noise / amp)

@@ -114,6 +114,17 @@ def test_where_the_whole_inverse_fails_invert_keeps_the_quick_start_s_answer(
     scale = np.array([1, 1, 3.0, 3.0, 3.0])
     assert np.all(np.abs(res.result.params[0] - _truth([ind])[0]) <= 2e-3 * scale), res
     assert res.result.times_s["quick_start_s"] > 0, res.result.times_s
+    # a flagged answer of the whole inverse, 1 mm off, gives way to the quick start's
+    right = invert_image(model)
+
+    def flagged(*args, **kwargs):
+        off = right.params + np.array([1.0, 0, 0, 0, 0])
+        return replace(right, params=off, residual_rms=np.array([0.5]), residual=0.3)
+
+    monkeypatch.setattr(quick, "invert_image", flagged)
+    res = fringekit.invert(tmp_path / "one.png", tiny_library, pixel_mm=0.25, method="mono")
+    assert np.all(np.abs(res.result.params[0] - _truth([ind])[0]) <= 2e-3 * scale), res
+    monkeypatch.setattr(quick, "invert_image", refused)
     monkeypatch.setattr(quick, "quick_start", lambda *args: (None, None))
     with pytest.raises(fringekit.InvertError, match="refused it .this test"):
         fringekit.invert(tmp_path / "one.png", tiny_library, pixel_mm=0.25, method="mono")

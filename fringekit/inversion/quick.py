@@ -39,6 +39,7 @@ from fringekit.inversion.uncertainty import parameter_sd
 from fringekit.inversion.verdict import (
     WARN_RESIDUAL,
     InvertError,
+    better_answer,
     fit_verdict,
     window_rms,
 )
@@ -302,10 +303,14 @@ def invert_or_quick(
     if budget.spent("quick start", found) or p is None:
         return _answer(res, refused, budget)
     fit = fit_indenters(fine, p, diam, noise)
-    verdict = fit_verdict(fine, fit.x, diam, WINDOW_MM)
-    mine = (int(np.sum(verdict[0] > WARN_RESIDUAL)), verdict[1])
-    if res is not None and mine >= (int(np.sum(res.residual_rms > WARN_RESIDUAL)), res.residual):
-        return _answer(res, None, budget)
+    if res is None:
+        verdict = fit_verdict(fine, fit.x, diam, WINDOW_MM)
+    else:  # the retries' rule: fewer flagged, then the smaller residual
+        held = (res.params, list(res.diameters), None, (res.residual_rms, res.residual))
+        better = better_answer(fine, held, (fit.x, diam, fit), WINDOW_MM)
+        if better is held:
+            return _answer(res, None, budget)
+        verdict = better[3]
     its = fit.nfev + (0 if res is None else res.iterations)
     try:
         return finish_answer(fine, fit.x, diam, fit, verdict, noise, its, budget)

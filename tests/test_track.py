@@ -477,25 +477,32 @@ def _rows(path):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("bad", ["another size", "unreadable"])
 def test_the_command_writes_loads_and_keeps_what_a_bad_frame_stopped(
-    tiny_library, tmp_path, capsys
+    tiny_library, tmp_path, capsys, bad
 ):
-    """A frame of another size ends the stream: exit 2 in one line, the frames before it
-    in loads.csv and summary.json (which says where and why it stopped)."""
+    """A frame of another size, or a file in the folder that is no image, ends the stream:
+    exit 2 in one line naming the file, the frames before it in loads.csv and summary.json
+    (which says where and why it stopped)."""
     folder = tmp_path / "frames"
     library_frames(
         tiny_library, [_moving(k) for k in range(3)], folder, pixels=PX, pixel_mm=PIXEL_MM
     )
-    library_frames(tiny_library, [_moving(3)], tmp_path / "big", pixels=PX + 8, pixel_mm=PIXEL_MM)
-    (tmp_path / "big" / "frame_0000.png").rename(folder / "frame_0003.png")
+    if bad == "unreadable":
+        (folder / "frame_0003.png").write_bytes(b"not a png: the camera stopped mid-write")
+    else:
+        big = tmp_path / "big"
+        library_frames(tiny_library, [_moving(3)], big, pixels=PX + 8, pixel_mm=PIXEL_MM)
+        (big / "frame_0000.png").rename(folder / "frame_0003.png")
     out = tmp_path / "out"
     lib = str(tiny_library.folder)
     code = main(
         ["track", str(folder), "--library", lib, "--pixel-mm", "0.25", "--out", str(out), "--quiet"]
     )
-    err = capsys.readouterr().err
+    err = capsys.readouterr().err.strip().splitlines()
     assert code == 2
-    assert "stopped after 3 frame(s)" in err and "frame_0003.png" in err
+    assert len(err) == 1, err
+    assert "stopped after 3 frame(s)" in err[0] and "frame_0003.png" in err[0]
     rows = _rows(out / "loads.csv")
     assert tuple(rows[0]) == TRACK_COLUMNS
     assert sorted({r["frame"] for r in rows}) == ["0", "1", "2"]
@@ -946,7 +953,8 @@ def test_a_zero_length_video_and_another_sensor_are_refused(tiny_library, tmp_pa
     out = tmp_path / "out"
     lib = ["--library", str(tiny_library.folder), "--pixel-mm", "0.25", "--out", str(out)]
     assert main(["track", str(empty), *lib]) == 2
-    assert "empty.mp4" in capsys.readouterr().err
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "empty.mp4" in err[0], err
     assert not out.exists()
     other = tmp_path / "other.toml"
     other.write_text(to_toml(sensor_config(**TINY, **{"sheet.thickness_mm": 2.0})))
@@ -956,6 +964,14 @@ def test_a_zero_length_video_and_another_sensor_are_refused(tiny_library, tmp_pa
     s = CalibratedSensor.uncalibrated(cfg, tiny_library, (PX, PX), "mono", 0.25)
     with pytest.raises(LibraryError, match="thickness_mm"):
         track(tmp_path, tiny_library, sensor=s)
+    # the same through the command: one line naming the key that differs, nothing written
+    folder = tmp_path / "frames"
+    library_frames(tiny_library, [_moving(0)], folder, pixels=PX, pixel_mm=PIXEL_MM)
+    sensor_file = s.save(tmp_path / "other.json")
+    assert main(["track", str(folder), *lib, "--sensor", str(sensor_file)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "thickness_mm" in err[0] and "--library" in err[0], err
+    assert not out.exists()
 
 
 @pytest.mark.slow

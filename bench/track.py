@@ -1,7 +1,7 @@
 """Benchmark ``fringekit track`` on a stream of known loads: library-synthesised (speed and
 identity; the default) or FEM-rendered (accuracy).
 
-Usage: python bench/track.py [--sequence library|fem] [--frames 200] [--pixels 256]
+Usage: python bench/track.py [--sequence library|fem] [--frames N] [--pixels 256]
        [--methods mono rgb phase] [--stride 4] [--noise 0.005] [--invert-every 50]
        [--cold-starts 0] [--library DIR] [--work DIR] [--json FILE] [--show]
        (--work default: bench/out/track, ignored by git)
@@ -15,8 +15,8 @@ to 3.4 N (TOP_N, inside the library's 4 N) over the first 60 % of the frames, th
 tangential load on one of them ramping along +x to 0.4 of its normal load. The frames
 are the predicted 8-bit images (dark field, white light) with camera noise NOISE (of
 full scale, a seed per frame) added and quantised again; the truth is the loads the
-config prescribes. About 2 minutes of FEM for 20 states (the solutions are cached in the
-work folder). The rest of this docstring is the library sequence's.
+config prescribes. About 2 minutes of FEM for the 20 states it runs by default (the
+solutions are cached in the work folder). The rest of this docstring is the library sequence's.
 
 The sensor is examples/coarse_sensor.toml (20 mm sheet, the tests' sensor) with its
 library of 1-4 N x 5 tangential ratios (built once into the work folder, about 2 min on
@@ -396,7 +396,13 @@ def run(lib, method: str, args, work: Path) -> dict:
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sequence", choices=("library", "fem"), default="library")
-    ap.add_argument("--frames", type=int, default=200)
+    ap.add_argument(
+        "--frames",
+        type=int,
+        default=None,
+        help="frames of the stream (default 200 for the library sequence, 20 for fem: each "
+        "FEM frame is a solved load state)",
+    )
     ap.add_argument("--pixels", type=int, default=256)
     ap.add_argument(
         "--methods", nargs="+", choices=("mono", "rgb", "phase"), default=["mono", "rgb"]
@@ -419,6 +425,8 @@ def main(argv=None) -> None:
         help="track with the --show window drawn off-screen (its own process): its cost",
     )
     args = ap.parse_args(argv)
+    if args.frames is None:
+        args.frames = 20 if args.sequence == "fem" else 200
     if args.sequence == "fem" and "phase" in args.methods:
         ap.error("--sequence fem --methods phase: the FEM frames are one image per state")
     work = Path(args.work)

@@ -32,21 +32,22 @@ PIXELS over 16 mm, 8-bit with camera noise NOISE (of full scale), five contacts 
 A contact counts as present in a frame when its normal load is at least the release
 level (half the library's first load); a lighter one still touching may be tracked or
 not (neither missed nor spurious, its errors not scored). A touch is due in the frame
-its load reaches that level, a lift in the frame its load is gone. Prints the cold
-start (the first frame: the quick start, or the whole inverse when that does not
-explain it), the warm frames' median and 95th percentile
-time, frames per second, the errors of every present contact against the truth (Fz in
-N, tangential magnitude in N and direction in degrees where it is at least 0.1 N,
-position in mm), identity swaps, and missed and spurious contacts per frame, and the
-frames by which the touch and the lift were read late; and, on every INVERT_EVERY-th
-frame (0: none), the offline ``invert``'s errors against the truth beside the tracker's
-on the same frames (the issue's target: tracked within 1.5 times offline) and its time
-per image; and on COLD_STARTS frames spread over the stream after the first, the
-tracker started cold on that frame alone (as after a restart): its time, the quick
+its load reaches that level, a lift in the frame its load is gone. Prints the cold start
+(the first frame: the quick start, or the whole inverse when that does not explain it),
+the warm frames' median and 95th percentile time, frames per second, the errors of every
+present contact against the truth (Fz in N, tangential magnitude in N and direction in
+degrees where it is at least 0.1 N, position in mm), identity swaps, and missed and
+spurious contacts per frame, and the frames by which the touch and the lift were read
+late, the coverage of the stated 1-sigma (the fractions of the errors in x and y, Fz,
+and Fx and Fy within 1 and 2 of their sd); and, on every INVERT_EVERY-th frame (0:
+none), the offline ``invert``'s errors and their coverage against the truth beside the
+tracker's on the same frames (the issue's target: tracked within 1.5 times offline) and
+its time per image; and on COLD_STARTS frames spread over the stream after the first,
+the tracker started cold on that frame alone (as after a restart): its time, the quick
 start's and the whole inverse's share, and its contacts and errors, or why it was
-refused. ``--json`` writes it all, with the peak memory. ``--show`` tracks with the
-live window's drawing (``track --show``) done in full off-screen in its own process, as
-the window does it: its cost to the solver, and the redraws it made.
+refused. ``--json`` writes it all, with the peak memory. ``--show`` tracks with the live
+window's drawing (``track --show``) done in full off-screen in its own process, as the
+window does it: its cost to the solver, and the redraws it made.
 """
 
 from __future__ import annotations
@@ -127,7 +128,7 @@ def _score_frame(frame, truth: dict, level: float, labels: dict) -> dict:
     names = list(touching)
     t = np.array([touching[k] for k in names]).reshape(-1, 5)
     out = {"errors": [], "missed": 0, "spurious": 0, "swaps": 0, "seen": set()}
-    for i, row in zip(frame.ids, frame.params, strict=True):
+    for i, row, sd in zip(frame.ids, frame.params, frame.sd, strict=True):
         d = np.hypot(*(t[:, :2] - row[:2]).T) if len(t) else np.array([])
         if not len(d) or d.min() > 1.0:
             out["spurious"] += 1
@@ -151,6 +152,8 @@ def _score_frame(frame, truth: dict, level: float, labels: dict) -> dict:
                 "ft_N": ft - ft_true,
                 "dir_deg": float(ang) if ft_true >= 0.1 else None,
                 "pos_mm": float(np.hypot(row[0] - w[0], row[1] - w[1])),
+                # each parameter's error in its stated sd (x, y, Fz, Fx, Fy)
+                "z": [float(v) for v in (row - np.asarray(w, float)) / sd],
             }
         )
     out["missed"] = len(set(present) - out["seen"])
@@ -182,11 +185,26 @@ def score(t, truths: list[dict], level: float) -> dict:
 
     return {
         **{key: _stats(errs, key) for key in QUANTITIES},
+        "coverage": coverage(errs),
         "swaps": int(sum(f["swaps"] for f in frames)),
         "missed_per_frame": float(np.mean([f["missed"] for f in frames])),
         "spurious_per_frame": float(np.mean([f["spurious"] for f in frames])),
         "touch_late_frames": first("T", True),
         "lift_late_frames": first("R", False),
+    }
+
+
+def coverage(errs: list[dict]) -> dict | None:
+    """The fractions of the errors within 1 and 2 of their stated sd (``loads.csv``'s
+    sx_mm ... sFz_N), per quantity group: about 0.68 and 0.95 if the sd are right, more
+    if they are cautious, fewer if they claim more than the method holds."""
+    if not errs:
+        return None
+    z = np.abs(np.array([e["z"] for e in errs], float))  # (errors, 5): x, y, Fz, Fx, Fy
+    groups = {"x_y": z[:, :2], "Fz": z[:, 2], "Fx_Fy": z[:, 3:]}
+    return {
+        k: {"within_1sd": float(np.mean(v <= 1.0)), "within_2sd": float(np.mean(v <= 2.0))}
+        for k, v in groups.items()
     }
 
 
@@ -223,11 +241,16 @@ def offline(lib, folder: Path, tracked, truths, every: int, pixel_mm: float, met
             times.append(time.perf_counter() - t0)
             print(f"{method} frame {k}: offline invert {times[-1]:.1f} s", flush=True)
         q = res.result.params
-        got = SimpleNamespace(ids=np.arange(len(q)), params=q)
+        got = SimpleNamespace(ids=np.arange(len(q)), params=q, sd=res.result.sd)
         inv_errs += _score_frame(got, truths[k], level, {})["errors"]
         if k in frames:
             trk_errs += _score_frame(frames[k], truths[k], level, {})["errors"]
-    out = {"frames": len(times), "refused": refused, "time_median_s": float(np.median(times))}
+    out = {
+        "frames": len(times),
+        "refused": refused,
+        "time_median_s": float(np.median(times)),
+        "coverage": {"invert": coverage(inv_errs), "track": coverage(trk_errs)},
+    }
     for key in QUANTITIES:
         a, b = _stats(inv_errs, key), _stats(trk_errs, key)
         ratio = b["median"] / a["median"] if a and b and a["median"] > 0 else None

@@ -44,6 +44,7 @@ import numpy as np
 from fringekit.cli.main import main
 from fringekit.cli.options import overrides
 from fringekit.config.files import apply_overrides, load_config, to_toml
+from fringekit.inversion import uncertainty
 from fringekit.library.build import DEFAULT_LOADS_N, DEFAULT_RATIOS, build_library
 
 #: the repository (the coarse preset is examples/coarse_sensor.toml)
@@ -75,8 +76,6 @@ RESTART_AFTER = 1000
 SD_COLUMNS = ("sx_mm", "sy_mm", "sFx_N", "sFy_N", "sFz_N")
 #: Each estimated quantity's sd column.
 SD_OF = dict(zip(("x_mm", "y_mm", "Fx", "Fy", "Fz"), SD_COLUMNS, strict=True))
-#: The quantities whose coverage the summary gives, and their components.
-COVERAGE = {"Fz": ("Fz",), "tangential": ("Fx", "Fy"), "position": ("x_mm", "y_mm")}
 
 
 def draw_case(rng, n: int, preset: dict) -> list[dict]:
@@ -175,18 +174,12 @@ def errors(t: dict, e: dict) -> dict:
 
 
 def coverage(errs: list[dict]) -> dict:
-    """Per quantity (Fz; tangential: Fx and Fy; position: x and y), the number of
-    normalised errors and the fractions of them within 1 and 2 of the stated sd."""
-    out = {}
-    for q, keys in COVERAGE.items():
-        z = np.array([abs(e["z"][k]) for e in errs for k in keys if e["z"][k] is not None])
-        out[q] = {
-            "n": len(z),
-            "within_1sd": float(np.mean(z <= 1.0)) if len(z) else None,
-            "within_2sd": float(np.mean(z <= 2.0)) if len(z) else None,
-            "median_z": float(np.median(z)) if len(z) else None,
-        }
-    return out
+    """Per quantity (position: x and y; Fz; tangential: Fx and Fy), the number of
+    normalised errors and the fractions of them within 1 and 2 of the stated sd
+    (:func:`fringekit.inversion.uncertainty.coverage`)."""
+    order = ("x_mm", "y_mm", "Fz", "Fx", "Fy")
+    z = [[np.nan if e["z"][k] is None else e["z"][k] for k in order] for e in errs]
+    return uncertainty.coverage(np.array(z, float).reshape(-1, len(order)))
 
 
 def read_loads(path: Path) -> list[dict]:

@@ -38,16 +38,17 @@ the warm frames' median and 95th percentile time, frames per second, the errors 
 present contact against the truth (Fz in N, tangential magnitude in N and direction in
 degrees where it is at least 0.1 N, position in mm), identity swaps, and missed and
 spurious contacts per frame, and the frames by which the touch and the lift were read
-late, the coverage of the stated 1-sigma (the fractions of the errors in x and y, Fz,
-and Fx and Fy within 1 and 2 of their sd); and, on every INVERT_EVERY-th frame (0:
-none), the offline ``invert``'s errors and their coverage against the truth beside the
-tracker's on the same frames (the issue's target: tracked within 1.5 times offline) and
-its time per image; and on COLD_STARTS frames spread over the stream after the first,
-the tracker started cold on that frame alone (as after a restart): its time, the quick
-start's and the whole inverse's share, and its contacts and errors, or why it was
-refused. ``--json`` writes it all, with the peak memory. ``--show`` tracks with the live
-window's drawing (``track --show``) done in full off-screen in its own process, as the
-window does it: its cost to the solver, and the redraws it made.
+late, the coverage of the stated 1-sigma (the fractions of the errors in position: x and
+y; Fz; and tangential: Fx and Fy within 1 and 2 of their sd); and, on every
+INVERT_EVERY-th frame (0: none), the offline ``invert``'s errors and their coverage
+against the truth beside the tracker's on the same frames (the issue's target: tracked
+within 1.5 times offline) and its time per image; and on COLD_STARTS frames spread over
+the stream after the first, the tracker started cold on that frame alone (as after a
+restart): its time, the quick start's and the whole inverse's share, and its contacts
+and errors, or why it was refused. ``--json`` writes it all, with the peak memory.
+``--show`` tracks with the live window's drawing (``track --show``) done in full
+off-screen in its own process, as the window does it: its cost to the solver, and the
+redraws it made.
 """
 
 from __future__ import annotations
@@ -66,6 +67,7 @@ import numpy as np
 import fringekit
 from fringekit.config.files import load_config
 from fringekit.errors import RefusedError
+from fringekit.inversion import uncertainty
 from fringekit.library.build import DEFAULT_RATIOS, build_library
 from fringekit.library.store import load_library
 from fringekit.optics import write_image
@@ -196,16 +198,8 @@ def score(t, truths: list[dict], level: float) -> dict:
 
 def coverage(errs: list[dict]) -> dict | None:
     """The fractions of the errors within 1 and 2 of their stated sd (``loads.csv``'s
-    sx_mm ... sFz_N), per quantity group: about 0.68 and 0.95 if the sd are right, more
-    if they are cautious, fewer if they claim more than the method holds."""
-    if not errs:
-        return None
-    z = np.abs(np.array([e["z"] for e in errs], float))  # (errors, 5): x, y, Fz, Fx, Fy
-    groups = {"x_y": z[:, :2], "Fz": z[:, 2], "Fx_Fy": z[:, 3:]}
-    return {
-        k: {"within_1sd": float(np.mean(v <= 1.0)), "within_2sd": float(np.mean(v <= 2.0))}
-        for k, v in groups.items()
-    }
+    sx_mm ... sFz_N) per quantity (:func:`fringekit.inversion.uncertainty.coverage`)."""
+    return uncertainty.coverage([e["z"] for e in errs]) if errs else None
 
 
 def _stats(errs: list[dict], key: str) -> dict | None:

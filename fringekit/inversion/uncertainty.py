@@ -28,7 +28,9 @@ __all__ = [
     "MODEL_SD",
     "MODEL_SD_RATIO_STEP",
     "RHO_STOP",
+    "COVERAGE_GROUPS",
     "correlation_area",
+    "coverage",
     "model_sd",
     "parameter_sd",
     "stated_sd",
@@ -287,4 +289,52 @@ def model_sd(shear_ratio) -> np.ndarray:
     step = float(np.max(np.diff(r))) if len(r) > 1 else MODEL_SD_RATIO_STEP
     out = MODEL_SD.copy()
     out[3:] *= max(step / MODEL_SD_RATIO_STEP, 1.0) ** 2
+    return out
+
+
+#: The quantities a coverage is given for, and their columns in x, y, Fz, Fx, Fy order.
+COVERAGE_GROUPS = {"position": (0, 1), "Fz": (2,), "tangential": (3, 4)}
+
+
+def coverage(z) -> dict:
+    """How well a stated 1-sigma covers the errors it claims to: per quantity, the
+    fractions of the errors within 1 and 2 of their sd (0.683 and 0.954 for a normal
+    error and a right sd; more where the sd are cautious, fewer where they claim more
+    than the method holds).
+
+    Parameters
+    ----------
+    z : (n, 5) array_like
+        Each error (estimate minus truth) over its stated sd, in the order x, y, Fz, Fx,
+        Fy; NaN where a component was not scored (or its sd was zero).
+
+    Returns
+    -------
+    dict
+        :data:`COVERAGE_GROUPS`' names ("position", "Fz", "tangential") -> ``n`` (the
+        number of normalised errors), ``within_1sd``, ``within_2sd`` and ``median_z``
+        (the median of their magnitudes), each None when ``n`` is 0.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> z = np.array([[0.5, -1.5, 0.2, 3.0, np.nan], [0.1, 0.9, -2.5, 0.3, 0.4]])
+    >>> c = coverage(z)
+    >>> c["position"]["n"], c["position"]["within_1sd"], c["position"]["within_2sd"]
+    (4, 0.75, 1.0)
+    >>> c["tangential"]["n"], round(c["tangential"]["within_1sd"], 3)
+    (3, 0.667)
+    """
+    a = np.abs(np.asarray(z, float).reshape(-1, N_PARAMS))
+    out = {}
+    for name, cols in COVERAGE_GROUPS.items():
+        v = a[:, cols].ravel()
+        v = v[np.isfinite(v)]
+        some = len(v) > 0
+        out[name] = {
+            "n": len(v),
+            "within_1sd": float(np.mean(v <= 1.0)) if some else None,
+            "within_2sd": float(np.mean(v <= 2.0)) if some else None,
+            "median_z": float(np.median(v)) if some else None,
+        }
     return out

@@ -87,3 +87,15 @@ def four_heads_frame(lib):
     img, _ = blank.linear(heads)
     noisy = 0.8 * img + 0.02 + np.random.default_rng(120).normal(0.0, 0.005, img.shape)
     return replace(blank, measured=np.round(np.clip(noisy, 0, 1) * 255) / 255), heads
+
+
+def frozen_stress(model, top_fringe: float = 0.3):
+    """A smooth residual (frozen) stress across a 16 x 16 mm frame of ``model`` (an
+    :class:`~fringekit.inversion.model.ImageModel`), as a retardation d (P,) (rad, the
+    double pass; at most ``top_fringe`` fringes), an axis t (P,) (rad) and the summed
+    slab pair (P, 2) the model takes for it (d (cos 2t, sin 2t) / 2k)."""
+    xy = model.xy / 8e-3  # -1..1 across the frame
+    d = 2 * np.pi * top_fringe * (0.3 + 0.7 * np.exp(-((xy[:, 0] - 0.3) ** 2 + xy[:, 1] ** 2)))
+    t = 0.4 + 0.6 * xy[:, 0] - 0.3 * xy[:, 1]
+    k = model.law.retardation_per_stress_length(np.array([model.law.wavelength_ref]))[0]
+    return d, t, d[:, None] * np.stack([np.cos(2 * t), np.sin(2 * t)], 1) / (2 * k)

@@ -12,6 +12,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from library_fixtures import frozen_stress
 
 from fringekit.analysis import read_pixels
 from fringekit.cli.main import main
@@ -83,23 +84,13 @@ def test_invert_takes_a_rest_frame_s_light_off_the_image(tiny_library, glare_ima
     assert np.all(err[:, :2] <= 2e-3) and np.all(err[:, 2:] <= 2e-3 * 3.0), err
 
 
-def _residual(model, top_fringe: float = 0.3):
-    """A smooth residual across the image as the summed slab pair (P, 2) the model takes:
-    retardation up to ``top_fringe`` fringes, its axis turning across the image."""
-    xy = model.xy / 8e-3  # -1..1 across the image
-    d = 2 * np.pi * top_fringe * (0.3 + 0.7 * np.exp(-((xy[:, 0] - 0.3) ** 2 + xy[:, 1] ** 2)))
-    t = 0.4 + 0.6 * xy[:, 0] - 0.3 * xy[:, 1]
-    k = model.law.retardation_per_stress_length(np.array([model.law.wavelength_ref]))[0]
-    return d[:, None] * np.stack([np.cos(2 * t), np.sin(2 * t)], 1) / (2 * k)
-
-
 @pytest.fixture(scope="module")
 def phase_steps(tiny_library, tmp_path_factory):
     """(six steps of TRUTH, six rest steps) paths, 16-bit, in a sheet with a residual of up
     to 0.3 fringe."""
     cfg = load_config(tiny_library.folder / "config.toml")
     blank = blank_model(tiny_library, cfg, (PX, PX), PIXEL_MM, "phase", None, optics_setup(cfg))
-    ab = _residual(blank)
+    ab = frozen_stress(blank)[2]
     d = tmp_path_factory.mktemp("phase")
     kw = {"pixels": PX, "pixel_mm": PIXEL_MM, "method": "phase", "bit_depth": 16}
     library_frames(tiny_library, [TRUTH], d / "loaded", residual_ab=ab, **kw)
@@ -138,7 +129,7 @@ def test_a_grey_image_reads_the_sheet_s_residual_from_six_rest_steps(
     cfg = load_config(tiny_library.folder / "config.toml")
     blank = blank_model(tiny_library, cfg, (PX, PX), PIXEL_MM, "mono", None, optics_setup(cfg))
     kw = {"pixels": PX, "pixel_mm": PIXEL_MM, "bit_depth": 16}
-    library_frames(tiny_library, [TRUTH], tmp_path, residual_ab=_residual(blank), **kw)
+    library_frames(tiny_library, [TRUTH], tmp_path, residual_ab=frozen_stress(blank)[2], **kw)
     inv = invert(tmp_path / "frame_0000.png", tiny_library, pixel_mm=PIXEL_MM, residual_steps=rest)
     assert inv.summary["method"] == "mono"
     assert inv.summary["reference"]["residual_max_fringe"] == pytest.approx(0.3, abs=0.01)

@@ -10,6 +10,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from library_fixtures import frozen_stress
 
 from fringekit.cli.main import main
 from fringekit.config.files import load_config
@@ -29,22 +30,11 @@ def _model(lib):
     return blank_model(lib, cfg, (PX, PX), PIXEL_MM, "phase", None, optics), optics
 
 
-def _residual(model, top_fringe: float = 0.3):
-    """A smooth residual (frozen stress) across the frame, as a retardation d (rad, the
-    double pass; at most ``top_fringe`` fringes), an axis t (rad) and the summed slab pair
-    (P, 2) the model takes for it (d (cos 2t, sin 2t) / 2k)."""
-    xy = model.xy / 8e-3  # -1..1 across the frame
-    d = 2 * np.pi * top_fringe * (0.3 + 0.7 * np.exp(-((xy[:, 0] - 0.3) ** 2 + xy[:, 1] ** 2)))
-    t = 0.4 + 0.6 * xy[:, 0] - 0.3 * xy[:, 1]
-    k = model.law.retardation_per_stress_length(np.array([model.law.wavelength_ref]))[0]
-    return d, t, d[:, None] * np.stack([np.cos(2 * t), np.sin(2 * t)], 1) / (2 * k)
-
-
 def test_a_residual_alone_is_a_retarder_in_the_six_steps(tiny_library):
     """The model's six images of a residual and no load are those of a retarder of its
     retardation and axis through the six arrangements (the optics' closed form)."""
     blank, optics = _model(tiny_library)
-    d, t, ab = _residual(blank)
+    d, t, ab = frozen_stress(blank)
     model = replace(blank, residual_ab=ab)
     lin, _ = model.linear([])
     want = np.stack(
@@ -69,7 +59,7 @@ def test_six_rest_steps_give_back_the_residual(tiny_library, tmp_path):
     """The residual read from the model's own six rest steps (16-bit) is the one it was
     made with, to 1e-3 of its largest value; its retardation within 0.001 fringe."""
     blank, _ = _model(tiny_library)
-    _, _, ab = _residual(blank)
+    _, _, ab = frozen_stress(blank)
     lin, _ = replace(blank, residual_ab=ab).linear([])
     paths = _write_steps(tmp_path, "rest", lin)
     got, unknown = RestFrames.read(paths).retarder((PX, PX), blank.law)
@@ -86,7 +76,7 @@ def test_a_phase_stream_with_a_residual_is_tracked_with_its_rest_steps(tiny_libr
     the library cannot explain the residual's fringes: the first frame ran the whole
     inverse for 112 s and was reported without contacts (measured, not tested here)."""
     blank, _ = _model(tiny_library)
-    _, _, ab = _residual(blank)
+    _, _, ab = frozen_stress(blank)
     truth = [
         [(-4.0 + 0.2 * k, 3.5, 2.5 + 0.1 * k, 0.3, 0.0), (3.0, -4.0 + 0.5 * k, 3.0, 0.0, 0.3)]
         for k in range(2)
@@ -128,7 +118,7 @@ def test_a_residual_near_half_a_fringe_is_left_out_not_folded(tiny_library, tmp_
     fringe's slab pair. (Past 0.55 fringe the folded value falls below the band again
     and is misread: the docs say so.)"""
     blank, _ = _model(tiny_library)
-    d, _, ab = _residual(blank, top_fringe=0.52)
+    d, _, ab = frozen_stress(blank, top_fringe=0.52)
     lin, _ = replace(blank, residual_ab=ab).linear([])
     got, unknown = RestFrames.read(_write_steps(tmp_path, "rest", lin)).retarder(
         (PX, PX), blank.law
@@ -147,7 +137,7 @@ def test_a_grey_stream_with_a_residual_is_tracked_with_six_rest_steps(tiny_libra
     steps as ``--residual-steps``, the residual is in the model and every contact comes
     back within 5 um and 2e-3 of its Fz."""
     blank, _ = _model(tiny_library)
-    _, _, ab = _residual(blank)
+    _, _, ab = frozen_stress(blank)
     truth = [
         [(-4.0 + 0.2 * k, 3.5, 2.5 + 0.1 * k, 0.3, 0.0), (3.0, -4.0 + 0.5 * k, 3.0, 0.0, 0.3)]
         for k in range(2)
@@ -173,7 +163,7 @@ def test_rest_steps_for_a_grey_stream_are_refused_with_a_reference_or_phase(
     """``track --residual-steps`` with ``--reference``, or with ``--method phase``: one
     line each, naming the options; nothing written."""
     blank, _ = _model(tiny_library)
-    lin, _ = replace(blank, residual_ab=_residual(blank)[2]).linear([])
+    lin, _ = replace(blank, residual_ab=frozen_stress(blank)[2]).linear([])
     steps = [str(p) for p in _write_steps(tmp_path, "rest", lin)]
     frames = tmp_path / "frames"
     library_frames(tiny_library, [[]], frames, pixels=PX, pixel_mm=PIXEL_MM)

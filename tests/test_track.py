@@ -15,12 +15,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from library_fixtures import TINY, sensor_config
+from library_fixtures import TINY, frozen_stress, sensor_config
 
 import fringekit
 from fringekit.analysis import read_pixels
 from fringekit.cli.main import main
-from fringekit.config.files import to_toml
+from fringekit.config.files import load_config, to_toml
+from fringekit.config.inputs import optics_setup
 from fringekit.errors import ConfigError, InputError, LibraryError
 from fringekit.inversion.verdict import InvertError
 from fringekit.library.calibrated import CalibratedSensor, coarse_map, fine_map
@@ -29,6 +30,7 @@ from fringekit.tracking import TRACK_COLUMNS, library_frames, open_source, track
 from fringekit.tracking.figure import OverlayPainter
 from fringekit.tracking.ids import heirs
 from fringekit.tracking.run import FrameSpool
+from fringekit.tracking.synthetic import blank_model
 from fringekit.tracking.tracker import Tracker
 
 PX, PIXEL_MM = 64, 0.25  # 16 x 16 mm frames of the tiny library's sensor
@@ -116,6 +118,45 @@ def test_a_frame_already_at_its_minimum_costs_one_evaluation(tiny_library, tmp_p
     assert all(f.events == () for f in t.frames[1:])
     assert [calls.count(k) for k in (2, 3)] == [1, 1]
     assert np.all(np.abs(t.frames[-1].params[0] - STILL) <= 1e-3 * np.array([1, 1, 2.5, 2.5, 2.5]))
+
+
+def test_a_fit_whose_misfit_is_the_models_stops_at_the_model_error(tiny_library, tmp_path):
+    """One contact in a sheet with a frozen stress of up to 0.1 fringe that the library
+    does not hold (no ``--residual-steps``): the misfit, not the noise, makes the cost
+    (hundreds of noise variances a pixel), and it falls by a fraction of a percent a
+    step for many steps. With the frame before misfit-dominated too and every Jacobian
+    column made in this frame, a Gauss-Newton step within SETTLE of the model-error
+    floor ends the fit: 4 evaluations, where the noise's tests alone ran out of steps
+    (11 evaluations; 20 to converge over two runs, measured). A large residual makes
+    Gauss-Newton's steps short of the least-squares minimum; here the fit stopped 3
+    floors short of it in x and in y (0.44 and 0.62 mm from the truth: the misfit's
+    bias, which only ``--residual-steps`` removes)."""
+    from fringekit.analysis import read_pixels
+    from fringekit.inversion.fit import EXACT_MM, subsample
+    from fringekit.inversion.rest import frame_linear
+    from fringekit.tracking import warm
+
+    cfg = load_config(tiny_library.folder / "config.toml")
+    blank = blank_model(tiny_library, cfg, (PX, PX), PIXEL_MM, "mono", None, optics_setup(cfg))
+    ab = frozen_stress(blank, top_fringe=0.1)[2]
+    kw = {"pixels": PX, "pixel_mm": PIXEL_MM, "noise": 0.003, "bit_depth": 16}
+    library_frames(tiny_library, [[STILL]], tmp_path, residual_ab=ab, **kw)
+    raw = read_pixels(tmp_path / "frame_0000.png")
+    m, usable, nodata, _ = frame_linear(raw, "mono", cfg["optics"]["camera"], "frame")
+    full = replace(blank, measured=m, usable=usable, nodata=nodata)
+    sub = replace(subsample(full, 4), exact=EXACT_MM * 1e-3)
+    diam = [tiny_library.diameters_mm[0] * 1e-3]
+
+    def fit(steady: bool):
+        chord, evaluations = warm.ChordFit(0.003), []
+        chord.misfit = steady
+        keep = chord.residual
+        chord.residual = lambda *a: evaluations.append(1) or keep(*a)
+        p, done = chord.run(sub, np.array(STILL, float), diam)
+        return done, len(evaluations), chord.misfit
+
+    assert fit(steady=True) == (True, 4, True)
+    assert fit(steady=False) == (False, 11, True)  # (the steps ran out)
 
 
 @pytest.mark.slow

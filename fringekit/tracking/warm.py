@@ -66,9 +66,10 @@ GAIN_TOL = 0.25
 #: Where the model's misfit, not the camera's noise, makes the cost (above MISFIT noise
 #: variances a pixel: FEM frames and photographs, against the library's own fields), the
 #: cost falls by 0.2-0.5 % a step at steps of 5-20 um for many steps (a valley of the
-#: misfit, not of the noise), and the tests above never pass: on the FEM sequence of
-#: ``bench/track.py`` the steps ran out on 16 of 18 warm rgb frames, each then fitted
-#: again robustly (2-4 s). There the fit also ends when the frame before ended
+#: misfit, not of the noise), and the tests above seldom pass: on the FEM sequence of
+#: ``bench/track.py`` 16 of 18 warm rgb frames ended unconverged (the steps ran out, or
+#: a fresh Jacobian's halved step still raised the cost), each then fitted again
+#: robustly (2-4 s). There the fit also ends when the frame before ended
 #: misfit-dominated too (a touch's unmodelled fringes make one frame's cost the
 #: model's: stopped early there, a crossing contact was left 0.5 mm behind), every
 #: Jacobian column was made in this frame (a kept one's small step held a contact's

@@ -131,7 +131,6 @@ def test_a_fit_whose_misfit_is_the_models_stops_at_the_model_error(tiny_library,
     Gauss-Newton's steps short of the least-squares minimum; here the fit stopped 3
     floors short of it in x and in y (0.44 and 0.62 mm from the truth: the misfit's
     bias, which only ``--residual-steps`` removes)."""
-    from fringekit.analysis import read_pixels
     from fringekit.inversion.fit import EXACT_MM, subsample
     from fringekit.inversion.rest import frame_linear
     from fringekit.tracking import warm

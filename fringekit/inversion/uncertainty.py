@@ -31,6 +31,7 @@ __all__ = [
     "COVERAGE_GROUPS",
     "correlation_area",
     "coverage",
+    "floor_sd",
     "model_sd",
     "parameter_sd",
     "stated_sd",
@@ -253,9 +254,39 @@ def stated_sd(
             [correlation_area(J[..., k] * image, mask) for k in range(J.shape[-1])]
         ).reshape(q.shape)
     sd = parameter_sd(jac, r, int(np.count_nonzero(r))).reshape(q.shape) * np.sqrt(area)
-    scale = np.concatenate([np.ones((len(q), 2)), np.repeat(q[:, 2:3], 3, axis=1)], axis=1)
-    floor = np.asarray(model_sd, float) * scale
-    return np.sqrt(sd**2 + floor**2), area
+    return np.sqrt(sd**2 + floor_sd(model_sd, q) ** 2), area
+
+
+def floor_sd(model_sd, params, least_load_N: float = -np.inf) -> np.ndarray:
+    """The model-error floor in the parameters' own units: x and y (mm) as given, the
+    loads' fractions times each indenter's Fz (or ``least_load_N``, if larger).
+
+    Parameters
+    ----------
+    model_sd : (5,) array_like
+        1-sigma of x and y (mm), and of Fz, Fx and Fy as fractions of Fz
+        (:func:`model_sd`).
+    params : (n, 5) array_like
+        x, y (mm), Fz, Fx, Fy (N) of each indenter.
+    least_load_N : float
+        The least Fz the load fractions are taken of (N; default: each Fz as it is).
+
+    Returns
+    -------
+    (n, 5) array
+        1-sigma of x, y (mm), Fz, Fx, Fy (N).
+
+    Examples
+    --------
+    >>> floor_sd([0.04, 0.04, 0.02, 0.01, 0.01], [[0.0, 0.0, 3.0, 0.2, 0.0]])
+    array([[0.04, 0.04, 0.06, 0.03, 0.03]])
+    >>> floor_sd([0.04, 0.04, 0.02, 0.01, 0.01], [[0.0, 0.0, 0.5, 0.0, 0.0]], 2.0)
+    array([[0.04, 0.04, 0.04, 0.02, 0.02]])
+    """
+    q = np.asarray(params, float).reshape(-1, N_PARAMS)
+    scale = np.ones_like(q)
+    scale[:, 2:] = np.maximum(q[:, 2:3], least_load_N)
+    return np.asarray(model_sd, float) * scale
 
 
 def model_sd(shear_ratio) -> np.ndarray:

@@ -25,7 +25,7 @@ import numpy as np
 from fringekit.inversion.fit import fit_bounds
 from fringekit.inversion.model import N_PARAMS, ImageModel, range_penalty, unpack
 from fringekit.inversion.quick import penalised_residual
-from fringekit.inversion.uncertainty import model_sd
+from fringekit.inversion.uncertainty import floor_sd, model_sd
 
 __all__ = [
     "CHORD_STEPS",
@@ -186,9 +186,7 @@ class ChordFit:
         contact)."""
         if not self._misfit(r):
             return False
-        q = p.reshape(-1, N_PARAMS)
-        floor = np.tile(model_sd(lib.shear_ratio), (len(q), 1))
-        floor[:, 2:] *= np.maximum(q[:, 2], float(lib.load_N[1]))[:, None]
+        floor = floor_sd(model_sd(lib.shear_ratio), p, float(lib.load_N[1]))
         return bool(np.all(np.abs(step) <= SETTLE * floor.ravel()))
 
     def _ftol(self, cost: float) -> float:
